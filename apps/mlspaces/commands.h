@@ -1,0 +1,45 @@
+// The subcommands of the mlspaces CLI. Each lives in its own <name>.cc and only parses flags,
+// calls the libraries and prints; main.cc maps exceptions to exit codes
+// (mlspaces::UsageError and CLI11 parse errors -> 2, mlspaces::Error -> 1).
+#pragma once
+
+#include <functional>
+#include <string>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+
+#include "mlspaces/core/library_config.h"
+#include "mlspaces/core/registry.h"
+
+namespace mlspaces::cli {
+
+/// A subcommand's action, run after parsing; returns the process exit code.
+using Action = std::function<int()>;
+
+/// Flags that say which libraries to register, shared by lookup commands:
+/// --asset-library NAME=DIR, --grasp-library NAME=DIR:ASSET_LIBRARY (repeatable),
+/// --libraries FILE.yaml; MLSPACES_ASSETS_DIR supplies the built-in data dir.
+struct LibraryFlags {
+  std::vector<std::string> asset_flags;
+  std::vector<std::string> grasp_flags;
+  std::string yaml_file;
+
+  void AddTo(CLI::App& app);
+  /// Builds the registry (YAML libraries first, then flags in order). Prints one warning
+  /// line per UID found in two libraries. @throws Error / UsageError.
+  Registry Build() const;
+};
+
+// Each Add* registers one subcommand on `app` and sets `action` when it is chosen.
+void AddIndexAssets(CLI::App& app, Action& action);
+void AddIndexGrasps(CLI::App& app, Action& action);
+void AddLocate(CLI::App& app, Action& action);
+void AddMeta(CLI::App& app, Action& action);
+void AddGrasps(CLI::App& app, Action& action);
+void AddValidate(CLI::App& app, Action& action);
+
+/// Prints "mlspaces: warning: <text>" to stderr.
+void Warn(const std::string& text);
+
+}  // namespace mlspaces::cli

@@ -1,0 +1,60 @@
+// Asset libraries: assets_index.json (the original's schema) and building it from a folder.
+#pragma once
+
+#include <filesystem>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace mlspaces {
+
+/// One entry of assets_index.json. Paths are relative to the library root, '/'-separated.
+struct AssetEntry {
+  std::string uid;
+  std::string object_path;
+  std::string metadata_path;
+  std::optional<std::string> metadata_npz_path;  ///< null in the file when absent
+  bool operator==(const AssetEntry&) const = default;
+};
+
+/// A parsed assets_index.json: UID (the dict key) -> entry, sorted by UID.
+struct AssetIndex {
+  std::map<std::string, AssetEntry> entries;
+
+  /// Parses assets_index.json. Strict on what the original requires (object with object
+  /// entries, string paths, `metadata_npz_path` present and string-or-null); extra keys in
+  /// an entry are ignored as pydantic ignores them. Lookups use the dict key; an entry whose
+  /// `uid` differs from its key is accepted (as the original does) and reported by validate.
+  /// @throws Error with the file and JSON pointer of the bad field.
+  static AssetIndex Load(const std::filesystem::path& index_file);
+  /// The original's serialisation: keys sorted, indent 4, no trailing newline.
+  std::string Serialize() const;
+};
+
+struct AssetIndexOptions {
+  std::filesystem::path output;         ///< default: <dir>/assets_index.json
+  bool overwrite = false;               ///< replace an existing output
+  bool suppress_missing_metadata = false;  ///< skip XMLs without <uid>.json, with a warning
+};
+
+/// Per-asset problems collected while building (warnings for skipped files).
+struct IndexReport {
+  std::vector<std::string> warnings;  ///< one line each, "file: message"
+  size_t count = 0;                   ///< assets (or grasp files) written
+  std::filesystem::path output;
+};
+
+/// Scans `dir` recursively (sorted, symlinked folders not followed) for `<uid>.xml` with a
+/// sibling `<uid>.json` (and optional `<uid>.npz`), and builds the index in memory.
+/// When `<uid>_computed.json` exists and `use_computed` is set, the entry points at it.
+/// @throws Error for a missing metadata JSON (unless suppressed) or a duplicate UID,
+/// naming both files.
+AssetIndex BuildAssetIndex(const std::filesystem::path& dir, const AssetIndexOptions& options,
+                           IndexReport* report, bool use_computed = false);
+
+/// `mlspaces index-assets` without --compute-metadata: refuses to replace an existing output
+/// unless `overwrite`, builds, and writes atomically. @throws Error.
+IndexReport WriteAssetIndex(const std::filesystem::path& dir, const AssetIndexOptions& options);
+
+}  // namespace mlspaces

@@ -1,0 +1,22 @@
+// Reading whole files and writing them atomically (temp file + fsync + rename).
+#pragma once
+
+#include <filesystem>
+#include <string>
+#include <string_view>
+
+namespace mlspaces {
+
+/// Reads a whole file. @throws Error naming the path if it cannot be opened or read.
+std::string ReadFile(const std::filesystem::path& path);
+
+/// Writes `data` to a temp file beside `path`, flushes it to disk and renames it over `path`,
+/// so readers see the old file or the new one, never a half-written one. Creates missing
+/// parent folders. @throws Error naming the path on failure (the temp file is removed).
+void WriteFileAtomic(const std::filesystem::path& path, std::string_view data);
+
+/// `path` relative to `base`, with '/' separators (the form the index files store).
+std::string RelativeGenericPath(const std::filesystem::path& path,
+                                const std::filesystem::path& base);
+
+}  // namespace mlspaces

@@ -1,0 +1,48 @@
+// Which libraries to register: from CLI flags or a YAML file.
+#pragma once
+
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace mlspaces {
+
+class Registry;
+
+struct AssetLibrarySpec {
+  std::string name;
+  std::filesystem::path dir;
+};
+
+struct GraspLibrarySpec {
+  std::string name;  ///< root name; robots are appended at registration
+  std::filesystem::path dir;
+  std::string asset_library;
+};
+
+/// A list of libraries to register, in order. YAML form (unknown keys are errors, relative
+/// paths are relative to the YAML file's folder):
+///
+///     assets_dir: /data/mlspaces/assets      # optional, like MLSPACES_ASSETS_DIR
+///     asset_libraries:
+///       - {name: custom_assets, path: asset_library}
+///     grasp_libraries:
+///       - {name: custom_grasps, path: asset_library, asset_library: custom_assets}
+struct LibraryConfig {
+  std::optional<std::filesystem::path> assets_dir;
+  std::vector<AssetLibrarySpec> asset_libraries;
+  std::vector<GraspLibrarySpec> grasp_libraries;
+
+  /// @throws Error with file and line for bad YAML, unknown keys, wrong types.
+  static LibraryConfig LoadYaml(const std::filesystem::path& file);
+  /// Parses "NAME=DIR". @throws UsageError.
+  static AssetLibrarySpec ParseAssetFlag(const std::string& flag);
+  /// Parses "NAME=DIR:ASSET_LIBRARY" (the last ':' splits). @throws UsageError.
+  static GraspLibrarySpec ParseGraspFlag(const std::string& flag);
+
+  /// Registers asset libraries, then grasp libraries, in order. @throws Error.
+  void ApplyTo(Registry& registry) const;
+};
+
+}  // namespace mlspaces

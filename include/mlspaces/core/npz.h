@@ -1,0 +1,64 @@
+// NumPy .npz archives (zip files of .npy members), read through a memory map.
+//
+// Members may be STORED (np.savez) or DEFLATEd (np.savez_compressed); ZIP64 records as
+// numpy writes them are understood. Every offset and size is bounds-checked: a truncated or
+// corrupt archive raises mlspaces::Error naming the file and member, never crashes.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <utility>
+#include <vector>
+
+#include "mlspaces/core/npy.h"
+
+namespace mlspaces {
+
+/// An open .npz. Opening maps the file and reads the zip central directory only.
+class NpzReader {
+ public:
+  /// @throws Error if the file is missing or not a valid zip.
+  explicit NpzReader(const std::filesystem::path& path);
+  ~NpzReader();
+  NpzReader(NpzReader&&) noexcept;
+  NpzReader& operator=(NpzReader&&) noexcept;
+  NpzReader(const NpzReader&) = delete;
+  NpzReader& operator=(const NpzReader&) = delete;
+
+  const std::filesystem::path& path() const;
+  /// Array names: member names with a trailing ".npy" removed, in archive order.
+  std::vector<std::string> keys() const;
+  bool Contains(std::string_view key) const;
+  /// Header of one array; for STORED members no data is read.
+  /// @throws Error if the key is absent or the member is corrupt.
+  NpyHeader ReadHeader(std::string_view key) const;
+  /// One whole array. @throws Error as above.
+  NpyArray Read(std::string_view key) const;
+  /// Rows `rows` (indices along axis 0, in the given order, repeats allowed) of one array,
+  /// reading only those rows where the member is STORED and C-ordered.
+  /// @throws Error if an index is out of range or the array is 0-d.
+  NpyArray ReadRows(std::string_view key, const std::vector<size_t>& rows) const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+/// Reads every array of an .npz, in archive order.
+std::vector<std::pair<std::string, NpyArray>> ReadNpz(const std::filesystem::path& path);
+
+struct NpzWriteOptions {
+  bool compress = false;  ///< DEFLATE like np.savez_compressed, else STORED like np.savez
+  NpyWriteOptions npy;
+};
+
+/// Writes an .npz atomically; names get ".npy" appended. numpy's np.load reads the result.
+void WriteNpz(const std::filesystem::path& path,
+              const std::vector<std::pair<std::string, NpyArray>>& arrays,
+              const NpzWriteOptions& options = {});
+
+}  // namespace mlspaces

@@ -1,0 +1,171 @@
+// The registry of asset and grasp libraries, and every lookup by UID.
+//
+// A Registry is a value, not a process global: build one, register libraries, look up.
+// Indexes are parsed once at registration into hash maps; lookups never scan the disk.
+// Const lookups may run concurrently from several threads (the annotation cache is locked);
+// registration must not run concurrently with anything else.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "mlspaces/core/annotation.h"
+#include "mlspaces/core/asset_index.h"
+#include "mlspaces/core/grasp_index.h"
+#include "mlspaces/core/transform.h"
+
+namespace mlspaces {
+
+/// Built-in asset library names (reserved: user libraries may not take them).
+inline constexpr std::string_view kBuiltinAssetLibraries[] = {"objathor_metadata", "objaverse",
+                                                              "thor"};
+/// Built-in grasp library names, and the asset library each serves.
+inline constexpr std::string_view kBuiltinGraspLibraries[] = {"droid", "droid_objaverse"};
+
+/// Where a UID lives.
+struct AssetLocation {
+  std::string library;                ///< asset library name
+  std::filesystem::path mjcf_path;    ///< absolute path of the asset MJCF
+  const AssetEntry* entry = nullptr;  ///< the index entry (user libraries); null for built-ins
+  /// Other libraries that also hold this UID and are shadowed by `library` (never silent:
+  /// the CLI prints them, and Registry::duplicates() lists every such UID).
+  std::vector<std::string> shadowed;
+};
+
+/// A UID found in more than one asset library, in priority order (first one wins).
+struct DuplicateUid {
+  std::string uid;
+  std::vector<std::string> libraries;
+};
+
+/// A registered grasp library: one per (root, robot) for user libraries.
+struct GraspLibraryInfo {
+  std::string name;           ///< "<root>/<robot>" for user libraries, "droid" for built-ins
+  std::string robot;          ///< the robot sub-folder name (empty for built-ins)
+  std::filesystem::path dir;  ///< library root (absolute)
+  std::string asset_library;  ///< the asset library it serves
+  bool builtin = false;
+};
+
+/// N grasp poses, in the object body frame (pickup) or the joint's body frame (joint).
+struct GraspSet {
+  std::vector<Mat4> poses;
+  std::filesystem::path source;  ///< the NPZ they came from
+  std::vector<size_t> indices;   ///< row of each pose in the file
+  DType stored_dtype = DType::kF8;
+};
+
+/// Which grasp libraries a lookup may use, in priority order. Empty = all libraries
+/// registered for the UID's asset library, newest registration first.
+using GraspLibraryFilter = std::span<const std::string>;
+
+class Registry {
+ public:
+  struct Options {
+    /// The install dir of built-in data (MLSPACES_ASSETS_DIR). Built-in libraries answer
+    /// lookups only when it is set: thor/objaverse MJCFs under <assets>/objects/<lib>/ and
+    /// grasps under <assets>/grasps/<lib>/.
+    std::optional<std::filesystem::path> assets_dir;
+  };
+
+  Registry();
+  explicit Registry(Options options);
+  ~Registry();
+  Registry(Registry&&) noexcept;
+  Registry& operator=(Registry&&) noexcept;
+
+  /// MLSPACES_ASSETS_DIR from the environment, if set and non-empty.
+  static std::optional<std::filesystem::path> AssetsDirFromEnv();
+
+  /// Registers a user asset library: the name must be non-empty, without '/', not taken and
+  /// not built-in; `dir`/assets_index.json must exist and parse. The path is made absolute
+  /// now. UIDs already present in another library are recorded in duplicates().
+  /// Transactional: on error nothing changes. @throws Error / UsageError.
+  void RegisterAssetLibrary(const std::string& name, const std::filesystem::path& dir);
+
+  /// Registers a user grasp library: `dir`/grasps_index.json must exist and parse, the
+  /// asset library must be registered (user or built-in), the root name must be non-empty
+  /// and without '/'. Makes one library "<root>/<robot>" per robot, robots sorted, and puts
+  /// them in front of the asset library's list (the first robot in sorted order ends up
+  /// first). Transactional. @returns the names registered, in priority order.
+  std::vector<std::string> RegisterGraspLibrary(const std::string& root_name,
+                                                const std::filesystem::path& dir,
+                                                const std::string& asset_library);
+
+  /// Registered asset libraries: built-ins first (when an assets dir is set), then user
+  /// libraries in registration order.
+  std::vector<std::string> asset_libraries() const;
+  /// Grasp libraries serving an asset library, highest priority first.
+  std::vector<std::string> grasp_libraries_of(const std::string& asset_library) const;
+  const GraspLibraryInfo* FindGraspLibrary(std::string_view name) const;
+  const std::vector<DuplicateUid>& duplicates() const;
+  /// Number of UIDs across all user libraries (duplicates counted once).
+  size_t num_uids() const;
+
+  /// Finds a UID: built-in thor, then built-in objaverse, then user libraries in
+  /// registration order (the original's priority). nullopt if unknown.
+  std::optional<AssetLocation> Locate(std::string_view uid) const;
+  /// As Locate. @throws Error "<uid> not found in asset libraries [...]" naming every library.
+  AssetLocation LocateOrThrow(std::string_view uid) const;
+
+  /// The annotation of a UID, cached after the first call (the shared object is immutable).
+  /// nullptr for an unknown UID. @throws Error for a bad metadata file.
+  std::shared_ptr<const Annotation> GetAnnotation(std::string_view uid) const;
+
+  /// Grasp libraries a lookup for `uid` walks: the filter's names that serve the UID's
+  /// library, in the filter's order; or all of them when the filter is empty.
+  std::vector<std::string> GraspLibrariesFor(std::string_view uid,
+                                             GraspLibraryFilter filter = {}) const;
+
+  /// First existing pickup-grasp file for `uid` in priority order, or nullopt.
+  std::optional<std::filesystem::path> PickupGraspPath(std::string_view uid,
+                                                       GraspLibraryFilter filter = {}) const;
+  /// First existing joint-grasp file. `joint` is the joint name in the asset MJCF. When the
+  /// UID is in no asset library and the filter names exactly one library, that library is
+  /// asked directly (the original's workaround for iTHOR articulated objects, without its
+  /// bug of skipping the filter for located UIDs).
+  std::optional<std::filesystem::path> JointGraspPath(std::string_view uid,
+                                                      std::string_view joint,
+                                                      GraspLibraryFilter filter = {}) const;
+  /// A grasp file exists and its transforms.npy has at least `num_grasps` rows (reads the
+  /// header only). False when there is no file. @throws Error for a corrupt file.
+  bool HasValidPickupGrasps(std::string_view uid, size_t num_grasps = 1,
+                            GraspLibraryFilter filter = {}) const;
+  bool HasValidJointGrasps(std::string_view uid, std::string_view joint, size_t num_grasps = 1,
+                           GraspLibraryFilter filter = {}) const;
+
+  /// Loads grasps. If the file has N <= num_grasps rows, all of them in file order; else
+  /// num_grasps distinct rows drawn with Rng(seed) by a partial Fisher-Yates shuffle, in
+  /// draw order (see docs/formats.md). @throws Error "No grasp file found for <uid>", or for
+  /// a bad file (shape not (N,4,4), non-finite values).
+  GraspSet LoadPickupGrasps(std::string_view uid, GraspLibraryFilter filter = {},
+                            size_t num_grasps = 50, uint64_t seed = 0) const;
+  GraspSet LoadJointGrasps(std::string_view uid, std::string_view joint,
+                           GraspLibraryFilter filter = {}, size_t num_grasps = 50,
+                           uint64_t seed = 0) const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+/// Loads every row of transforms.npy from a grasp NPZ (or `rows` of them), checking the
+/// shape is (N,4,4) and values are finite. @throws Error naming the file.
+GraspSet ReadGraspFile(const std::filesystem::path& npz, const std::vector<size_t>* rows = nullptr);
+
+/// Indices drawn for subsampling: all of [0, n) when n <= k, else k distinct indices from a
+/// partial Fisher-Yates shuffle driven by Rng(seed), in draw order.
+std::vector<size_t> SubsampleIndices(size_t n, size_t k, uint64_t seed);
+
+/// World-frame grasps W_i = body_pose * G_i; with `include_flipped`, followed by the
+/// jaw-symmetric twins W_i * Rz(180 deg) (shape 2N, as the original).
+std::vector<Mat4> GraspsInWorld(const Mat4& body_pose, std::span<const Mat4> grasps,
+                                bool include_flipped = true);
+
+}  // namespace mlspaces

@@ -1,0 +1,38 @@
+// Seeded random numbers. There is no global RNG in mlspaces: every draw comes from an Rng
+// seeded from the run seed and the work item, so the same inputs give the same bytes on
+// every platform (we never use std::*_distribution, whose output is implementation-defined).
+#pragma once
+
+#include <cstdint>
+#include <initializer_list>
+#include <string_view>
+
+namespace mlspaces {
+
+/// SplitMix64 step: the documented seed mixer used by DeriveSeed and Rng's seeding.
+uint64_t SplitMix64(uint64_t& state);
+
+/// Mixes a seed with work-item parts, e.g. DeriveSeed(run_seed, {scene_id, episode}).
+uint64_t DeriveSeed(uint64_t seed, std::initializer_list<uint64_t> parts);
+
+/// 64-bit FNV-1a of a string, for turning names (UIDs, scene paths) into seed parts.
+uint64_t HashString(std::string_view text);
+
+/// xoshiro256** generator seeded through SplitMix64.
+class Rng {
+ public:
+  explicit Rng(uint64_t seed);
+  /// Next raw 64-bit value.
+  uint64_t NextU64();
+  /// Uniform integer in [0, bound), bound > 0 (Lemire's unbiased method).
+  uint64_t UniformInt(uint64_t bound);
+  /// Uniform double in [0, 1) with 53 random bits.
+  double Uniform01();
+  /// Uniform double in [lo, hi).
+  double Uniform(double lo, double hi);
+
+ private:
+  uint64_t s_[4];
+};
+
+}  // namespace mlspaces

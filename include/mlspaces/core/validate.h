@@ -1,0 +1,26 @@
+// `mlspaces validate`: deep checks of a library folder.
+#pragma once
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+namespace mlspaces {
+
+/// One problem: printed as "file: /json/pointer: message".
+struct Problem {
+  std::string file;
+  std::string pointer;  ///< JSON pointer, or a zip member / "line N"; may be empty
+  std::string message;
+  std::string ToString() const;
+};
+
+/// Validates the asset index and/or grasp index in `dir` (at least one must exist):
+/// every entry resolves to a file; index `uid` equals its key; metadata JSON parses and its
+/// known fields have the right types; NPZ metadata loads and does not collide with JSON
+/// keys; grasp files are (N,4,4) with finite values, orthonormal right-handed rotations and a
+/// last row of 0 0 0 1; grasp UIDs exist in a sibling asset index when there is one.
+/// Never throws for bad content: every problem is returned.
+std::vector<Problem> ValidateLibrary(const std::filesystem::path& dir);
+
+}  // namespace mlspaces

@@ -12,7 +12,7 @@ OUT="${MLSPACES_DEMO_OUT:-$ROOT/build/demo}"
 rm -rf "$OUT" && mkdir -p "$OUT" && cp -r "$EX"/. "$OUT"/
 cd "$OUT"
 set -x
-"$ML" index-assets asset_library --overwrite
+"$ML" index-assets asset_library --compute-metadata --overwrite
 "$ML" index-grasps asset_library --overwrite
 "$ML" validate asset_library
 "$ML" locate red_block --libraries libraries.yaml

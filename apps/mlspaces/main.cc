@@ -7,6 +7,10 @@
 
 namespace mlspaces::cli {
 
+#ifdef MLSPACES_HAVE_SIM
+void AddInspect(CLI::App& app, Action& action);
+#endif
+
 void Warn(const std::string& text) { std::fprintf(stderr, "mlspaces: warning: %s\n", text.c_str()); }
 
 }  // namespace mlspaces::cli
@@ -23,6 +27,9 @@ int main(int argc, char** argv) {
   cli::AddMeta(app, action);
   cli::AddGrasps(app, action);
   cli::AddValidate(app, action);
+#ifdef MLSPACES_HAVE_SIM
+  cli::AddInspect(app, action);
+#endif
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {

@@ -42,6 +42,7 @@ struct AssetIndexOptions {
 struct IndexReport {
   std::vector<std::string> warnings;  ///< one line each, "file: message"
   size_t count = 0;                   ///< assets (or grasp files) written
+  size_t robots = 0;                  ///< index-grasps: robots with pickup grasps
   std::filesystem::path output;
 };
 

@@ -13,12 +13,16 @@ class Registry;
 struct AssetLibrarySpec {
   std::string name;
   std::filesystem::path dir;
+  std::filesystem::path origin_file;  ///< the YAML it came from (empty for flags)
+  std::string origin_line;            ///< "line N" in origin_file
 };
 
 struct GraspLibrarySpec {
   std::string name;  ///< root name; robots are appended at registration
   std::filesystem::path dir;
   std::string asset_library;
+  std::filesystem::path origin_file;  ///< the YAML it came from (empty for flags)
+  std::string origin_line;            ///< "line N" in origin_file
 };
 
 /// A list of libraries to register, in order. YAML form (unknown keys are errors, relative
@@ -41,7 +45,8 @@ struct LibraryConfig {
   /// Parses "NAME=DIR:ASSET_LIBRARY" (the last ':' splits). @throws UsageError.
   static GraspLibrarySpec ParseGraspFlag(const std::string& flag);
 
-  /// Registers asset libraries, then grasp libraries, in order. @throws Error.
+  /// Registers asset libraries, then grasp libraries, in order. @throws Error; errors without
+  /// a file of their own name the YAML file and line of the entry.
   void ApplyTo(Registry& registry) const;
 };
 

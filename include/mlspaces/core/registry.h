@@ -39,9 +39,18 @@ struct AssetLocation {
 };
 
 /// A UID found in more than one asset library, in priority order (first one wins).
+/// A built-in library's scan may also find one file stem twice: then `libraries` names that
+/// library twice and `paths` holds both files (the lexicographically-first path wins).
 struct DuplicateUid {
   std::string uid;
   std::vector<std::string> libraries;
+  std::vector<std::filesystem::path> paths;  ///< the MJCF in each library, same order
+};
+
+/// A grasp file found by a lookup, and the grasp library that provided it.
+struct GraspFileLocation {
+  std::string library;
+  std::filesystem::path path;
 };
 
 /// A registered grasp library: one per (root, robot) for user libraries.
@@ -110,12 +119,17 @@ class Registry {
 
   /// Finds a UID: built-in thor, then built-in objaverse, then user libraries in
   /// registration order (the original's priority). nullopt if unknown.
+  /// Built-in UIDs come from a one-time scan of the installed <assets>/objects/<lib>/**/*.xml
+  /// (file stem = UID), done on first use; the packed objaverse resource index replaces the
+  /// objaverse scan in a later issue. objathor_metadata holds no MJCFs.
   std::optional<AssetLocation> Locate(std::string_view uid) const;
   /// As Locate. @throws Error "<uid> not found in asset libraries [...]" naming every library.
   AssetLocation LocateOrThrow(std::string_view uid) const;
 
   /// The annotation of a UID, cached after the first call (the shared object is immutable).
   /// nullptr for an unknown UID. @throws Error for a bad metadata file.
+  /// Like the original's union view, user libraries are asked in registration order; the
+  /// built-in objathor_metadata store is not readable yet, so built-in-only UIDs give nullptr.
   std::shared_ptr<const Annotation> GetAnnotation(std::string_view uid) const;
 
   /// Grasp libraries a lookup for `uid` walks: the filter's names that serve the UID's
@@ -123,13 +137,23 @@ class Registry {
   std::vector<std::string> GraspLibrariesFor(std::string_view uid,
                                              GraspLibraryFilter filter = {}) const;
 
+  /// As PickupGraspPath / JointGraspPath, also naming the grasp library that matched.
+  std::optional<GraspFileLocation> FindPickupGraspFile(std::string_view uid,
+                                                       GraspLibraryFilter filter = {}) const;
+  std::optional<GraspFileLocation> FindJointGraspFile(std::string_view uid,
+                                                      std::string_view joint,
+                                                      GraspLibraryFilter filter = {}) const;
+
   /// First existing pickup-grasp file for `uid` in priority order, or nullopt.
+  /// Built-in libraries: <assets>/grasps/<lib>/<uid>/<uid>_grasps_filtered.npz.
   std::optional<std::filesystem::path> PickupGraspPath(std::string_view uid,
                                                        GraspLibraryFilter filter = {}) const;
   /// First existing joint-grasp file. `joint` is the joint name in the asset MJCF. When the
   /// UID is in no asset library and the filter names exactly one library, that library is
   /// asked directly (the original's workaround for iTHOR articulated objects, without its
-  /// bug of skipping the filter for located UIDs).
+  /// bug of skipping the filter for located UIDs). Built-in libraries:
+  /// <assets>/grasps/<lib>/<uid>/<joint>_grasps_filtered.npz, with the library's own name
+  /// (the original hard-codes "droid" whichever built-in library was asked).
   std::optional<std::filesystem::path> JointGraspPath(std::string_view uid,
                                                       std::string_view joint,
                                                       GraspLibraryFilter filter = {}) const;

@@ -1,0 +1,54 @@
+// Library flags shared by the lookup commands: which asset and grasp libraries to register.
+#include <string>
+
+#include "commands.h"
+#include "mlspaces/core/error.h"
+
+namespace mlspaces::cli {
+
+void LibraryFlags::AddTo(CLI::App& app) {
+  // One value per occurrence, so a following positional UID is never swallowed.
+  app.add_option("--asset-library", asset_flags,
+                 "Register a user asset library NAME=DIR (repeatable, in priority order)")
+      ->type_name("NAME=DIR")
+      ->allow_extra_args(false);
+  app.add_option("--grasp-library", grasp_flags,
+                 "Register a user grasp library NAME=DIR:ASSET_LIBRARY (repeatable; one "
+                 "library NAME/<robot> per robot folder)")
+      ->type_name("NAME=DIR:ASSET_LIBRARY")
+      ->allow_extra_args(false);
+  app.add_option("--libraries", yaml_file,
+                 "YAML file listing assets_dir, asset_libraries and grasp_libraries")
+      ->type_name("FILE.yaml");
+}
+
+Registry LibraryFlags::Build() const {
+  // Parse every flag first: a malformed one is a usage error before anything is read.
+  std::vector<AssetLibrarySpec> assets;
+  std::vector<GraspLibrarySpec> grasps;
+  for (const std::string& flag : asset_flags) assets.push_back(LibraryConfig::ParseAssetFlag(flag));
+  for (const std::string& flag : grasp_flags) grasps.push_back(LibraryConfig::ParseGraspFlag(flag));
+  LibraryConfig config;
+  if (!yaml_file.empty()) config = LibraryConfig::LoadYaml(yaml_file);
+
+  Registry::Options options;
+  options.assets_dir = config.assets_dir ? config.assets_dir : Registry::AssetsDirFromEnv();
+  Registry registry(options);
+  config.ApplyTo(registry);
+  for (const AssetLibrarySpec& spec : assets) registry.RegisterAssetLibrary(spec.name, spec.dir);
+  for (const GraspLibrarySpec& spec : grasps) {
+    registry.RegisterGraspLibrary(spec.name, spec.dir, spec.asset_library);
+  }
+  for (const DuplicateUid& dup : registry.duplicates()) {
+    std::string where;
+    for (size_t i = 0; i < dup.libraries.size(); ++i) {
+      if (i > 0) where += ", ";
+      where += dup.libraries[i];
+      if (i < dup.paths.size()) where += " (" + dup.paths[i].string() + ")";
+    }
+    Warn("UID " + dup.uid + " is in several asset libraries: " + where + "; using the first");
+  }
+  return registry;
+}
+
+}  // namespace mlspaces::cli

@@ -1,0 +1,64 @@
+// MuJoCo 2.2.2 plumbing: error/warning handlers, owning pointers, loading from memory.
+//
+// Error policy. MuJoCo's default error handler prints and then waits for Enter; we replace it
+// (InstallMujocoHandlers) with one that throws MujocoError. That unwinds through MuJoCo's C
+// frames, which is what MuJoCo's own model compiler does with its thread-local handler
+// (_mjPRIVATE__set_tls_error_fn); on x86-64 Linux, GCC emits unwind tables for C code, and the
+// C frames hold no resources of ours. mj_loadXML itself never calls the global handler for bad
+// XML: it returns null plus a message, which LoadModelFromMemory turns into MujocoError.
+// Warnings go to a thread-local collector (TakeMujocoWarnings) instead of stdout.
+#pragma once
+
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+#include <utility>
+#include <vector>
+
+#include <mujoco/mujoco.h>
+
+namespace mlspaces::sim {
+
+/// An error reported by MuJoCo (its message, unchanged; may span lines).
+class MujocoError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+/// Installs mlspaces' global mju_user_error (throws MujocoError) and mju_user_warning
+/// (collects). Idempotent and thread-safe; every function of this layer calls it.
+void InstallMujocoHandlers();
+
+/// Returns and clears the MuJoCo warnings collected on this thread.
+std::vector<std::string> TakeMujocoWarnings();
+
+struct ModelDeleter {
+  void operator()(mjModel* m) const { mj_deleteModel(m); }
+};
+struct DataDeleter {
+  void operator()(mjData* d) const { mj_deleteData(d); }
+};
+using ModelPtr = std::unique_ptr<mjModel, ModelDeleter>;
+using DataPtr = std::unique_ptr<mjData, DataDeleter>;
+
+/// One in-memory file for the VFS: a bare file name (no folders) and its bytes.
+struct VfsFile {
+  std::string name;
+  std::string data;
+};
+
+/// Compiles an MJCF document from memory through a heap-allocated mjVFS (2 MB in 2.2.2).
+/// `xml` is stored as `main_name`; `extra` files (meshes, textures, includes) are added under
+/// their names. Files not in the VFS are read from disk as MuJoCo does (absolute paths work).
+/// @throws MujocoError with MuJoCo's message (e.g. "XML Error: ...\nElement 'geom', line 3").
+ModelPtr LoadModelFromMemory(std::string_view xml, const std::string& main_name = "model.xml",
+                             const std::vector<VfsFile>& extra = {});
+
+/// mj_makeData with a null check. @throws MujocoError.
+DataPtr MakeData(const mjModel* m);
+
+/// Name of object `id` of type `type`, or "" when unnamed.
+std::string MjName(const mjModel* m, mjtObj type, int id);
+
+}  // namespace mlspaces::sim

@@ -1,0 +1,52 @@
+// Run-time scene composition: a scene file + its metadata, objects inserted by UID, a robot
+// inserted under a prefix, compiled to one mjModel.
+#pragma once
+
+#include <filesystem>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "mlspaces/core/json.h"
+#include "mlspaces/core/registry.h"
+#include "mlspaces/sim/mjcf_composer.h"
+
+namespace mlspaces::sim {
+
+class Scene {
+ public:
+  /// Composes `xml` (MuJoCo 3 syntax allowed) and loads its scene metadata
+  /// (<scene>_metadata.json rules of FindSceneMetadataFile); {"objects": {}} when it has none.
+  /// @throws Error for bad MJCF or bad metadata.
+  static Scene Load(const std::filesystem::path& xml, ComposeOptions options = {});
+
+  /// Inserts the asset `uid` (located through `registry`, user libraries included) under body
+  /// `parent_body` ("world" for the worldbody) at `pose`, with `prefix` on every name (empty:
+  /// "<uid>_<n>/", n counting insertions). Adds the scene-metadata entry of the original
+  /// (asset_id, category, object_enum "temp_object", is_static false, boundingBox) plus
+  /// asset_library and mjcf_path, keyed by the inserted body's name.
+  /// @returns that body name. @throws Error for an unknown UID or one without metadata.
+  std::string InsertAsset(const Registry& registry, std::string_view uid, const Pose& pose,
+                          std::string_view parent_body = "world", std::string_view prefix = {});
+
+  /// Inserts a robot MJCF under `prefix` (e.g. "robot_0/") with its base at `base` in the
+  /// world. @returns the robot's top-level body names.
+  std::vector<std::string> InsertRobot(const std::filesystem::path& robot_xml,
+                                       std::string_view prefix, const Pose& base);
+
+  /// Compiles the composed scene. @throws Error with file, line and element.
+  ModelPtr Compile() const { return composer_.Compile(); }
+
+  const Json& metadata() const { return metadata_; }
+  const MjcfComposer& composer() const { return composer_; }
+
+ private:
+  Scene(MjcfComposer composer, Json metadata)
+      : composer_(std::move(composer)), metadata_(std::move(metadata)) {}
+
+  MjcfComposer composer_;
+  Json metadata_;
+  int inserted_ = 0;
+};
+
+}  // namespace mlspaces::sim

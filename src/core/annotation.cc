@@ -1,0 +1,183 @@
+// Asset annotations (spec 3.3, 3.4, 8.3): metadata JSON plus NPZ arrays at '/'-paths.
+#include "mlspaces/core/annotation.h"
+
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+
+#include "mlspaces/core/error.h"
+#include "mlspaces/core/npz.h"
+
+namespace mlspaces {
+namespace fs = std::filesystem;
+
+namespace {
+
+/// Reads a small file with as few syscalls as possible: open, read (one call for files up
+/// to 64 KiB: a short read of a regular file means end of file), close. No stat.
+std::string ReadSmallFile(const fs::path& path) {
+  int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) {
+    throw Error(errno == ENOENT ? "file not found"
+                                : std::string("cannot open: ") + std::strerror(errno),
+                path.string());
+  }
+  std::string out;
+  size_t chunk = 64 * 1024;
+  for (;;) {
+    const size_t old = out.size();
+    out.resize(old + chunk);
+    ssize_t n = ::read(fd, out.data() + old, chunk);
+    if (n < 0) {
+      if (errno == EINTR) {
+        out.resize(old);
+        continue;
+      }
+      const int err = errno;
+      ::close(fd);
+      throw Error(err == EISDIR ? "is a directory, expected a file"
+                                : std::string("read failed: ") + std::strerror(err),
+                  path.string());
+    }
+    out.resize(old + static_cast<size_t>(n));
+    if (n == 0 || static_cast<size_t>(n) < chunk) break;
+    chunk *= 2;
+  }
+  ::close(fd);
+  return out;
+}
+
+/// Splits an NPZ key on '/', keeping empty parts (as Python's str.split does).
+std::vector<std::string> SplitKey(std::string_view key) {
+  std::vector<std::string> parts;
+  size_t start = 0;
+  for (;;) {
+    size_t slash = key.find('/', start);
+    parts.emplace_back(key.substr(start, slash - start));
+    if (slash == std::string_view::npos) break;
+    start = slash + 1;
+  }
+  return parts;
+}
+
+std::string PointerOf(const std::vector<std::string>& parts) {
+  std::string out;
+  for (const std::string& p : parts) out += "/" + JsonPointerToken(p);
+  return out;
+}
+
+/// The unescaped reference tokens of a non-empty JSON pointer.
+std::vector<std::string> PointerTokens(std::string_view pointer) {
+  std::vector<std::string> tokens = SplitKey(pointer.substr(1));
+  for (std::string& t : tokens) {
+    std::string u;
+    for (size_t i = 0; i < t.size(); ++i) {
+      if (t[i] == '~' && i + 1 < t.size()) {
+        u += t[i + 1] == '1' ? '/' : '~';
+        ++i;
+      } else {
+        u += t[i];
+      }
+    }
+    t = std::move(u);
+  }
+  return tokens;
+}
+
+/// The JSON form of an array: nested lists following the shape (a scalar for 0-d), values
+/// as numpy's tolist() gives them (floats widened to double, ints, bools).
+Json ArrayToJson(const NpyArray& array, size_t dim, size_t& flat) {
+  if (dim == array.shape.size()) {
+    const size_t i = flat++;
+    switch (array.dtype) {
+      case DType::kB1: return Json(array.data[i] != 0);
+      case DType::kU1: return Json(static_cast<uint64_t>(array.data[i]));
+      case DType::kI4: {
+        int32_t v;
+        std::memcpy(&v, array.data.data() + i * sizeof v, sizeof v);
+        return Json(static_cast<int64_t>(v));
+      }
+      case DType::kI8: {  // exact (AsDouble may round)
+        int64_t v;
+        std::memcpy(&v, array.data.data() + i * sizeof v, sizeof v);
+        return Json(v);
+      }
+      default: return Json(array.AsDouble(i));
+    }
+  }
+  Json list = Json::array();
+  for (size_t k = 0; k < array.shape[dim]; ++k) list.push_back(ArrayToJson(array, dim + 1, flat));
+  return list;
+}
+
+}  // namespace
+
+const NpyArray* Annotation::FindArray(std::string_view pointer) const {
+  for (const auto& [p, array] : arrays) {
+    if (p == pointer) return &array;
+  }
+  return nullptr;
+}
+
+Json Annotation::ToJson() const {
+  Json out = json;
+  for (const auto& [pointer, array] : arrays) {
+    size_t flat = 0;
+    Json value = ArrayToJson(array, 0, flat);
+    // Walk by object keys (a json_pointer would turn digit tokens into array indices).
+    Json* node = &out;
+    const std::vector<std::string> parts = PointerTokens(pointer);
+    for (size_t i = 0; i + 1 < parts.size(); ++i) {
+      Json& child = (*node)[parts[i]];
+      if (!child.is_object()) child = Json::object();
+      node = &child;
+    }
+    (*node)[parts.back()] = std::move(value);
+  }
+  return out;
+}
+
+Annotation LoadAnnotation(const std::string& uid, const std::string& library,
+                          const fs::path& metadata_json, const fs::path* metadata_npz) {
+  Annotation out;
+  out.uid = uid;
+  out.library = library;
+  out.json = ParseJson(ReadSmallFile(metadata_json), metadata_json.string());
+  if (!out.json.is_object()) {
+    throw Error("metadata must be a JSON object, got " + JsonTypeName(out.json),
+                metadata_json.string(), "", uid);
+  }
+  if (metadata_npz == nullptr) return out;
+
+  std::vector<std::pair<std::string, NpyArray>> arrays = ReadNpz(*metadata_npz);
+  // Merge into a skeleton copy to find collisions with the JSON and between arrays: an
+  // array's place holds null there, so a later key under it crosses a non-object.
+  Json skeleton = out.json;
+  for (auto& [key, array] : arrays) {
+    const std::vector<std::string> parts = SplitKey(key);
+    auto collision = [&] {
+      return Error("Key " + key + " from npz metadata already exists in metadata for uid=" + uid,
+                   metadata_npz->string(), key, uid);
+    };
+    Json* node = &skeleton;
+    for (size_t i = 0; i + 1 < parts.size(); ++i) {
+      auto it = node->find(parts[i]);
+      if (it == node->end()) {
+        node = &(*node)[parts[i]];
+        *node = Json::object();
+      } else if (it->is_object()) {
+        node = &*it;
+      } else {
+        throw collision();
+      }
+    }
+    if (node->contains(parts.back())) throw collision();
+    (*node)[parts.back()] = nullptr;
+    out.arrays.emplace_back(PointerOf(parts), std::move(array));
+  }
+  return out;
+}
+
+}  // namespace mlspaces

@@ -1,0 +1,154 @@
+#include "mlspaces/core/asset_index.h"
+
+#include <string_view>
+#include <system_error>
+
+#include "library_walk.h"
+#include "mlspaces/core/error.h"
+#include "mlspaces/core/files.h"
+#include "mlspaces/core/json.h"
+
+namespace mlspaces {
+namespace fs = std::filesystem;
+namespace {
+
+// "number" for every numeric type, so messages read "expected string, got number".
+std::string TypeWord(const Json& value) {
+  return value.is_number() ? "number" : JsonTypeName(value);
+}
+
+// The original resolves its paths (Path.resolve(): absolute, symlinks resolved).
+fs::path Resolve(const fs::path& p) {
+  std::error_code ec;
+  fs::path abs = fs::absolute(p, ec);
+  if (ec) return p;
+  fs::path canon = fs::weakly_canonical(abs, ec);
+  return ec ? abs.lexically_normal() : canon;
+}
+
+const std::string& RequireString(const Json& entry, std::string_view key, const std::string& file,
+                                 const std::string& entry_pointer) {
+  auto it = entry.find(key);
+  std::string pointer = entry_pointer + "/" + std::string(key);
+  if (it == entry.end()) throw Error("missing required field", file, pointer);
+  if (!it->is_string()) {
+    throw Error("expected string, got " + TypeWord(*it), file, pointer);
+  }
+  return it->get_ref<const std::string&>();
+}
+
+}  // namespace
+
+AssetIndex AssetIndex::Load(const fs::path& index_file) {
+  const std::string file = index_file.string();
+  Json root = ParseJsonFile(index_file);
+  if (!root.is_object()) throw Error("expected object, got " + TypeWord(root), file, "/");
+  AssetIndex index;
+  for (auto it = root.begin(); it != root.end(); ++it) {
+    const std::string& key = it.key();
+    const std::string pointer = "/" + JsonPointerToken(key);
+    const Json& value = it.value();
+    if (!value.is_object()) {
+      throw Error("expected object, got " + TypeWord(value), file, pointer, key);
+    }
+    AssetEntry entry;
+    entry.uid = RequireString(value, "uid", file, pointer);
+    entry.object_path = RequireString(value, "object_path", file, pointer);
+    entry.metadata_path = RequireString(value, "metadata_path", file, pointer);
+    auto npz = value.find("metadata_npz_path");
+    if (npz == value.end()) {
+      throw Error("missing required field (string or null)", file,
+                  pointer + "/metadata_npz_path", key);
+    }
+    if (npz->is_string()) {
+      entry.metadata_npz_path = npz->get<std::string>();
+    } else if (!npz->is_null()) {
+      throw Error("expected string or null, got " + TypeWord(*npz), file,
+                  pointer + "/metadata_npz_path", key);
+    }
+    index.entries[key] = std::move(entry);
+  }
+  return index;
+}
+
+std::string AssetIndex::Serialize() const {
+  if (entries.empty()) return "{}";
+  std::string out;
+  out.reserve(entries.size() * 256);
+  out += "{\n";
+  bool first = true;
+  for (const auto& [key, entry] : entries) {
+    if (!first) out += ",\n";
+    first = false;
+    out += "    ";
+    internal::AppendJsonString(out, key);
+    out += ": {\n        \"uid\": ";
+    internal::AppendJsonString(out, entry.uid);
+    out += ",\n        \"object_path\": ";
+    internal::AppendJsonString(out, entry.object_path);
+    out += ",\n        \"metadata_path\": ";
+    internal::AppendJsonString(out, entry.metadata_path);
+    out += ",\n        \"metadata_npz_path\": ";
+    if (entry.metadata_npz_path) {
+      internal::AppendJsonString(out, *entry.metadata_npz_path);
+    } else {
+      out += "null";
+    }
+    out += "\n    }";
+  }
+  out += "\n}";
+  return out;
+}
+
+AssetIndex BuildAssetIndex(const fs::path& dir, const AssetIndexOptions& options,
+                           IndexReport* report, bool use_computed) {
+  const fs::path root = Resolve(dir);
+  AssetIndex index;
+  internal::WalkSorted(root, [&](const internal::WalkDir& d, const internal::WalkEntry& e) {
+    std::string_view name = e.name;
+    constexpr std::string_view kXml = ".xml";
+    if (name.size() <= kXml.size() || !name.ends_with(kXml)) return;
+    const std::string uid(name.substr(0, name.size() - kXml.size()));
+    const std::string json_name = uid + ".json";
+    if (!d.HasFile(json_name)) {
+      std::string message = "Expected metadata JSON for " + d.AbsChild(name) + " at " +
+                            d.AbsChild(json_name) + ", but it was not found.";
+      if (options.suppress_missing_metadata) {
+        if (report != nullptr) report->warnings.push_back("Warning: " + message + " Skipping.");
+        return;
+      }
+      throw Error(message, {}, {}, uid);
+    }
+    AssetEntry entry;
+    entry.uid = uid;
+    entry.object_path = d.RelChild(name);
+    const std::string computed_name = uid + "_computed.json";
+    entry.metadata_path =
+        d.RelChild(use_computed && d.HasFile(computed_name) ? computed_name : json_name);
+    const std::string npz_name = uid + ".npz";
+    if (d.HasFile(npz_name)) entry.metadata_npz_path = d.RelChild(npz_name);
+    auto [it, inserted] = index.entries.try_emplace(uid, std::move(entry));
+    if (!inserted) {
+      throw Error("Duplicate asset id '" + uid + "' found at " + d.RelChild(name) + " and " +
+                      it->second.object_path + ".",
+                  {}, {}, uid);
+    }
+  });
+  if (report != nullptr) report->count = index.entries.size();
+  return index;
+}
+
+IndexReport WriteAssetIndex(const fs::path& dir, const AssetIndexOptions& options) {
+  const fs::path root = Resolve(dir);
+  IndexReport report;
+  report.output = options.output.empty() ? root / "assets_index.json" : Resolve(options.output);
+  std::error_code ec;
+  if (fs::exists(report.output, ec) && !options.overwrite) {
+    throw Error(report.output.string() + " already exists. Use --overwrite to overwrite.");
+  }
+  AssetIndex index = BuildAssetIndex(root, options, &report, /*use_computed=*/false);
+  WriteFileAtomic(report.output, index.Serialize());
+  return report;
+}
+
+}  // namespace mlspaces

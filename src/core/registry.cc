@@ -1,0 +1,810 @@
+// The registry of asset and grasp libraries (spec sections 5, 6.1, 8.3, 8.4, 9).
+//
+// Layout of the lookup structures:
+// - every user asset library owns an unordered_map uid -> (entry, absolute MJCF path), built
+//   once at registration;
+// - one global map uid -> first user library holding it (plus the duplicate record, if any),
+//   so Locate is one hash lookup for user UIDs;
+// - built-in thor/objaverse are scanned once, lazily, into their own maps.
+// Registration builds everything into temporaries and commits at the end (transactional).
+#include "mlspaces/core/registry.h"
+
+#include <sys/stat.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+#include <functional>
+#include <mutex>
+#include <numeric>
+#include <unordered_map>
+#include <utility>
+
+#include "mlspaces/core/error.h"
+#include "mlspaces/core/npz.h"
+#include "mlspaces/core/rng.h"
+
+namespace mlspaces {
+namespace fs = std::filesystem;
+
+namespace {
+
+struct StringHash {
+  using is_transparent = void;
+  size_t operator()(std::string_view s) const noexcept {
+    return std::hash<std::string_view>{}(s);
+  }
+};
+template <class V>
+using StringMap = std::unordered_map<std::string, V, StringHash, std::equal_to<>>;
+
+constexpr std::string_view kThor = "thor";
+constexpr std::string_view kObjaverse = "objaverse";
+constexpr std::string_view kObjathorMetadata = "objathor_metadata";
+constexpr std::string_view kDroid = "droid";
+constexpr std::string_view kDroidObjaverse = "droid_objaverse";
+constexpr std::string_view kTransformsKey = "transforms";
+constexpr std::string_view kTransformsMember = "transforms.npy";
+
+bool IsBuiltinAssetLibrary(std::string_view name) {
+  for (std::string_view b : kBuiltinAssetLibraries) {
+    if (b == name) return true;
+  }
+  return false;
+}
+
+bool IsBuiltinGraspLibrary(std::string_view name) {
+  for (std::string_view b : kBuiltinGraspLibraries) {
+    if (b == name) return true;
+  }
+  return false;
+}
+
+/// Absolute, lexically normal, without a trailing separator.
+fs::path MakeAbsolute(const fs::path& path) {
+  fs::path out = fs::absolute(path).lexically_normal();
+  if (!out.has_filename() && out.has_parent_path() && out != out.root_path()) {
+    out = out.parent_path();
+  }
+  return out;
+}
+
+/// A regular file (or anything that is not a folder) exists at `path`: one stat.
+bool FileExists(const fs::path& path) {
+  struct stat st {};
+  return ::stat(path.c_str(), &st) == 0 && !S_ISDIR(st.st_mode);
+}
+
+std::string QuotedList(const std::vector<std::string>& names) {
+  std::string out = "[";
+  for (size_t i = 0; i < names.size(); ++i) {
+    if (i > 0) out += ", ";
+    out += "'" + names[i] + "'";
+  }
+  return out + "]";
+}
+
+std::string ShapeString(const std::vector<size_t>& shape) {
+  std::string out = "(";
+  for (size_t i = 0; i < shape.size(); ++i) {
+    if (i > 0) out += ", ";
+    out += std::to_string(shape[i]);
+  }
+  if (shape.size() == 1) out += ",";
+  return out + ")";
+}
+
+/// Checks a transforms.npy header; returns N.
+size_t CheckGraspHeader(const NpyHeader& header, const fs::path& npz) {
+  if (header.shape.size() != 3 || header.shape[1] != 4 || header.shape[2] != 4) {
+    throw Error("grasp transforms must have shape (N, 4, 4), got " + ShapeString(header.shape),
+                npz.string(), std::string(kTransformsMember));
+  }
+  if (header.dtype == DType::kB1) {
+    throw Error("grasp transforms must be numeric, got dtype " + DTypeDescr(header.dtype),
+                npz.string(), std::string(kTransformsMember));
+  }
+  return header.shape[0];
+}
+
+NpyHeader ReadGraspHeader(const NpzReader& reader) {
+  if (!reader.Contains(kTransformsKey)) {
+    throw Error("grasp file has no transforms.npy array", reader.path().string());
+  }
+  NpyHeader header = reader.ReadHeader(kTransformsKey);
+  CheckGraspHeader(header, reader.path());
+  return header;
+}
+
+/// Reads all rows (rows == nullptr) or `rows` of an already checked transforms array.
+GraspSet ReadGrasps(const NpzReader& reader, const NpyHeader& header,
+                    const std::vector<size_t>* rows) {
+  const size_t n = header.shape[0];
+  GraspSet out;
+  out.source = reader.path();
+  out.stored_dtype = header.dtype;
+  NpyArray array;
+  if (rows != nullptr) {
+    for (size_t r : *rows) {
+      if (r >= n) {
+        throw Error("grasp row " + std::to_string(r) + " out of range (file has " +
+                        std::to_string(n) + ")",
+                    reader.path().string(), std::string(kTransformsMember));
+      }
+    }
+    out.indices = *rows;
+    array = reader.ReadRows(kTransformsKey, *rows);
+  } else {
+    out.indices.resize(n);
+    std::iota(out.indices.begin(), out.indices.end(), size_t{0});
+    array = reader.Read(kTransformsKey);
+  }
+  const size_t count = out.indices.size();
+  if (array.num_elements() != count * 16) {
+    throw Error("grasp transforms: read " + std::to_string(array.num_elements()) +
+                    " values, expected " + std::to_string(count * 16),
+                reader.path().string(), std::string(kTransformsMember));
+  }
+  out.poses.resize(count);
+  const bool f8 = array.dtype == DType::kF8;
+  for (size_t i = 0; i < count; ++i) {
+    Mat4& pose = out.poses[i];
+    if (f8) {
+      std::memcpy(pose.m.data(), array.data.data() + i * 16 * sizeof(double),
+                  16 * sizeof(double));
+    } else {
+      for (size_t k = 0; k < 16; ++k) pose.m[k] = array.AsDouble(i * 16 + k);
+    }
+    for (double v : pose.m) {
+      if (!std::isfinite(v)) {
+        throw Error("grasp " + std::to_string(out.indices[i]) + " has a non-finite value",
+                    reader.path().string(), std::string(kTransformsMember));
+      }
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+
+struct Registry::Impl {
+  /// One user asset library and its uid -> entry map.
+  struct UserAssetLibrary {
+    std::string name;
+    fs::path dir;
+    AssetIndex index;
+    StringMap<const AssetEntry*> uids;
+    /// Each UID followed by its absolute MJCF path, back to back: the global map's keys and
+    /// paths are views into it (never reallocated after registration).
+    std::string arena;
+  };
+  /// The global uid -> first user library holding it. Everything Locate needs sits in the
+  /// node (the MJCF path as one flat string), so a lookup touches few cache lines.
+  struct UidRecord {
+    uint32_t library = 0;    ///< index into user_libraries
+    int32_t duplicate = -1;  ///< index into user_duplicates, or -1
+    const AssetEntry* entry = nullptr;
+    std::string_view mjcf;   ///< absolute; in the library's arena, right after the key
+  };
+  /// A built-in library's lazily scanned stem -> MJCF map.
+  struct BuiltinScan {
+    std::once_flag once;
+    StringMap<fs::path> uids;
+    std::vector<DuplicateUid> duplicates;  ///< stems seen twice in this library
+  };
+  struct GraspLibrary {
+    GraspLibraryInfo info;
+    StringMap<fs::path> pickup;                ///< uid -> absolute path
+    StringMap<StringMap<fs::path>> joints;     ///< uid -> joint -> absolute path
+  };
+
+  Options options;
+  std::vector<std::unique_ptr<UserAssetLibrary>> user_libraries;
+  std::unordered_map<std::string_view, UidRecord, StringHash, std::equal_to<>> uids;
+  std::vector<DuplicateUid> user_duplicates;  ///< among user libraries, priority order
+  StringMap<std::unique_ptr<GraspLibrary>> grasp_libraries;
+  StringMap<std::vector<std::string>> grasp_lists;  ///< asset library -> grasp libraries
+  uint64_t generation = 0;  ///< bumped by every registration
+
+  mutable BuiltinScan thor_scan, objaverse_scan;
+
+  mutable std::mutex duplicates_mutex;
+  mutable std::vector<DuplicateUid> all_duplicates;
+  mutable uint64_t duplicates_generation = ~uint64_t{0};
+
+  mutable std::mutex annotation_mutex;
+  mutable StringMap<std::shared_ptr<const Annotation>> annotations;
+
+  explicit Impl(Options opts) : options(std::move(opts)) {
+    if (options.assets_dir) {
+      options.assets_dir = MakeAbsolute(*options.assets_dir);
+      for (auto [asset_lib, grasp_lib] :
+           {std::pair{kThor, kDroid}, std::pair{kObjaverse, kDroidObjaverse}}) {
+        auto lib = std::make_unique<GraspLibrary>();
+        lib->info.name = std::string(grasp_lib);
+        lib->info.dir = *options.assets_dir / "grasps" / std::string(grasp_lib);
+        lib->info.asset_library = std::string(asset_lib);
+        lib->info.builtin = true;
+        grasp_libraries.emplace(std::string(grasp_lib), std::move(lib));
+        grasp_lists[std::string(asset_lib)].push_back(std::string(grasp_lib));
+      }
+    }
+  }
+
+  const BuiltinScan* Scan(std::string_view library) const {
+    if (!options.assets_dir) return nullptr;
+    BuiltinScan& scan = library == kThor ? thor_scan : objaverse_scan;
+    std::call_once(scan.once, [&] {
+      ScanMjcfs(*options.assets_dir / "objects" / std::string(library), std::string(library),
+                scan);
+    });
+    return &scan;
+  }
+
+  /// Collects <dir>/**/*.xml by stem. Sorted by path so the winner of a duplicated stem
+  /// does not depend on directory order (the original lets the last file scanned win).
+  static void ScanMjcfs(const fs::path& dir, const std::string& library, BuiltinScan& scan) {
+    std::vector<std::pair<std::string, fs::path>> found;  // (generic path, path)
+    std::error_code ec;
+    fs::recursive_directory_iterator it(dir, fs::directory_options::skip_permission_denied, ec);
+    if (ec) return;  // not installed
+    for (; it != fs::recursive_directory_iterator(); it.increment(ec)) {
+      if (ec) break;
+      const fs::path& p = it->path();
+      if (p.extension() != ".xml") continue;
+      std::error_code file_ec;
+      if (it->is_directory(file_ec)) continue;
+      found.emplace_back(p.generic_string(), p);
+    }
+    std::sort(found.begin(), found.end(),
+              [](const auto& a, const auto& b) { return a.first < b.first; });
+    StringMap<size_t> duplicate_of;
+    for (auto& [generic, path] : found) {
+      std::string stem = path.stem().string();
+      auto [pos, inserted] = scan.uids.try_emplace(stem, path);
+      if (inserted) continue;
+      auto dup = duplicate_of.find(stem);
+      if (dup == duplicate_of.end()) {
+        duplicate_of.emplace(stem, scan.duplicates.size());
+        scan.duplicates.push_back({stem, {library, library}, {pos->second, path}});
+      } else {
+        scan.duplicates[dup->second].libraries.push_back(library);
+        scan.duplicates[dup->second].paths.push_back(path);
+      }
+    }
+  }
+
+  const UidRecord* FindUser(std::string_view uid) const {
+    auto it = uids.find(uid);
+    return it == uids.end() ? nullptr : &it->second;
+  }
+
+  /// The library a UID resolves to (empty if none), without building an AssetLocation.
+  std::string_view LibraryOf(std::string_view uid) const {
+    if (options.assets_dir) {
+      for (std::string_view lib : {kThor, kObjaverse}) {
+        const BuiltinScan* scan = Scan(lib);
+        if (scan->uids.find(uid) != scan->uids.end()) return lib;
+      }
+    }
+    if (const UidRecord* rec = FindUser(uid)) return user_libraries[rec->library]->name;
+    return {};
+  }
+
+  /// Every library holding a UID, in priority order, with its MJCF path.
+  void Holders(std::string_view uid, std::vector<std::string>& libraries,
+               std::vector<fs::path>& paths) const {
+    if (options.assets_dir) {
+      for (std::string_view lib : {kThor, kObjaverse}) {
+        const BuiltinScan* scan = Scan(lib);
+        auto it = scan->uids.find(uid);
+        if (it != scan->uids.end()) {
+          libraries.emplace_back(lib);
+          paths.push_back(it->second);
+        }
+      }
+    }
+    const UidRecord* rec = FindUser(uid);
+    if (rec == nullptr) return;
+    if (rec->duplicate < 0) {
+      libraries.push_back(user_libraries[rec->library]->name);
+      paths.emplace_back(rec->mjcf);
+      return;
+    }
+    const DuplicateUid& dup = user_duplicates[static_cast<size_t>(rec->duplicate)];
+    libraries.insert(libraries.end(), dup.libraries.begin(), dup.libraries.end());
+    paths.insert(paths.end(), dup.paths.begin(), dup.paths.end());
+  }
+
+  bool IsAssetLibrary(std::string_view name) const {
+    if (IsBuiltinAssetLibrary(name)) return true;
+    for (const auto& lib : user_libraries) {
+      if (lib->name == name) return true;
+    }
+    return false;
+  }
+
+  std::vector<std::string> Walk(std::string_view uid, GraspLibraryFilter filter) const {
+    std::vector<std::string> out;
+    std::string_view library = LibraryOf(uid);
+    if (library.empty()) return out;
+    auto it = grasp_lists.find(library);
+    if (it == grasp_lists.end()) return out;
+    if (filter.empty()) return it->second;
+    for (const std::string& name : filter) {
+      if (std::find(it->second.begin(), it->second.end(), name) == it->second.end()) continue;
+      if (std::find(out.begin(), out.end(), name) != out.end()) continue;
+      out.push_back(name);
+    }
+    return out;
+  }
+
+  std::optional<fs::path> PickupCandidate(const GraspLibrary& lib, std::string_view uid) const {
+    if (lib.info.builtin) {
+      std::string u(uid);
+      return lib.info.dir / u / (u + "_grasps_filtered.npz");
+    }
+    auto it = lib.pickup.find(uid);
+    if (it == lib.pickup.end()) return std::nullopt;
+    return it->second;
+  }
+
+  std::optional<fs::path> JointCandidate(const GraspLibrary& lib, std::string_view uid,
+                                         std::string_view joint) const {
+    if (lib.info.builtin) {
+      return lib.info.dir / std::string(uid) / (std::string(joint) + "_grasps_filtered.npz");
+    }
+    auto it = lib.joints.find(uid);
+    if (it == lib.joints.end()) return std::nullopt;
+    auto jt = it->second.find(joint);
+    if (jt == it->second.end()) return std::nullopt;
+    return jt->second;
+  }
+};
+
+// ---------------------------------------------------------------------------------------------
+
+Registry::Registry() : Registry(Options{}) {}
+Registry::Registry(Options options) : impl_(std::make_unique<Impl>(std::move(options))) {}
+Registry::~Registry() = default;
+Registry::Registry(Registry&&) noexcept = default;
+Registry& Registry::operator=(Registry&&) noexcept = default;
+
+std::optional<fs::path> Registry::AssetsDirFromEnv() {
+  const char* value = std::getenv("MLSPACES_ASSETS_DIR");
+  if (value == nullptr || *value == '\0') return std::nullopt;
+  return fs::path(value);
+}
+
+void Registry::RegisterAssetLibrary(const std::string& name, const fs::path& dir) {
+  Impl& impl = *impl_;
+  if (name.empty()) throw UsageError("User library name must not be empty");
+  if (name.find('/') != std::string::npos) {
+    throw UsageError("User library " + name + " must not contain slashes");
+  }
+  for (const auto& lib : impl.user_libraries) {
+    if (lib->name == name) throw Error("User library " + name + " already registered");
+  }
+  if (IsBuiltinAssetLibrary(name)) {
+    throw Error("User library " + name + " name conflicts with a built-in object source");
+  }
+  const fs::path root = MakeAbsolute(dir);
+  const fs::path index_file = root / "assets_index.json";
+  if (!FileExists(index_file)) {
+    throw Error("User library " + name + " path " + root.string() +
+                " does not contain an assets_index.json file");
+  }
+
+  // Build the new library and the global-map changes into temporaries.
+  auto lib = std::make_unique<Impl::UserAssetLibrary>();
+  lib->name = name;
+  lib->dir = root;
+  lib->index = AssetIndex::Load(index_file);
+  lib->uids.reserve(lib->index.entries.size());
+  std::vector<std::string> mjcfs;
+  mjcfs.reserve(lib->index.entries.size());
+  size_t arena_size = 0;
+  for (const auto& [uid, entry] : lib->index.entries) {
+    lib->uids.emplace(uid, &entry);
+    mjcfs.push_back((root / entry.object_path).string());
+    arena_size += uid.size() + mjcfs.back().size();
+  }
+  lib->arena.reserve(arena_size);
+  struct Placed {
+    std::string_view uid, mjcf;
+    const AssetEntry* entry;
+  };
+  std::vector<Placed> placed;
+  placed.reserve(mjcfs.size());
+  {
+    size_t i = 0;
+    for (const auto& [uid, entry] : lib->index.entries) {
+      const size_t at = lib->arena.size();
+      lib->arena += uid;
+      lib->arena += mjcfs[i++];
+      const std::string_view view(lib->arena);
+      placed.push_back({view.substr(at, uid.size()), view.substr(at + uid.size()), &entry});
+    }
+  }
+  const uint32_t lib_index = static_cast<uint32_t>(impl.user_libraries.size());
+  struct Shadowed {
+    const Placed* placed;
+    Impl::UidRecord* existing;
+  };
+  std::vector<const Placed*> fresh;
+  std::vector<Shadowed> shadowed;
+  for (const Placed& p : placed) {
+    auto it = impl.uids.find(p.uid);
+    if (it == impl.uids.end()) {
+      fresh.push_back(&p);
+    } else {
+      shadowed.push_back({&p, &it->second});
+    }
+  }
+  // New duplicates are appended in UID order, so duplicates() is deterministic.
+  std::sort(shadowed.begin(), shadowed.end(),
+            [](const Shadowed& a, const Shadowed& b) { return a.placed->uid < b.placed->uid; });
+  std::vector<DuplicateUid> duplicates = impl.user_duplicates;
+  std::vector<std::pair<Impl::UidRecord*, int32_t>> new_dup_index;
+  for (const Shadowed& s : shadowed) {
+    if (s.existing->duplicate >= 0) {
+      DuplicateUid& dup = duplicates[static_cast<size_t>(s.existing->duplicate)];
+      dup.libraries.push_back(name);
+      dup.paths.emplace_back(s.placed->mjcf);
+    } else {
+      const Impl::UserAssetLibrary& first = *impl.user_libraries[s.existing->library];
+      new_dup_index.emplace_back(s.existing, static_cast<int32_t>(duplicates.size()));
+      duplicates.push_back({std::string(s.placed->uid),
+                            {first.name, name},
+                            {fs::path(s.existing->mjcf), fs::path(s.placed->mjcf)}});
+    }
+  }
+  impl.uids.reserve(impl.uids.size() + fresh.size());
+
+  // Commit (nothing below throws but bad_alloc).
+  for (auto& [existing, index] : new_dup_index) existing->duplicate = index;
+  for (const Placed* p : fresh) {
+    impl.uids.emplace(p->uid, Impl::UidRecord{lib_index, -1, p->entry, p->mjcf});
+  }
+  impl.user_duplicates = std::move(duplicates);
+  impl.user_libraries.push_back(std::move(lib));
+  ++impl.generation;
+}
+
+std::vector<std::string> Registry::RegisterGraspLibrary(const std::string& root_name,
+                                                        const fs::path& dir,
+                                                        const std::string& asset_library) {
+  Impl& impl = *impl_;
+  if (root_name.empty()) throw UsageError("User grasp library name must not be empty");
+  if (root_name.find('/') != std::string::npos) {
+    throw UsageError("User grasp library " + root_name + " must not contain slashes");
+  }
+  const fs::path root = MakeAbsolute(dir);
+  const fs::path index_file = root / "grasps_index.json";
+  if (!FileExists(index_file)) throw Error(index_file.string() + " does not exist");
+  if (!impl.IsAssetLibrary(asset_library)) {
+    throw Error("Object library " + asset_library + " not found");
+  }
+  const GraspIndex index = GraspIndex::Load(index_file);
+
+  std::vector<std::unique_ptr<Impl::GraspLibrary>> libs;
+  std::vector<std::string> names;
+  for (const std::string& robot : index.robots()) {  // sorted: deterministic priority
+    std::string name = root_name + "/" + robot;
+    if (impl.grasp_libraries.find(name) != impl.grasp_libraries.end()) {
+      throw Error("User grasp library " + name + " already registered");
+    }
+    if (IsBuiltinGraspLibrary(name)) {
+      throw Error("User grasp library " + name + " name conflicts with a built-in grasp source");
+    }
+    auto lib = std::make_unique<Impl::GraspLibrary>();
+    lib->info = {name, robot, root, asset_library, false};
+    if (auto it = index.grasp_paths.find(robot); it != index.grasp_paths.end()) {
+      lib->pickup.reserve(it->second.size());
+      for (const auto& [uid, rel] : it->second) lib->pickup.emplace(uid, root / rel);
+    }
+    if (auto it = index.articulated_grasp_paths.find(robot);
+        it != index.articulated_grasp_paths.end()) {
+      lib->joints.reserve(it->second.size());
+      for (const auto& [uid, joints] : it->second) {
+        StringMap<fs::path>& out = lib->joints[uid];
+        for (const auto& [joint, rel] : joints) out.emplace(joint, root / rel);
+      }
+    }
+    names.push_back(std::move(name));
+    libs.push_back(std::move(lib));
+  }
+  std::vector<std::string> list = names;
+  if (auto it = impl.grasp_lists.find(asset_library); it != impl.grasp_lists.end()) {
+    list.insert(list.end(), it->second.begin(), it->second.end());
+  }
+
+  // Commit.
+  for (auto& lib : libs) {
+    std::string key = lib->info.name;
+    impl.grasp_libraries.emplace(std::move(key), std::move(lib));
+  }
+  impl.grasp_lists[asset_library] = std::move(list);
+  ++impl.generation;
+  return names;
+}
+
+std::vector<std::string> Registry::asset_libraries() const {
+  std::vector<std::string> out;
+  if (impl_->options.assets_dir) {
+    out = {std::string(kThor), std::string(kObjaverse), std::string(kObjathorMetadata)};
+  }
+  for (const auto& lib : impl_->user_libraries) out.push_back(lib->name);
+  return out;
+}
+
+std::vector<std::string> Registry::grasp_libraries_of(const std::string& asset_library) const {
+  auto it = impl_->grasp_lists.find(asset_library);
+  return it == impl_->grasp_lists.end() ? std::vector<std::string>{} : it->second;
+}
+
+const GraspLibraryInfo* Registry::FindGraspLibrary(std::string_view name) const {
+  auto it = impl_->grasp_libraries.find(name);
+  return it == impl_->grasp_libraries.end() ? nullptr : &it->second->info;
+}
+
+const std::vector<DuplicateUid>& Registry::duplicates() const {
+  const Impl& impl = *impl_;
+  std::lock_guard<std::mutex> lock(impl.duplicates_mutex);
+  if (impl.duplicates_generation == impl.generation) return impl.all_duplicates;
+  std::vector<DuplicateUid> out;
+  if (impl.options.assets_dir) {
+    // Built-in UIDs also present elsewhere, and stems found twice inside one library.
+    for (std::string_view lib : {kThor, kObjaverse}) {
+      const Impl::BuiltinScan* scan = impl.Scan(lib);
+      out.insert(out.end(), scan->duplicates.begin(), scan->duplicates.end());
+    }
+    const Impl::BuiltinScan* thor = impl.Scan(kThor);
+    const Impl::BuiltinScan* objaverse = impl.Scan(kObjaverse);
+    auto add_if_shared = [&](const std::string& uid, bool skip_if_in_thor) {
+      if (skip_if_in_thor && thor->uids.count(uid) != 0) return;  // counted from thor
+      DuplicateUid dup{uid, {}, {}};
+      impl.Holders(uid, dup.libraries, dup.paths);
+      if (dup.libraries.size() > 1) out.push_back(std::move(dup));
+    };
+    for (const auto& [uid, path] : thor->uids) add_if_shared(uid, false);
+    for (const auto& [uid, path] : objaverse->uids) add_if_shared(uid, true);
+    for (const DuplicateUid& dup : impl.user_duplicates) {
+      if (thor->uids.count(dup.uid) == 0 && objaverse->uids.count(dup.uid) == 0) {
+        out.push_back(dup);
+      }
+    }
+  } else {
+    out = impl.user_duplicates;
+  }
+  std::stable_sort(out.begin(), out.end(),
+                   [](const DuplicateUid& a, const DuplicateUid& b) { return a.uid < b.uid; });
+  impl.all_duplicates = std::move(out);
+  impl.duplicates_generation = impl.generation;
+  return impl.all_duplicates;
+}
+
+size_t Registry::num_uids() const { return impl_->uids.size(); }
+
+std::optional<AssetLocation> Registry::Locate(std::string_view uid) const {
+  const Impl& impl = *impl_;
+  if (!impl.options.assets_dir) {
+    // The common case: one hash lookup.
+    const Impl::UidRecord* rec = impl.FindUser(uid);
+    if (rec == nullptr) return std::nullopt;
+    AssetLocation loc;
+    loc.library = impl.user_libraries[rec->library]->name;
+    loc.mjcf_path = fs::path(rec->mjcf);
+    loc.entry = rec->entry;
+    if (rec->duplicate >= 0) {
+      const DuplicateUid& dup = impl.user_duplicates[static_cast<size_t>(rec->duplicate)];
+      loc.shadowed.assign(dup.libraries.begin() + 1, dup.libraries.end());
+    }
+    return loc;
+  }
+  std::vector<std::string> libraries;
+  std::vector<fs::path> paths;
+  impl.Holders(uid, libraries, paths);
+  if (libraries.empty()) return std::nullopt;
+  AssetLocation loc;
+  loc.library = libraries.front();
+  loc.mjcf_path = paths.front();
+  if (!IsBuiltinAssetLibrary(loc.library)) loc.entry = impl.FindUser(uid)->entry;
+  loc.shadowed.assign(libraries.begin() + 1, libraries.end());
+  return loc;
+}
+
+AssetLocation Registry::LocateOrThrow(std::string_view uid) const {
+  std::optional<AssetLocation> loc = Locate(uid);
+  if (!loc) {
+    throw Error(std::string(uid) + " not found in asset libraries " +
+                    QuotedList(asset_libraries()),
+                "", "", std::string(uid));
+  }
+  return std::move(*loc);
+}
+
+std::shared_ptr<const Annotation> Registry::GetAnnotation(std::string_view uid) const {
+  const Impl& impl = *impl_;
+  {
+    std::lock_guard<std::mutex> lock(impl.annotation_mutex);
+    auto it = impl.annotations.find(uid);
+    if (it != impl.annotations.end()) return it->second;
+  }
+  const Impl::UidRecord* rec = impl.FindUser(uid);
+  if (rec == nullptr) return nullptr;
+  const Impl::UserAssetLibrary& lib = *impl.user_libraries[rec->library];
+  const AssetEntry& entry = *rec->entry;
+  const fs::path json_path = lib.dir / entry.metadata_path;
+  std::optional<fs::path> npz_path;
+  if (entry.metadata_npz_path) npz_path = lib.dir / *entry.metadata_npz_path;
+  // Loaded outside the lock so first-time loads of different UIDs run in parallel.
+  auto annotation = std::make_shared<const Annotation>(LoadAnnotation(
+      std::string(uid), lib.name, json_path, npz_path ? &*npz_path : nullptr));
+  std::lock_guard<std::mutex> lock(impl.annotation_mutex);
+  auto [it, inserted] = impl.annotations.try_emplace(std::string(uid), std::move(annotation));
+  return it->second;
+}
+
+std::vector<std::string> Registry::GraspLibrariesFor(std::string_view uid,
+                                                     GraspLibraryFilter filter) const {
+  return impl_->Walk(uid, filter);
+}
+
+std::optional<GraspFileLocation> Registry::FindPickupGraspFile(std::string_view uid,
+                                                               GraspLibraryFilter filter) const {
+  const Impl& impl = *impl_;
+  for (const std::string& name : impl.Walk(uid, filter)) {
+    const Impl::GraspLibrary& lib = *impl.grasp_libraries.find(name)->second;
+    std::optional<fs::path> candidate = impl.PickupCandidate(lib, uid);
+    if (candidate && FileExists(*candidate)) return GraspFileLocation{name, *candidate};
+  }
+  return std::nullopt;
+}
+
+std::optional<GraspFileLocation> Registry::FindJointGraspFile(std::string_view uid,
+                                                              std::string_view joint,
+                                                              GraspLibraryFilter filter) const {
+  const Impl& impl = *impl_;
+  std::vector<std::string> walk;
+  if (!impl.LibraryOf(uid).empty()) {
+    walk = impl.Walk(uid, filter);
+  } else if (filter.size() == 1 && impl.grasp_libraries.count(filter[0]) != 0) {
+    walk = {filter[0]};  // UID in no asset library (iTHOR articulated objects): ask directly
+  }
+  for (const std::string& name : walk) {
+    const Impl::GraspLibrary& lib = *impl.grasp_libraries.find(name)->second;
+    std::optional<fs::path> candidate = impl.JointCandidate(lib, uid, joint);
+    if (candidate && FileExists(*candidate)) return GraspFileLocation{name, *candidate};
+  }
+  return std::nullopt;
+}
+
+std::optional<fs::path> Registry::PickupGraspPath(std::string_view uid,
+                                                  GraspLibraryFilter filter) const {
+  auto found = FindPickupGraspFile(uid, filter);
+  if (!found) return std::nullopt;
+  return std::move(found->path);
+}
+
+std::optional<fs::path> Registry::JointGraspPath(std::string_view uid, std::string_view joint,
+                                                 GraspLibraryFilter filter) const {
+  auto found = FindJointGraspFile(uid, joint, filter);
+  if (!found) return std::nullopt;
+  return std::move(found->path);
+}
+
+bool Registry::HasValidPickupGrasps(std::string_view uid, size_t num_grasps,
+                                    GraspLibraryFilter filter) const {
+  std::optional<fs::path> path = PickupGraspPath(uid, filter);
+  if (!path) return false;
+  NpzReader reader(*path);
+  return ReadGraspHeader(reader).shape[0] >= num_grasps;
+}
+
+bool Registry::HasValidJointGrasps(std::string_view uid, std::string_view joint,
+                                   size_t num_grasps, GraspLibraryFilter filter) const {
+  std::optional<fs::path> path = JointGraspPath(uid, joint, filter);
+  if (!path) return false;
+  NpzReader reader(*path);
+  return ReadGraspHeader(reader).shape[0] >= num_grasps;
+}
+
+namespace {
+
+GraspSet LoadSubsampled(const fs::path& path, size_t num_grasps, uint64_t seed) {
+  NpzReader reader(path);
+  const NpyHeader header = ReadGraspHeader(reader);
+  const size_t n = header.shape[0];
+  if (n <= num_grasps) return ReadGrasps(reader, header, nullptr);
+  const std::vector<size_t> rows = SubsampleIndices(n, num_grasps, seed);
+  return ReadGrasps(reader, header, &rows);
+}
+
+}  // namespace
+
+GraspSet Registry::LoadPickupGrasps(std::string_view uid, GraspLibraryFilter filter,
+                                    size_t num_grasps, uint64_t seed) const {
+  std::optional<fs::path> path = PickupGraspPath(uid, filter);
+  if (!path) {
+    throw Error("No grasp file found for " + std::string(uid), "", "", std::string(uid));
+  }
+  return LoadSubsampled(*path, num_grasps, seed);
+}
+
+GraspSet Registry::LoadJointGrasps(std::string_view uid, std::string_view joint,
+                                   GraspLibraryFilter filter, size_t num_grasps,
+                                   uint64_t seed) const {
+  std::optional<fs::path> path = JointGraspPath(uid, joint, filter);
+  if (!path) {
+    throw Error("No joint grasp file found for " + std::string(uid) + "/" + std::string(joint),
+                "", "", std::string(uid));
+  }
+  return LoadSubsampled(*path, num_grasps, seed);
+}
+
+GraspSet ReadGraspFile(const fs::path& npz, const std::vector<size_t>* rows) {
+  NpzReader reader(npz);
+  const NpyHeader header = ReadGraspHeader(reader);
+  return ReadGrasps(reader, header, rows);
+}
+
+std::vector<size_t> SubsampleIndices(size_t n, size_t k, uint64_t seed) {
+  std::vector<size_t> out;
+  if (n <= k) {
+    out.resize(n);
+    std::iota(out.begin(), out.end(), size_t{0});
+    return out;
+  }
+  // Partial Fisher-Yates: step i swaps slot i with slot i + UniformInt(n - i) and emits slot i.
+  // Large n with small k keeps only the displaced slots (same draws, same result).
+  Rng rng(seed);
+  out.reserve(k);
+  if (n <= 4096 || n <= 8 * k) {
+    std::vector<size_t> slots(n);
+    std::iota(slots.begin(), slots.end(), size_t{0});
+    for (size_t i = 0; i < k; ++i) {
+      const size_t j = i + static_cast<size_t>(rng.UniformInt(n - i));
+      std::swap(slots[i], slots[j]);
+      out.push_back(slots[i]);
+    }
+    return out;
+  }
+  std::unordered_map<size_t, size_t> displaced;
+  displaced.reserve(2 * k);
+  auto slot = [&](size_t i) {
+    auto it = displaced.find(i);
+    return it == displaced.end() ? i : it->second;
+  };
+  for (size_t i = 0; i < k; ++i) {
+    const size_t j = i + static_cast<size_t>(rng.UniformInt(n - i));
+    const size_t vi = slot(i), vj = slot(j);
+    displaced[j] = vi;
+    out.push_back(vj);
+  }
+  return out;
+}
+
+std::vector<Mat4> GraspsInWorld(const Mat4& body_pose, std::span<const Mat4> grasps,
+                                bool include_flipped) {
+  std::vector<Mat4> out;
+  out.reserve(grasps.size() * (include_flipped ? 2 : 1));
+  for (const Mat4& g : grasps) out.push_back(body_pose * g);
+  if (include_flipped) {
+    // W * Rz(180 deg) with the exact rotation diag(-1, -1, 1): negate the x and y columns.
+    for (size_t i = 0; i < grasps.size(); ++i) {
+      Mat4 flipped = out[i];
+      for (int r = 0; r < 3; ++r) {
+        flipped(r, 0) = -flipped(r, 0);
+        flipped(r, 1) = -flipped(r, 1);
+      }
+      out.push_back(flipped);
+    }
+  }
+  return out;
+}
+
+}  // namespace mlspaces

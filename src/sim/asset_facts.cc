@@ -1,0 +1,288 @@
+#include "mlspaces/sim/asset_facts.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <memory>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <pugixml.hpp>
+
+#include "mesh_reader.h"
+#include "mlspaces/core/error.h"
+#include "mlspaces/core/files.h"
+#include "mlspaces/sim/mjcf_composer.h"
+
+namespace mlspaces::sim {
+namespace {
+
+struct Box {
+  double lo[3] = {std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity(),
+                  std::numeric_limits<double>::infinity()};
+  double hi[3] = {-std::numeric_limits<double>::infinity(),
+                  -std::numeric_limits<double>::infinity(),
+                  -std::numeric_limits<double>::infinity()};
+  bool empty = true;
+  void Add(const double p[3]) {
+    for (int i = 0; i < 3; ++i) {
+      lo[i] = std::min(lo[i], p[i]);
+      hi[i] = std::max(hi[i], p[i]);
+    }
+    empty = false;
+  }
+  void AddCentered(const double c[3], const double half[3]) {
+    for (int i = 0; i < 3; ++i) {
+      lo[i] = std::min(lo[i], c[i] - half[i]);
+      hi[i] = std::max(hi[i], c[i] + half[i]);
+    }
+    empty = false;
+  }
+};
+
+// Point c + R * local, R row-major (MuJoCo xmat).
+void Xform(const double* xpos, const double* xmat, const double local[3], double out[3]) {
+  for (int i = 0; i < 3; ++i) {
+    out[i] = xpos[i] + xmat[3 * i] * local[0] + xmat[3 * i + 1] * local[1] +
+             xmat[3 * i + 2] * local[2];
+  }
+}
+
+void AddCorners(const double* xpos, const double* xmat, const double half[3], const double lo_z,
+                const double hi_z, Box* box) {
+  for (int c = 0; c < 8; ++c) {
+    double local[3] = {(c & 1) ? half[0] : -half[0], (c & 2) ? half[1] : -half[1],
+                       (c & 4) ? hi_z : lo_z};
+    double w[3];
+    Xform(xpos, xmat, local, w);
+    box->Add(w);
+  }
+}
+
+void AddGeom(const mjModel* m, const mjData* d, int g, Box* box) {
+  const double* xpos = d->geom_xpos + 3 * g;
+  const double* R = d->geom_xmat + 9 * g;
+  const double* s = m->geom_size + 3 * g;
+  switch (m->geom_type[g]) {
+    case mjGEOM_SPHERE: {
+      double half[3] = {s[0], s[0], s[0]};
+      box->AddCentered(xpos, half);
+      break;
+    }
+    case mjGEOM_CAPSULE: {
+      double half[3] = {s[0], s[0], s[0]};
+      for (double sign : {-1.0, 1.0}) {
+        double local[3] = {0, 0, sign * s[1]}, c[3];
+        Xform(xpos, R, local, c);
+        box->AddCentered(c, half);
+      }
+      break;
+    }
+    case mjGEOM_CYLINDER: {
+      double half[3];
+      for (int i = 0; i < 3; ++i) {
+        double a = R[3 * i + 2];  // axis component
+        half[i] = std::fabs(a) * s[1] + s[0] * std::sqrt(std::max(0.0, 1 - a * a));
+      }
+      box->AddCentered(xpos, half);
+      break;
+    }
+    case mjGEOM_ELLIPSOID: {
+      double half[3];
+      for (int i = 0; i < 3; ++i) {
+        double sum = 0;
+        for (int j = 0; j < 3; ++j) sum += (R[3 * i + j] * s[j]) * (R[3 * i + j] * s[j]);
+        half[i] = std::sqrt(sum);
+      }
+      box->AddCentered(xpos, half);
+      break;
+    }
+    case mjGEOM_BOX: {
+      double half[3] = {s[0], s[1], s[2]};
+      AddCorners(xpos, R, half, -s[2], s[2], box);
+      break;
+    }
+    case mjGEOM_PLANE: {
+      double half[3] = {s[0], s[1], 0};
+      AddCorners(xpos, R, half, 0, 0, box);
+      break;
+    }
+    case mjGEOM_HFIELD: {
+      int h = m->geom_dataid[g];
+      const double* hs = m->hfield_size + 4 * h;
+      double half[3] = {hs[0], hs[1], 0};
+      AddCorners(xpos, R, half, -hs[3], hs[2], box);
+      break;
+    }
+    case mjGEOM_MESH: {
+      int mesh = m->geom_dataid[g];
+      int adr = m->mesh_vertadr[mesh], n = m->mesh_vertnum[mesh];
+      const float* v = m->mesh_vert + 3 * adr;
+      for (int k = 0; k < n; ++k) {
+        double local[3] = {v[3 * k], v[3 * k + 1], v[3 * k + 2]}, w[3];
+        Xform(xpos, R, local, w);
+        box->Add(w);
+      }
+      break;
+    }
+    default:
+      break;
+  }
+}
+
+bool EndsWithNoCase(std::string_view s, std::string_view suffix) {
+  if (s.size() < suffix.size()) return false;
+  for (size_t i = 0; i < suffix.size(); ++i) {
+    char c = s[s.size() - suffix.size() + i];
+    if (c >= 'A' && c <= 'Z') c = static_cast<char>(c - 'A' + 'a');
+    if (c != suffix[i]) return false;
+  }
+  return true;
+}
+
+// mj_loadXML of files.back() with `files` in a VFS kept per thread: a fresh mjVFS is a 2 MB
+// struct that mj_defaultVFS clears, a cost comparable to compiling a small mesh. Null when
+// MuJoCo rejects the model.
+ModelPtr LoadFromReusedVfs(const std::vector<VfsFile>& files) {
+  struct Vfs {
+    std::unique_ptr<mjVFS> vfs{new mjVFS};  // not value-initialized: only nfile entries are read
+    Vfs() { vfs->nfile = 0; }
+    ~Vfs() { Clear(); }
+    void Clear() {
+      for (int i = 0; i < vfs->nfile; ++i) mju_free(vfs->filedata[i]);
+      vfs->nfile = 0;
+    }
+  };
+  thread_local Vfs holder;
+  mjVFS* vfs = holder.vfs.get();
+  holder.Clear();
+  for (const VfsFile& f : files) {
+    int size = std::max<int>(1, static_cast<int>(f.data.size()));
+    if (f.name.size() >= mjMAXVFSNAME || mj_makeEmptyFileVFS(vfs, f.name.c_str(), size) != 0) {
+      holder.Clear();
+      return nullptr;
+    }
+    std::memcpy(vfs->filedata[vfs->nfile - 1], f.data.data(), f.data.size());
+  }
+  char error[1024] = "";
+  mjModel* m = nullptr;
+  try {
+    m = mj_loadXML(files.back().name.c_str(), vfs, error, sizeof error);
+  } catch (const MujocoError&) {
+    m = nullptr;
+  }
+  holder.Clear();
+  TakeMujocoWarnings();
+  return ModelPtr(m);
+}
+
+// The physics-only fast path: the composed model with every OBJ / binary STL mesh file read by
+// mesh_reader and handed to MuJoCo as a .msh in the VFS (same triangles, same float corners,
+// one vertex per OBJ index instead of one per face corner; see mesh_reader.h for why the
+// compiled masses and vertices are the same). Meshes the readers leave to MuJoCo keep their
+// file. Null when no mesh was converted or MuJoCo rejected the model: the caller then compiles
+// the composer's model, which reports MuJoCo's error against the source file and line.
+// @throws Error for a malformed OBJ (file and line).
+ModelPtr CompileWithFastMeshes(const MjcfComposer& composer) {
+  const std::string text = composer.Emit();
+  pugi::xml_document doc;
+  if (!doc.load_buffer(text.data(), text.size())) return nullptr;
+  std::vector<VfsFile> files;
+  pugi::xml_node root = doc.child("mujoco");
+  for (pugi::xml_node asset : root.children("asset")) {
+    for (pugi::xml_node mesh : asset.children("mesh")) {
+      pugi::xml_attribute file = mesh.attribute("file");
+      if (!file) continue;
+      const std::string name = file.value();
+      const bool obj = EndsWithNoCase(name, "obj");
+      if (!(obj || EndsWithNoCase(name, "stl")) || !std::filesystem::path(name).is_absolute()) {
+        continue;
+      }
+      std::string data;
+      try {
+        data = ReadFile(name);
+      } catch (const std::exception&) {
+        continue;  // MuJoCo reports the missing file
+      }
+      TriMesh tri;
+      if (obj ? !ReadObjMesh(data, name, &tri) : !ReadStlMesh(data, &tri)) continue;
+      // MuJoCo names an unnamed mesh after its file.
+      if (!mesh.attribute("name")) {
+        mesh.append_attribute("name").set_value(std::filesystem::path(name).stem().c_str());
+      }
+      std::string vfs_name = "__mlspaces_mesh_" + std::to_string(files.size()) + ".msh";
+      file.set_value(vfs_name.c_str());
+      files.push_back({std::move(vfs_name), EncodeMsh(tri)});
+    }
+  }
+  if (files.empty()) return nullptr;
+  // Only masses and poses are read from this model: no constraint rows, so MuJoCo's own
+  // mj_makeData in the compile and ours stay small (njmax 500 costs megabytes of memset).
+  pugi::xml_node size = root.child("size");
+  if (!size) size = root.prepend_child("size");
+  for (const char* a : {"njmax", "nconmax"}) {
+    if (!size.attribute(a)) size.append_attribute(a);
+    size.attribute(a).set_value("1");
+  }
+  std::ostringstream os;
+  doc.save(os, "", pugi::format_raw | pugi::format_no_declaration);
+  files.push_back({"__mlspaces_model.xml", os.str()});
+  return LoadFromReusedVfs(files);
+}
+
+}  // namespace
+
+bool BodyGeomBox(const mjModel* m, const mjData* d, int body, std::array<double, 3>* lo,
+                 std::array<double, 3>* hi) {
+  Box box;
+  for (int g = 0; g < m->ngeom; ++g) {
+    if (m->geom_bodyid[g] == body) AddGeom(m, d, g, &box);
+  }
+  if (box.empty) return false;
+  for (int i = 0; i < 3; ++i) {
+    (*lo)[i] = box.lo[i];
+    (*hi)[i] = box.hi[i];
+  }
+  return true;
+}
+
+AssetFacts ComputeAssetFacts(const mjModel* m, const std::filesystem::path& path_for_errors) {
+  if (m->nbody != 2) {
+    throw Error("expected a single body in the asset (other than worldbody), found " +
+                    std::to_string(m->nbody - 1),
+                path_for_errors.string());
+  }
+  DataPtr d = MakeData(m);
+  mj_kinematics(m, d.get());
+  AssetFacts f;
+  f.mass = m->body_mass[1];
+  Box box;
+  for (int g = 0; g < m->ngeom; ++g) {
+    if (m->geom_bodyid[g] >= 1) AddGeom(m, d.get(), g, &box);
+  }
+  if (!box.empty) {
+    const double* origin = d->xpos + 3;
+    for (int i = 0; i < 3; ++i) {
+      f.aabb_min[i] = box.lo[i] - origin[i];
+      f.aabb_max[i] = box.hi[i] - origin[i];
+      f.bounding_box[i] = 2 * std::max(std::fabs(f.aabb_min[i]), std::fabs(f.aabb_max[i]));
+    }
+  }
+  return f;
+}
+
+AssetFacts ComputeAssetFacts(const std::filesystem::path& xml, bool physics_only) {
+  ComposeOptions options;
+  options.physics_only = physics_only;
+  MjcfComposer composer(xml, options);
+  const std::filesystem::path abs = std::filesystem::absolute(xml).lexically_normal();
+  if (physics_only) {
+    if (ModelPtr m = CompileWithFastMeshes(composer)) return ComputeAssetFacts(m.get(), abs);
+  }
+  ModelPtr m = composer.Compile();
+  return ComputeAssetFacts(m.get(), abs);
+}
+
+}  // namespace mlspaces::sim

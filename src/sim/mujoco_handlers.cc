@@ -1,0 +1,77 @@
+#include "mlspaces/sim/mujoco_handlers.h"
+
+#include <cstring>
+#include <mutex>
+
+namespace mlspaces::sim {
+namespace {
+
+thread_local std::vector<std::string> tls_warnings;
+
+void ThrowingErrorHandler(const char* msg) { throw MujocoError(msg ? msg : "MuJoCo error"); }
+
+void CollectingWarningHandler(const char* msg) {
+  if (tls_warnings.size() < 1000) tls_warnings.emplace_back(msg ? msg : "");
+}
+
+struct VfsHolder {
+  std::unique_ptr<mjVFS> vfs = std::make_unique<mjVFS>();
+  VfsHolder() { mj_defaultVFS(vfs.get()); }
+  ~VfsHolder() { mj_deleteVFS(vfs.get()); }
+  void Add(const std::string& name, std::string_view data) {
+    if (name.empty() || name.size() >= mjMAXVFSNAME) {
+      throw MujocoError("VFS file name is empty or too long: " + name);
+    }
+    // 2.2.2 refuses empty files; give them one byte of nothing.
+    int size = data.empty() ? 1 : static_cast<int>(data.size());
+    int rc = mj_makeEmptyFileVFS(vfs.get(), name.c_str(), size);
+    if (rc != 0) {
+      throw MujocoError("cannot add '" + name + "' to the MuJoCo VFS (code " +
+                        std::to_string(rc) + ")");
+    }
+    std::memset(vfs->filedata[vfs->nfile - 1], 0, size);
+    if (!data.empty()) std::memcpy(vfs->filedata[vfs->nfile - 1], data.data(), data.size());
+  }
+};
+
+}  // namespace
+
+void InstallMujocoHandlers() {
+  static std::once_flag once;
+  std::call_once(once, [] {
+    mju_user_error = ThrowingErrorHandler;
+    mju_user_warning = CollectingWarningHandler;
+  });
+}
+
+std::vector<std::string> TakeMujocoWarnings() {
+  std::vector<std::string> out;
+  out.swap(tls_warnings);
+  return out;
+}
+
+ModelPtr LoadModelFromMemory(std::string_view xml, const std::string& main_name,
+                             const std::vector<VfsFile>& extra) {
+  InstallMujocoHandlers();
+  VfsHolder holder;
+  holder.Add(main_name, xml);
+  for (const VfsFile& f : extra) holder.Add(f.name, f.data);
+  char error[1024] = "";
+  mjModel* m = mj_loadXML(main_name.c_str(), holder.vfs.get(), error, sizeof error);
+  if (!m) throw MujocoError(error[0] ? error : "mj_loadXML failed");
+  return ModelPtr(m);
+}
+
+DataPtr MakeData(const mjModel* m) {
+  InstallMujocoHandlers();
+  mjData* d = mj_makeData(m);
+  if (!d) throw MujocoError("mj_makeData failed");
+  return DataPtr(d);
+}
+
+std::string MjName(const mjModel* m, mjtObj type, int id) {
+  const char* name = mj_id2name(m, type, id);
+  return name ? name : "";
+}
+
+}  // namespace mlspaces::sim

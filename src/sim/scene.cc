@@ -1,0 +1,42 @@
+#include "mlspaces/sim/scene.h"
+
+#include "mlspaces/core/error.h"
+#include "mlspaces/core/scene_metadata.h"
+
+namespace mlspaces::sim {
+
+Scene Scene::Load(const std::filesystem::path& xml, ComposeOptions options) {
+  MjcfComposer composer(xml, options);
+  std::optional<Json> meta = LoadSceneMetadata(xml);
+  Json m = meta ? std::move(*meta) : Json{{"objects", Json::object()}};
+  return Scene(std::move(composer), std::move(m));
+}
+
+std::string Scene::InsertAsset(const Registry& registry, std::string_view uid, const Pose& pose,
+                               std::string_view parent_body, std::string_view prefix) {
+  AssetLocation loc = registry.LocateOrThrow(uid);
+  std::shared_ptr<const Annotation> annotation = registry.GetAnnotation(uid);
+  if (!annotation) {
+    throw Error("no metadata for " + std::string(uid) + " in library " + loc.library, "", "",
+                std::string(uid));
+  }
+  Json entry = MakeInsertedObjectEntry(*annotation, loc.mjcf_path);
+  std::string p = prefix.empty() ? std::string(uid) + "_" + std::to_string(inserted_) + "/"
+                                 : std::string(prefix);
+  std::vector<std::string> bodies = composer_.Attach(loc.mjcf_path, parent_body, p, pose);
+  if (bodies.size() != 1) {
+    throw Error("an inserted asset must have exactly one top-level body, found " +
+                    std::to_string(bodies.size()),
+                loc.mjcf_path.string(), "", std::string(uid));
+  }
+  ++inserted_;
+  AddSceneObject(metadata_, bodies[0], std::move(entry));
+  return bodies[0];
+}
+
+std::vector<std::string> Scene::InsertRobot(const std::filesystem::path& robot_xml,
+                                            std::string_view prefix, const Pose& base) {
+  return composer_.Attach(robot_xml, "world", prefix, base);
+}
+
+}  // namespace mlspaces::sim

@@ -1,7 +1,12 @@
-// compute-metadata throughput on a generated library of 1,000 OBJ objects (perturbed UV
-// spheres, 300..10,000 vertices log-uniform, every 10th with a 512x512 PNG texture), next to
-// MuJoCo's bare mj_loadXML + mj_makeData of the same files. Prints figures; not a gtest.
+// compute-metadata throughput on generated libraries of N OBJ objects (perturbed UV spheres,
+// every 10th with a 512x512 PNG texture): a mixed one (300..10,000 vertices log-uniform) and
+// one of ~1,000-vertex objects (800..1,250), each next to MuJoCo's bare mj_loadXML +
+// mj_makeData of the same files (1 thread). compute-metadata times the whole command: index
+// scan, facts, the *_computed.json files and the index. Then single-asset figures against the
+// original's (~1,000 vertices; a textured 8,000-vertex scan), checking the physics-only facts
+// against a full compile's. Prints figures and the machine's load average; not a gtest.
 //   sim_compute_metadata_bench [N_ASSETS]
+#include <sys/resource.h>
 #include <zlib.h>
 
 #include <chrono>
@@ -11,6 +16,7 @@
 #include <fstream>
 #include <random>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "mlspaces/core/files.h"
@@ -133,15 +139,25 @@ double BareLoad(const fs::path& xml) {
   return s;
 }
 
-}  // namespace
+// User + system CPU seconds of this process so far (all threads).
+double CpuSeconds() {
+  rusage u;
+  getrusage(RUSAGE_SELF, &u);
+  return u.ru_utime.tv_sec + u.ru_stime.tv_sec + 1e-6 * (u.ru_utime.tv_usec + u.ru_stime.tv_usec);
+}
 
-int main(int argc, char** argv) {
-  int count = argc > 1 ? std::atoi(argv[1]) : 1000;
-  mlspaces::sim::InstallMujocoHandlers();
-  fs::path dir = fs::temp_directory_path() / "mlspaces_cm_bench";
+std::string LoadAverage() {
+  std::ifstream in("/proc/loadavg");
+  std::string a, b, c;
+  in >> a >> b >> c;
+  return a + " " + b + " " + c;
+}
+
+// Generates `count` assets under `dir` with vertex counts log-uniform in [lo, hi], then times
+// bare loads and compute-metadata with 1 and 2 threads.
+void RunLibrary(const fs::path& dir, int count, double lo, double hi, std::mt19937& rng) {
   fs::remove_all(dir);
-  std::mt19937 rng(12345);
-  std::uniform_real_distribution<double> logn(std::log(300.0), std::log(10000.0));
+  std::uniform_real_distribution<double> logn(std::log(lo), std::log(hi));
   std::vector<fs::path> xmls;
   long total_verts = 0;
   auto t = Clock::now();
@@ -152,12 +168,12 @@ int main(int argc, char** argv) {
                               512, false, rng);
     xmls.push_back(dir / uid / (std::string(uid) + ".xml"));
   }
-  std::printf("generated %d assets (%.0f vertices on average, every 10th textured) in %.1f s\n",
-              count, static_cast<double>(total_verts) / count, Seconds(t));
-
+  std::printf("\n%d assets, %.0f..%.0f vertices (%.0f on average), every 10th textured, "
+              "generated in %.1f s\n",
+              count, lo, hi, static_cast<double>(total_verts) / count, Seconds(t));
   double bare = 0;
   for (const fs::path& x : xmls) bare += BareLoad(x);
-  std::printf("bare mj_loadXML + mj_makeData, 1 thread : %7.1f assets/s (%.2f ms/asset)\n",
+  std::printf("  bare mj_loadXML + mj_makeData, 1 thread : %7.1f assets/s (%.2f ms/asset)\n",
               count / bare, 1000 * bare / count);
   for (int threads : {1, 2}) {
     mlspaces::AssetIndexOptions o;
@@ -165,13 +181,31 @@ int main(int argc, char** argv) {
     mlspaces::sim::ComputeMetadataOptions c;
     c.threads = threads;
     t = Clock::now();
+    double cpu = CpuSeconds();
     auto r = mlspaces::sim::ComputeAssetMetadata(dir, o, c);
     double s = Seconds(t);
-    std::printf("compute-metadata, %d thread%s        : %7.1f assets/s (%.2f ms/asset, %zu ok, "
-                "%zu failed)\n",
-                threads, threads == 1 ? " " : "s", count / s, 1000 * s / count, r.computed,
-                r.failures.size());
+    cpu = CpuSeconds() - cpu;
+    std::printf("  compute-metadata, %d thread%s        : %7.1f assets/s (%.2f ms/asset wall, "
+                "%.2f ms CPU/asset, %zu ok, %zu failed)\n",
+                threads, threads == 1 ? " " : "s", count / s, 1000 * s / count,
+                1000 * cpu / count, r.computed, r.failures.size());
   }
+  fs::remove_all(dir);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  int count = argc > 1 ? std::atoi(argv[1]) : 1000;
+  mlspaces::sim::InstallMujocoHandlers();
+  fs::path dir = fs::temp_directory_path() / "mlspaces_cm_bench";
+  fs::remove_all(dir);
+  std::mt19937 rng(12345);
+  std::printf("load average before: %s (%u hardware threads)\n", LoadAverage().c_str(),
+              std::thread::hardware_concurrency());
+  RunLibrary(dir / "mixed", count, 300, 10000, rng);
+  RunLibrary(dir / "v1000", count, 800, 1250, rng);
+  std::printf("\n");
 
   // Single-asset figures against the original's: ~1,000 vertices, and a textured 8,000-vertex
   // "scan" with a 1024x1024 texture.
@@ -182,6 +216,7 @@ int main(int argc, char** argv) {
     fs::path x = one / uid / (std::string(uid) + ".xml");
     const int reps = 20;
     double b = 0, fast = 0, full = 0;
+    bool bitwise = true;
     for (int k = 0; k < reps; ++k) {
       b += BareLoad(x);
       auto t1 = Clock::now();
@@ -190,14 +225,23 @@ int main(int argc, char** argv) {
       t1 = Clock::now();
       auto f2 = mlspaces::sim::ComputeAssetFacts(x, false);
       full += Seconds(t1);
-      if (f1.mass != f2.mass || f1.aabb_min != f2.aabb_min || f1.aabb_max != f2.aabb_max) {
+      bool close = std::fabs(f1.mass - f2.mass) <= 1e-9 * f2.mass;
+      for (int i = 0; i < 3; ++i) {
+        close = close && std::fabs(f1.aabb_min[i] - f2.aabb_min[i]) <= 1e-9 &&
+                std::fabs(f1.aabb_max[i] - f2.aabb_max[i]) <= 1e-9;
+      }
+      if (!close) {
         std::fprintf(stderr, "fast and full compile disagree on %s\n", uid);
         return 1;
       }
+      bitwise = bitwise && f1.mass == f2.mass && f1.aabb_min == f2.aabb_min &&
+                f1.aabb_max == f2.aabb_max;
     }
-    std::printf("%-9s: bare load %.2f ms, our facts %.2f ms (full compile %.2f ms), equal\n",
-                uid, 1000 * b / reps, 1000 * fast / reps, 1000 * full / reps);
+    std::printf("%-9s: bare load %.2f ms, our facts %.2f ms (full compile %.2f ms), %s\n", uid,
+                1000 * b / reps, 1000 * fast / reps, 1000 * full / reps,
+                bitwise ? "bitwise equal" : "equal within 1e-9");
   }
   fs::remove_all(dir);
+  std::printf("load average after: %s\n", LoadAverage().c_str());
   return 0;
 }

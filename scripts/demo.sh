@@ -15,6 +15,7 @@ set -x
 "$ML" index-assets asset_library --compute-metadata --overwrite
 "$ML" index-grasps asset_library --overwrite
 "$ML" validate asset_library
+"$ML" inspect scene.xml
 "$ML" locate red_block --libraries libraries.yaml
 "$ML" meta red_block --libraries libraries.yaml
 "$ML" grasps red_block --libraries libraries.yaml --robot droid --num 1 --out red_block_grasps.npz

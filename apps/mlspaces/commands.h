@@ -39,6 +39,10 @@ void AddMeta(CLI::App& app, Action& action);
 void AddGrasps(CLI::App& app, Action& action);
 void AddValidate(CLI::App& app, Action& action);
 
+/// Checks a flag value is a whole number >= 1, with a short message ("expected a whole
+/// number >= 1, got '-3'") instead of CLI11's range dump.
+CLI::Validator PositiveInteger();
+
 /// Prints "mlspaces: warning: <text>" to stderr.
 void Warn(const std::string& text);
 

@@ -13,6 +13,17 @@ void AddInspect(CLI::App& app, Action& action);
 
 void Warn(const std::string& text) { std::fprintf(stderr, "mlspaces: warning: %s\n", text.c_str()); }
 
+CLI::Validator PositiveInteger() {
+  return CLI::Validator(
+      [](std::string& value) -> std::string {
+        bool digits = !value.empty() && value.size() <= 18 &&
+                      value.find_first_not_of("0123456789") == std::string::npos;
+        if (digits && std::stoll(value) >= 1) return {};
+        return "expected a whole number >= 1, got '" + value + "'";
+      },
+      "N");
+}
+
 }  // namespace mlspaces::cli
 
 int main(int argc, char** argv) {
@@ -30,6 +41,19 @@ int main(int argc, char** argv) {
 #ifdef MLSPACES_HAVE_SIM
   cli::AddInspect(app, action);
 #endif
+  if (argc >= 2 && argv[1][0] != '-') {
+    std::string names;
+    bool known = false;
+    for (CLI::App* sub : app.get_subcommands([](CLI::App*) { return true; })) {
+      names += (names.empty() ? "" : ", ") + sub->get_name();
+      known = known || sub->get_name() == argv[1];
+    }
+    if (!known) {
+      std::fprintf(stderr, "mlspaces: error: unknown command '%s' (commands: %s)\n", argv[1],
+                   names.c_str());
+      return 2;
+    }
+  }
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {

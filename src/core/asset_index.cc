@@ -12,27 +12,13 @@ namespace mlspaces {
 namespace fs = std::filesystem;
 namespace {
 
-// "number" for every numeric type, so messages read "expected string, got number".
-std::string TypeWord(const Json& value) {
-  return value.is_number() ? "number" : JsonTypeName(value);
-}
-
-// The original resolves its paths (Path.resolve(): absolute, symlinks resolved).
-fs::path Resolve(const fs::path& p) {
-  std::error_code ec;
-  fs::path abs = fs::absolute(p, ec);
-  if (ec) return p;
-  fs::path canon = fs::weakly_canonical(abs, ec);
-  return ec ? abs.lexically_normal() : canon;
-}
-
-const std::string& RequireString(const Json& entry, std::string_view key, const std::string& file,
+const std::string& RequireString(const FlatJson& entry, std::string_view key, const std::string& file,
                                  const std::string& entry_pointer) {
   auto it = entry.find(key);
   std::string pointer = entry_pointer + "/" + std::string(key);
   if (it == entry.end()) throw Error("missing required field", file, pointer);
   if (!it->is_string()) {
-    throw Error("expected string, got " + TypeWord(*it), file, pointer);
+    throw Error("expected string, got " + JsonTypeWord(*it), file, pointer);
   }
   return it->get_ref<const std::string&>();
 }
@@ -41,15 +27,15 @@ const std::string& RequireString(const Json& entry, std::string_view key, const 
 
 AssetIndex AssetIndex::Load(const fs::path& index_file) {
   const std::string file = index_file.string();
-  Json root = ParseJsonFile(index_file);
-  if (!root.is_object()) throw Error("expected object, got " + TypeWord(root), file, "/");
+  FlatJson root = ParseFlatJsonFile(index_file);
+  if (!root.is_object()) throw Error("expected object, got " + JsonTypeWord(root), file, "/");
   AssetIndex index;
   for (auto it = root.begin(); it != root.end(); ++it) {
     const std::string& key = it.key();
     const std::string pointer = "/" + JsonPointerToken(key);
-    const Json& value = it.value();
+    const FlatJson& value = it.value();
     if (!value.is_object()) {
-      throw Error("expected object, got " + TypeWord(value), file, pointer, key);
+      throw Error("expected object, got " + JsonTypeWord(value), file, pointer, key);
     }
     AssetEntry entry;
     entry.uid = RequireString(value, "uid", file, pointer);
@@ -63,7 +49,7 @@ AssetIndex AssetIndex::Load(const fs::path& index_file) {
     if (npz->is_string()) {
       entry.metadata_npz_path = npz->get<std::string>();
     } else if (!npz->is_null()) {
-      throw Error("expected string or null, got " + TypeWord(*npz), file,
+      throw Error("expected string or null, got " + JsonTypeWord(*npz), file,
                   pointer + "/metadata_npz_path", key);
     }
     index.entries[key] = std::move(entry);
@@ -102,7 +88,7 @@ std::string AssetIndex::Serialize() const {
 
 AssetIndex BuildAssetIndex(const fs::path& dir, const AssetIndexOptions& options,
                            IndexReport* report, bool use_computed) {
-  const fs::path root = Resolve(dir);
+  const fs::path root = internal::ResolvePath(dir);
   AssetIndex index;
   internal::WalkSorted(root, [&](const internal::WalkDir& d, const internal::WalkEntry& e) {
     std::string_view name = e.name;
@@ -139,9 +125,9 @@ AssetIndex BuildAssetIndex(const fs::path& dir, const AssetIndexOptions& options
 }
 
 IndexReport WriteAssetIndex(const fs::path& dir, const AssetIndexOptions& options) {
-  const fs::path root = Resolve(dir);
+  const fs::path root = internal::ResolvePath(dir);
   IndexReport report;
-  report.output = options.output.empty() ? root / "assets_index.json" : Resolve(options.output);
+  report.output = options.output.empty() ? root / "assets_index.json" : internal::ResolvePath(options.output);
   std::error_code ec;
   if (fs::exists(report.output, ec) && !options.overwrite) {
     throw Error(report.output.string() + " already exists. Use --overwrite to overwrite.");

@@ -17,21 +17,9 @@ constexpr std::string_view kPickupName = "grasps.npz";
 constexpr std::string_view kJointPrefix = "joint_grasps_";
 constexpr std::string_view kNpz = ".npz";
 
-std::string TypeWord(const Json& value) {
-  return value.is_number() ? "number" : JsonTypeName(value);
-}
-
-fs::path Resolve(const fs::path& p) {
-  std::error_code ec;
-  fs::path abs = fs::absolute(p, ec);
-  if (ec) return p;
-  fs::path canon = fs::weakly_canonical(abs, ec);
-  return ec ? abs.lexically_normal() : canon;
-}
-
-void RequireObject(const Json& value, const std::string& file, const std::string& pointer) {
+void RequireObject(const FlatJson& value, const std::string& file, const std::string& pointer) {
   if (!value.is_object()) {
-    throw Error("expected object, got " + TypeWord(value), file, pointer.empty() ? "/" : pointer);
+    throw Error("expected object, got " + JsonTypeWord(value), file, pointer.empty() ? "/" : pointer);
   }
 }
 
@@ -64,7 +52,7 @@ std::vector<std::string> GraspIndex::robots() const {
 
 GraspIndex GraspIndex::Load(const fs::path& index_file) {
   const std::string file = index_file.string();
-  Json root = ParseJsonFile(index_file);
+  FlatJson root = ParseFlatJsonFile(index_file);
   RequireObject(root, file, "");
   GraspIndex index;
   if (auto it = root.find("grasp_paths"); it != root.end()) {
@@ -76,7 +64,7 @@ GraspIndex GraspIndex::Load(const fs::path& index_file) {
       auto& uids = index.grasp_paths[r.key()];
       for (auto u = r.value().begin(); u != r.value().end(); ++u) {
         if (!u.value().is_string()) {
-          throw Error("expected string, got " + TypeWord(u.value()), file, Child(p1, u.key()),
+          throw Error("expected string, got " + JsonTypeWord(u.value()), file, Child(p1, u.key()),
                       u.key());
         }
         uids[u.key()] = u.value().get<std::string>();
@@ -96,7 +84,7 @@ GraspIndex GraspIndex::Load(const fs::path& index_file) {
         auto& joints = uids[u.key()];
         for (auto j = u.value().begin(); j != u.value().end(); ++j) {
           if (!j.value().is_string()) {
-            throw Error("expected string, got " + TypeWord(j.value()), file, Child(p2, j.key()),
+            throw Error("expected string, got " + JsonTypeWord(j.value()), file, Child(p2, j.key()),
                         u.key());
           }
           joints[j.key()] = j.value().get<std::string>();
@@ -193,7 +181,7 @@ std::string GraspIndex::Serialize() const {
 }
 
 GraspIndex BuildGraspIndex(const fs::path& dir, IndexReport* report) {
-  const fs::path root = Resolve(dir);
+  const fs::path root = internal::ResolvePath(dir);
   GraspIndex index;
   internal::WalkSorted(root, [&](const internal::WalkDir& d, const internal::WalkEntry& e) {
     const std::string& name = e.name;
@@ -240,9 +228,9 @@ GraspIndex BuildGraspIndex(const fs::path& dir, IndexReport* report) {
 }
 
 IndexReport WriteGraspIndex(const fs::path& dir, const GraspIndexOptions& options) {
-  const fs::path root = Resolve(dir);
+  const fs::path root = internal::ResolvePath(dir);
   IndexReport report;
-  report.output = options.output.empty() ? root / "grasps_index.json" : Resolve(options.output);
+  report.output = options.output.empty() ? root / "grasps_index.json" : internal::ResolvePath(options.output);
   std::error_code ec;
   if (fs::exists(report.output, ec) && !options.overwrite) {
     throw Error(report.output.string() + " already exists. Use --overwrite to overwrite.");

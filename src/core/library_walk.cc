@@ -183,4 +183,12 @@ void AppendJsonString(std::string& out, std::string_view s) {
   out += '"';
 }
 
+std::filesystem::path ResolvePath(const std::filesystem::path& p) {
+  std::error_code ec;
+  std::filesystem::path abs = std::filesystem::absolute(p, ec);
+  if (ec) return p;
+  std::filesystem::path canon = std::filesystem::weakly_canonical(abs, ec);
+  return ec ? abs.lexically_normal() : canon;
+}
+
 }  // namespace mlspaces::internal

@@ -44,4 +44,8 @@ void WalkSorted(const std::filesystem::path& root,
 /// UTF-8 kept as is, '"', '\\' and control characters escaped.
 void AppendJsonString(std::string& out, std::string_view s);
 
+/// Resolves a path as the original's Path.resolve() does: absolute, symlinks resolved as far
+/// as the path exists.
+std::filesystem::path ResolvePath(const std::filesystem::path& p);
+
 }  // namespace mlspaces::internal

@@ -29,10 +29,6 @@ constexpr double kOrthoTolerance = 1e-3;      // f4 / f8 files
 constexpr double kOrthoToleranceHalf = 5e-3;  // f2 files: 10-bit mantissa, u = 2^-11
 constexpr double kLastRowTolerance = 1e-6;
 
-std::string TypeWord(const Json& value) {
-  return value.is_number() ? "number" : JsonTypeName(value);
-}
-
 std::string Child(const std::string& pointer, std::string_view key) {
   return pointer + "/" + JsonPointerToken(key);
 }
@@ -67,9 +63,14 @@ class Validator {
   void Add(const Error& e) { Add(e.path(), e.field(), e.message()); }
 
   // Parses a JSON file; on failure records the problem and returns false.
-  bool Parse(const fs::path& path, Json* out) {
+  template <class J>
+  bool Parse(const fs::path& path, J* out) {
     try {
-      *out = ParseJsonFile(path);
+      if constexpr (std::is_same_v<J, FlatJson>) {
+        *out = ParseFlatJsonFile(path);
+      } else {
+        *out = ParseJsonFile(path);
+      }
       return true;
     } catch (const Error& e) {
       Add(e);
@@ -79,12 +80,12 @@ class Validator {
 
   // Checks that a path field names an existing file under the library; returns the full path.
   std::optional<fs::path> CheckPath(const std::string& file, const std::string& pointer,
-                                    const Json& value, bool nullable) {
+                                    const FlatJson& value, bool nullable) {
     if (nullable && value.is_null()) return std::nullopt;
     if (!value.is_string()) {
       Add(file, pointer,
           std::string("expected string") + (nullable ? " or null" : "") + ", got " +
-              TypeWord(value));
+              JsonTypeWord(value));
       return std::nullopt;
     }
     const std::string& rel = value.get_ref<const std::string&>();
@@ -109,10 +110,10 @@ class Validator {
 
   void ValidateAssetIndex(const fs::path& index_path) {
     const std::string file = index_path.string();
-    Json root;
+    FlatJson root;
     if (!Parse(index_path, &root)) return;
     if (!root.is_object()) {
-      Add(file, "/", "expected object, got " + TypeWord(root));
+      Add(file, "/", "expected object, got " + JsonTypeWord(root));
       return;
     }
     asset_index_ok_ = true;
@@ -120,15 +121,15 @@ class Validator {
       const std::string& uid = it.key();
       asset_uids_.insert(uid);
       const std::string pointer = Child("", uid);
-      const Json& entry = it.value();
+      const FlatJson& entry = it.value();
       if (!entry.is_object()) {
-        Add(file, pointer, "expected object, got " + TypeWord(entry));
+        Add(file, pointer, "expected object, got " + JsonTypeWord(entry));
         continue;
       }
       if (auto u = entry.find("uid"); u == entry.end()) {
         Add(file, pointer + "/uid", "missing required field");
       } else if (!u->is_string()) {
-        Add(file, pointer + "/uid", "expected string, got " + TypeWord(*u));
+        Add(file, pointer + "/uid", "expected string, got " + JsonTypeWord(*u));
       } else if (u->get_ref<const std::string&>() != uid) {
         Add(file, pointer + "/uid",
             "uid '" + u->get<std::string>() + "' differs from its key '" + uid +
@@ -157,7 +158,7 @@ class Validator {
     Json meta;
     if (!Parse(json_path, &meta)) return;
     if (!meta.is_object()) {
-      Add(file, "/", "expected object, got " + TypeWord(meta));
+      Add(file, "/", "expected object, got " + JsonTypeWord(meta));
       return;
     }
     CheckKnownFields(file, meta);
@@ -167,18 +168,18 @@ class Validator {
   void ExpectString(const std::string& file, const Json& meta, std::string_view key) {
     auto it = meta.find(key);
     if (it != meta.end() && !it->is_string()) {
-      Add(file, Child("", key), "expected string, got " + TypeWord(*it));
+      Add(file, Child("", key), "expected string, got " + JsonTypeWord(*it));
     }
   }
   void ExpectBool(const std::string& file, const Json& meta, std::string_view key) {
     auto it = meta.find(key);
     if (it != meta.end() && !it->is_boolean()) {
-      Add(file, Child("", key), "expected boolean, got " + TypeWord(*it));
+      Add(file, Child("", key), "expected boolean, got " + JsonTypeWord(*it));
     }
   }
   void ExpectNonNegative(const std::string& file, const std::string& pointer, const Json& v) {
     if (!v.is_number()) {
-      Add(file, pointer, "expected number, got " + TypeWord(v));
+      Add(file, pointer, "expected number, got " + JsonTypeWord(v));
       return;
     }
     double d = v.get<double>();
@@ -218,7 +219,7 @@ class Validator {
     }
     if (auto it = meta.find("synset"); it != meta.end()) {
       if (!it->is_string()) {
-        Add(file, "/synset", "expected string, got " + TypeWord(*it));
+        Add(file, "/synset", "expected string, got " + JsonTypeWord(*it));
       } else if (!IsSynsetName(it->get_ref<const std::string&>())) {
         Add(file, "/synset",
             "'" + it->get<std::string>() + "' is not a WordNet synset name (word.pos.NN, "
@@ -227,12 +228,12 @@ class Validator {
     }
     if (auto it = meta.find("description_short"); it != meta.end()) {
       if (!it->is_object()) {
-        Add(file, "/description_short", "expected object, got " + TypeWord(*it));
+        Add(file, "/description_short", "expected object, got " + JsonTypeWord(*it));
       } else {
         for (auto d = it->begin(); d != it->end(); ++d) {
           if (!d.value().is_string()) {
             Add(file, Child("/description_short", d.key()),
-                "expected string, got " + TypeWord(d.value()));
+                "expected string, got " + JsonTypeWord(d.value()));
           }
         }
       }
@@ -240,7 +241,7 @@ class Validator {
     if (auto it = meta.find("mass"); it != meta.end()) ExpectNonNegative(file, "/mass", *it);
     if (auto it = meta.find("boundingBox"); it != meta.end()) {
       if (!it->is_object()) {
-        Add(file, "/boundingBox", "expected object, got " + TypeWord(*it));
+        Add(file, "/boundingBox", "expected object, got " + JsonTypeWord(*it));
       } else {
         for (std::string_view axis : {"x", "y", "z"}) {
           auto a = it->find(axis);
@@ -258,7 +259,7 @@ class Validator {
     if (auto it = meta.find("split"); it != meta.end() && !it->is_null()) {
       if (!it->is_string()) {
         Add(file, "/split", "expected \"train\", \"val\", \"test\" or null, got " +
-                                TypeWord(*it));
+                                JsonTypeWord(*it));
       } else {
         const std::string& s = it->get_ref<const std::string&>();
         if (s != "train" && s != "val" && s != "test") {
@@ -267,7 +268,7 @@ class Validator {
       }
     }
     if (auto it = meta.find("license_info"); it != meta.end() && !it->is_object()) {
-      Add(file, "/license_info", "expected object, got " + TypeWord(*it));
+      Add(file, "/license_info", "expected object, got " + JsonTypeWord(*it));
     }
   }
 
@@ -329,10 +330,10 @@ class Validator {
 
   void ValidateGraspIndex(const fs::path& index_path, bool has_assets) {
     const std::string file = index_path.string();
-    Json root;
+    FlatJson root;
     if (!Parse(index_path, &root)) return;
     if (!root.is_object()) {
-      Add(file, "/", "expected object, got " + TypeWord(root));
+      Add(file, "/", "expected object, got " + JsonTypeWord(root));
       return;
     }
     const bool check_uids = has_assets && asset_index_ok_;
@@ -343,12 +344,12 @@ class Validator {
     };
     if (auto it = root.find("grasp_paths"); it != root.end()) {
       if (!it->is_object()) {
-        Add(file, "/grasp_paths", "expected object, got " + TypeWord(*it));
+        Add(file, "/grasp_paths", "expected object, got " + JsonTypeWord(*it));
       } else {
         for (auto r = it->begin(); r != it->end(); ++r) {
           const std::string p1 = Child("/grasp_paths", r.key());
           if (!r.value().is_object()) {
-            Add(file, p1, "expected object, got " + TypeWord(r.value()));
+            Add(file, p1, "expected object, got " + JsonTypeWord(r.value()));
             continue;
           }
           for (auto u = r.value().begin(); u != r.value().end(); ++u) {
@@ -361,20 +362,20 @@ class Validator {
     }
     if (auto it = root.find("articulated_grasp_paths"); it != root.end()) {
       if (!it->is_object()) {
-        Add(file, "/articulated_grasp_paths", "expected object, got " + TypeWord(*it));
+        Add(file, "/articulated_grasp_paths", "expected object, got " + JsonTypeWord(*it));
         return;
       }
       for (auto r = it->begin(); r != it->end(); ++r) {
         const std::string p1 = Child("/articulated_grasp_paths", r.key());
         if (!r.value().is_object()) {
-          Add(file, p1, "expected object, got " + TypeWord(r.value()));
+          Add(file, p1, "expected object, got " + JsonTypeWord(r.value()));
           continue;
         }
         for (auto u = r.value().begin(); u != r.value().end(); ++u) {
           const std::string p2 = Child(p1, u.key());
           check_uid(p2, u.key());
           if (!u.value().is_object()) {
-            Add(file, p2, "expected object, got " + TypeWord(u.value()));
+            Add(file, p2, "expected object, got " + JsonTypeWord(u.value()));
             continue;
           }
           for (auto j = u.value().begin(); j != u.value().end(); ++j) {

@@ -181,9 +181,10 @@ ModelPtr LoadFromReusedVfs(const std::vector<VfsFile>& files) {
 // The physics-only fast path: the composed model with every OBJ / binary STL mesh file read by
 // mesh_reader and handed to MuJoCo as a .msh in the VFS (same triangles, same float corners,
 // one vertex per OBJ index instead of one per face corner; see mesh_reader.h for why the
-// compiled masses and vertices are the same). Meshes the readers leave to MuJoCo keep their
-// file. Null when no mesh was converted or MuJoCo rejected the model: the caller then compiles
-// the composer's model, which reports MuJoCo's error against the source file and line.
+// compiled masses and vertices are the same), no constraint buffers, a reused VFS. Meshes the
+// readers leave to MuJoCo keep their file. Null when MuJoCo rejected the model: the caller
+// then compiles the composer's model, which reports MuJoCo's error against the source file
+// and line.
 // @throws Error for a malformed OBJ (file and line).
 ModelPtr CompileWithFastMeshes(const MjcfComposer& composer) {
   const std::string text = composer.Emit();
@@ -217,7 +218,6 @@ ModelPtr CompileWithFastMeshes(const MjcfComposer& composer) {
       files.push_back({std::move(vfs_name), EncodeMsh(tri)});
     }
   }
-  if (files.empty()) return nullptr;
   // Only masses and poses are read from this model: no constraint rows, so MuJoCo's own
   // mj_makeData in the compile and ours stay small (njmax 500 costs megabytes of memset).
   pugi::xml_node size = root.child("size");

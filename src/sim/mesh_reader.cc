@@ -9,6 +9,14 @@
 
 #include "mlspaces/core/error.h"
 
+// The float arithmetic below must round as tinyobjloader's does in Debian's libmujoco (built
+// for baseline x86-64, no FMA): never fuse a multiply and an add, whatever -march says.
+#if defined(__clang__)
+#pragma clang fp contract(off)
+#elif defined(__GNUC__)
+#pragma GCC optimize("fp-contract=off")
+#endif
+
 namespace mlspaces::sim {
 namespace {
 
@@ -77,10 +85,115 @@ bool ParseInt(const char* s, const char* end, long* out) {
   return true;
 }
 
-struct Corner {
-  long index;  // 0-based OBJ vertex index once resolved
-  int line;
-};
+// pnpoly point-in-triangle test in float, as tinyobjloader does it.
+bool InTriangle(const float* x, const float* y, float tx, float ty) {
+  bool c = false;
+  for (int i = 0, j = 2; i < 3; j = i++) {
+    if (((y[i] > ty) != (y[j] > ty)) && (tx < (x[j] - x[i]) * (ty - y[i]) / (y[j] - y[i]) + x[i])) {
+      c = !c;
+    }
+  }
+  return c;
+}
+
+// Ear clipping of a polygon of n > 3 corners (indices into v) as the tinyobjloader MuJoCo
+// 2.2.2 is built with does it, in float arithmetic: project on the two axes picked at the
+// first non-degenerate corner, take the polygon's signed area there, clip ears whose turn
+// agrees with it and that hold no other corner. Appends the triangles to `t`; like
+// tinyobjloader, a polygon that cannot be reduced to one last triangle loses the rest.
+void EarClip(const std::vector<float>& v, const int* poly, size_t n, std::vector<int>* t) {
+  int axes[2] = {1, 2};
+  for (size_t k = 0; k < n; ++k) {
+    const float* p0 = &v[3 * poly[k]];
+    const float* p1 = &v[3 * poly[(k + 1) % n]];
+    const float* p2 = &v[3 * poly[(k + 2) % n]];
+    float e0x = p1[0] - p0[0], e0y = p1[1] - p0[1], e0z = p1[2] - p0[2];
+    float e1x = p2[0] - p1[0], e1y = p2[1] - p1[1], e1z = p2[2] - p1[2];
+    float cx = std::fabs(e0y * e1z - e0z * e1y);
+    float cy = std::fabs(e0z * e1x - e0x * e1z);
+    float cz = std::fabs(e0x * e1y - e0y * e1x);
+    const float eps = std::numeric_limits<float>::epsilon();
+    if (cx > eps || cy > eps || cz > eps) {
+      if (!(cx > cy && cx > cz)) {
+        axes[0] = 0;
+        if (cz > cx && cz > cy) axes[1] = 1;
+      }
+      break;
+    }
+  }
+  float area = 0;
+  for (size_t k = 0; k < n; ++k) {
+    const float* a = &v[3 * poly[k]];
+    const float* b = &v[3 * poly[(k + 1) % n]];
+    area += (a[axes[0]] * b[axes[1]] - a[axes[1]] * b[axes[0]]) * 0.5f;
+  }
+  std::vector<int> rem(poly, poly + n);
+  size_t guess = 0;
+  size_t iterations = rem.size();
+  size_t previous = rem.size();
+  while (rem.size() > 3 && iterations > 0) {
+    const size_t m = rem.size();
+    if (guess >= m) guess -= m;
+    if (previous != m) {
+      previous = m;
+      iterations = m;
+    } else {
+      --iterations;
+    }
+    int ind[3];
+    float x[3], y[3];
+    for (int k = 0; k < 3; ++k) {
+      ind[k] = rem[(guess + k) % m];
+      x[k] = v[3 * ind[k] + axes[0]];
+      y[k] = v[3 * ind[k] + axes[1]];
+    }
+    float cross = (x[1] - x[0]) * (y[2] - y[1]) - (y[1] - y[0]) * (x[2] - x[1]);
+    if (cross * area < 0.0f) {
+      ++guess;
+      continue;
+    }
+    bool overlap = false;
+    for (size_t other = 3; other < m && !overlap; ++other) {
+      int o = rem[(guess + other) % m];
+      overlap = InTriangle(x, y, v[3 * o + axes[0]], v[3 * o + axes[1]]);
+    }
+    if (overlap) {
+      ++guess;
+      continue;
+    }
+    t->insert(t->end(), ind, ind + 3);
+    rem.erase(rem.begin() + static_cast<long>((guess + 1) % m));
+  }
+  if (rem.size() == 3) t->insert(t->end(), rem.begin(), rem.end());
+}
+
+// True when some directed edge a->b appears twice among the triangles `t` over `nv` vertices
+// (MuJoCo 2.2.2: "faces have inconsistent orientation"). Linear: edges bucketed by start.
+bool HasRepeatedDirectedEdge(const std::vector<int>& t, int nv) {
+  std::vector<int> start(nv + 1, 0);
+  for (int a : t) ++start[a + 1];
+  for (int i = 0; i < nv; ++i) start[i + 1] += start[i];
+  std::vector<int> fill(start.begin(), start.end() - 1);
+  std::vector<int> to(t.size());
+  for (size_t i = 0; i < t.size(); i += 3) {
+    for (int k = 0; k < 3; ++k) to[fill[t[i + k]]++] = t[i + (k + 1) % 3];
+  }
+  for (int a = 0; a < nv; ++a) {
+    int* b = to.data() + start[a];
+    int n = start[a + 1] - start[a];
+    if (n > 16) {
+      std::sort(b, b + n);
+      if (std::adjacent_find(b, b + n) != b + n) return true;
+      continue;
+    }
+    for (int i = 1; i < n; ++i) {
+      for (int j = 0; j < i; ++j) {
+        if (b[i] == b[j]) return true;
+      }
+    }
+  }
+  return false;
+}
 
 }  // namespace
 
@@ -88,16 +201,21 @@ bool ReadObjMesh(std::string_view text, const std::string& path, TriMesh* out) {
   auto fail = [&](int line, const std::string& message) -> Error {
     return Error(message, path, "line " + std::to_string(line));
   };
-  std::vector<float> v;       // every OBJ vertex, 3 floats each
-  std::vector<Corner> tris;   // 3 corners per triangle (quads split later)
-  std::vector<Corner> quads;  // 4 corners per quad
-  std::vector<int> order;     // per polygon: >= 0 triangle start in tris, < 0: ~quad start
+  std::vector<float> v;      // every OBJ vertex, 3 floats each
+  std::vector<int> corners;  // resolved 0-based indices, face after face
+  std::vector<int> sides;    // corners per face
   bool any_face = false;
+  v.reserve(text.size() / 24);
+  corners.reserve(text.size() / 8);
+  long max_index = -1;  // largest positive index and its line: forward references are allowed
+  int max_index_line = 0;
+  // Set when MuJoCo should read the file itself; the whole file is still checked first, so a
+  // malformed file is reported by us rather than handed to MuJoCo's loader.
+  bool decline = false;
   int line_no = 0;
   const char* p = text.data();
   const char* const end = p + text.size();
-  const char* tok[64];
-  const char* tok_end[64];
+  std::vector<const char*> tok, tok_end;
   while (p < end) {
     ++line_no;
     const char* eol = static_cast<const char*>(std::memchr(p, '\n', end - p));
@@ -111,15 +229,16 @@ bool ReadObjMesh(std::string_view text, const std::string& path, TriMesh* out) {
     const char* kw = q;
     while (q < e && !IsSpace(*q)) ++q;
     std::string_view key(kw, q - kw);
-    int n = 0;
+    tok.clear();
+    tok_end.clear();
     while (q < e) {
       while (q < e && IsSpace(*q)) ++q;
       if (q == e) break;
-      if (n == 64) return false;  // a very large polygon: MuJoCo's business
-      tok[n] = q;
+      tok.push_back(q);
       while (q < e && !IsSpace(*q)) ++q;
-      tok_end[n++] = q;
+      tok_end.push_back(q);
     }
+    const int n = static_cast<int>(tok.size());
     if (key == "v") {
       if (n < 3) throw fail(line_no, "vertex needs 3 coordinates, found " + std::to_string(n));
       for (int k = 0; k < 3; ++k) {
@@ -130,9 +249,10 @@ bool ReadObjMesh(std::string_view text, const std::string& path, TriMesh* out) {
         v.push_back(static_cast<float>(x));
       }
     } else if (key == "f") {
-      if (n < 3 || n > 4) return false;  // degenerate faces and polygons: MuJoCo's business
-      any_face = true;
-      Corner c[4];
+      // Faces of fewer than three corners (tinyobjloader drops them): MuJoCo's business.
+      const bool keep = n >= 3;
+      decline |= !keep;
+      const long nv = static_cast<long>(v.size() / 3);
       for (int k = 0; k < n; ++k) {
         const char* slash = static_cast<const char*>(std::memchr(tok[k], '/', tok_end[k] - tok[k]));
         const char* ve = slash ? slash : tok_end[k];
@@ -140,86 +260,64 @@ bool ReadObjMesh(std::string_view text, const std::string& path, TriMesh* out) {
         if (!ParseInt(tok[k], ve, &idx) || idx == 0) {
           throw fail(line_no, "bad face vertex index '" + std::string(tok[k], tok_end[k]) + "'");
         }
-        long nv = static_cast<long>(v.size() / 3);
         if (idx < 0) {
           idx += nv;
           if (idx < 0) {
-            throw fail(line_no, "relative face index " + std::string(tok[k], ve) + " before " +
-                                    "the first vertex (" + std::to_string(nv) + " so far)");
+            throw fail(line_no, "relative face index " + std::string(tok[k], ve) +
+                                    " before the first vertex (" + std::to_string(nv) + " so far)");
           }
         } else {
           idx -= 1;
+          if (idx > max_index) {
+            max_index = idx;
+            max_index_line = line_no;
+          }
         }
-        c[k] = {idx, line_no};
+        if (idx > std::numeric_limits<int>::max() / 2) {
+          throw fail(line_no, "face vertex index " + std::string(tok[k], ve) + " too large");
+        }
+        if (keep) corners.push_back(static_cast<int>(idx));
       }
-      if (n == 3) {
-        order.push_back(static_cast<int>(tris.size()));
-        tris.insert(tris.end(), c, c + 3);
-      } else {
-        order.push_back(~static_cast<int>(quads.size()));
-        quads.insert(quads.end(), c, c + 4);
-      }
+      if (keep) sides.push_back(n);
+      any_face = true;
     } else if (key == "o" || key == "g" || key == "usemtl") {
-      if (any_face) return false;  // MuJoCo 2.2.2 keeps the first shape only
+      decline |= any_face;  // MuJoCo 2.2.2 keeps the first shape only
     } else if (key == "l" || key == "p") {
-      return false;
+      decline = true;
     }
   }
-  if (!any_face) return false;
   const long nv = static_cast<long>(v.size() / 3);
-  auto check = [&](const Corner& c) {
-    if (c.index >= nv) {
-      throw fail(c.line, "face vertex index " + std::to_string(c.index + 1) +
-                             " out of range (the file has " + std::to_string(nv) +
-                             " vertices)");
-    }
-  };
-  for (const Corner& c : tris) check(c);
-  for (const Corner& c : quads) check(c);
+  if (max_index >= nv) {
+    throw fail(max_index_line, "face vertex index " + std::to_string(max_index + 1) +
+                                   " out of range (the file has " + std::to_string(nv) +
+                                   " vertices)");
+  }
+  if (decline || !any_face) return false;
 
-  // Triangles in file order; quads split as tinyobjloader does (float arithmetic).
-  std::vector<long> t;
-  t.reserve(3 * (tris.size() / 3 + 2 * quads.size() / 4));
-  for (int o : order) {
-    if (o >= 0) {
-      for (int k = 0; k < 3; ++k) t.push_back(tris[o + k].index);
-      continue;
+  // Triangles in file order, polygons clipped as tinyobjloader does.
+  std::vector<int> t;
+  t.reserve(corners.size() + corners.size() / 2);
+  const int* c = corners.data();
+  for (int n : sides) {
+    if (n == 3) {
+      t.insert(t.end(), c, c + 3);
+    } else {
+      EarClip(v, c, n, &t);
     }
-    const Corner* c = &quads[~o];
-    const float* a = &v[3 * c[0].index];
-    const float* b = &v[3 * c[1].index];
-    const float* d = &v[3 * c[2].index];
-    const float* f = &v[3 * c[3].index];
-    float e02[3], e13[3];
-    for (int k = 0; k < 3; ++k) {
-      e02[k] = d[k] - a[k];
-      e13[k] = f[k] - b[k];
-    }
-    float sqr02 = e02[0] * e02[0] + e02[1] * e02[1] + e02[2] * e02[2];
-    float sqr13 = e13[0] * e13[0] + e13[1] * e13[1] + e13[2] * e13[2];
-    const int split[2][6] = {{0, 1, 2, 0, 2, 3}, {0, 1, 3, 1, 2, 3}};
-    for (int k : split[sqr02 < sqr13 ? 0 : 1]) t.push_back(c[k].index);
+    c += n;
   }
 
   // MuJoCo rejects meshes with a directed edge used twice; let it say so itself.
-  std::vector<uint64_t> edges;
-  edges.reserve(t.size());
-  for (size_t i = 0; i < t.size(); i += 3) {
-    for (int k = 0; k < 3; ++k) {
-      edges.push_back(static_cast<uint64_t>(t[i + k]) << 32 |
-                      static_cast<uint64_t>(t[i + (k + 1) % 3]));
-    }
-  }
-  std::sort(edges.begin(), edges.end());
-  if (std::adjacent_find(edges.begin(), edges.end()) != edges.end()) return false;
+  if (HasRepeatedDirectedEdge(t, static_cast<int>(nv))) return false;
 
   // Keep only used vertices, in first-use order.
   std::vector<int> remap(nv, -1);
   out->vert.clear();
   out->face.clear();
+  out->vert.reserve(3 * nv);
   out->face.reserve(t.size());
   int used = 0;
-  for (long i : t) {
+  for (int i : t) {
     if (remap[i] < 0) {
       remap[i] = used++;
       out->vert.insert(out->vert.end(), &v[3 * i], &v[3 * i] + 3);

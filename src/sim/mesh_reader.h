@@ -8,12 +8,15 @@
 // how vertices are shared or ordered, so a mesh with one vertex per OBJ index and the same
 // triangles in the same order compiles to the same numbers. What the readers keep from
 // MuJoCo/tinyobjloader: float vertices parsed with tinyobjloader's digit-by-digit arithmetic,
-// 1-based and negative (relative) indices, quads split along the shorter diagonal, only the
-// vertices faces use. What they leave to MuJoCo (the reader returns false and the original file
-// is compiled): polygons of more than four corners (ear clipping), several shapes (o/g/usemtl
-// after the first face), lines and points, faces of fewer than three corners, no faces, fewer
-// than four distinct vertices, inconsistently oriented faces (MuJoCo's own error), ASCII or
-// otherwise invalid STL (MuJoCo's own error).
+// 1-based and negative (relative) indices, quads and polygons triangulated by the ear clipping
+// of the tinyobjloader built into Debian's MuJoCo 2.2.2 (float arithmetic, whole-polygon
+// signed area; neither a fan nor tinyobjloader 2.0's shorter-diagonal quad split matches it,
+// and a quad's split changes the volume), only the vertices faces use. What they leave to
+// MuJoCo (the reader returns false and the original file is compiled): several shapes
+// (o/g/usemtl after the first face), lines and points, faces of fewer than three corners, no
+// faces, fewer than four distinct vertices, inconsistently oriented faces (MuJoCo's own error),
+// ASCII or otherwise invalid STL (MuJoCo's own error). A malformed OBJ is reported before any
+// of that, so MuJoCo's loader never sees bad indices.
 #pragma once
 
 #include <string>

@@ -68,19 +68,20 @@ TEST(ValidateTest, IndexEntriesAndFiles) {
               "metadata_path": 3, "metadata_npz_path": "ghost/ghost.npz"},
     "abs": {"uid": "abs", "object_path": "/etc/passwd", "metadata_path": "red_block"}
   })");
+  // Problems come in UID order (the index is read as a sorted map), whatever the file order.
   EXPECT_THAT(
       Strings(ValidateLibrary(lib)),
       ElementsAre(
-          index + ": /ghost/uid: uid 'phantom' differs from its key 'ghost' (lookups use the key)",
-          index + ": /ghost/object_path: file not found: " + (lib / "ghost/ghost.xml").string(),
-          index + ": /ghost/metadata_path: expected string, got number",
-          index + ": /ghost/metadata_npz_path: file not found: " +
-              (lib / "ghost/ghost.npz").string(),
           index + ": /abs/object_path: expected a path relative to the library folder, got "
                   "'/etc/passwd'",
           index + ": /abs/metadata_path: is a folder, expected a file: " +
               (lib / "red_block").string(),
-          index + ": /abs/metadata_npz_path: missing required field (string or null)"));
+          index + ": /abs/metadata_npz_path: missing required field (string or null)",
+          index + ": /ghost/uid: uid 'phantom' differs from its key 'ghost' (lookups use the key)",
+          index + ": /ghost/object_path: file not found: " + (lib / "ghost/ghost.xml").string(),
+          index + ": /ghost/metadata_path: expected string, got number",
+          index + ": /ghost/metadata_npz_path: file not found: " +
+              (lib / "ghost/ghost.npz").string()));
 }
 
 TEST(ValidateTest, MalformedIndexNamesLine) {

@@ -9,7 +9,13 @@
 
 namespace mlspaces {
 
+/// Key-ordered JSON for documents users write (metadata): order is kept as Python keeps it.
+/// Its objects are vectors, so key lookup and insertion are linear: fine for small objects,
+/// quadratic for big ones. Large machine-written files (indexes) use FlatJson.
 using Json = nlohmann::ordered_json;
+/// JSON with std::map objects (sorted keys, O(log n) insertion), for index files with
+/// hundreds of thousands of keys.
+using FlatJson = nlohmann::json;
 
 /// Parses a JSON document. @throws Error with `path` and "line L, column C" on a syntax error.
 Json ParseJson(std::string_view text, const std::string& path_for_errors);
@@ -17,11 +23,22 @@ Json ParseJson(std::string_view text, const std::string& path_for_errors);
 /// Reads and parses a JSON file. @throws Error naming the file (missing, unreadable, bad JSON).
 Json ParseJsonFile(const std::filesystem::path& path);
 
+/// As ParseJson / ParseJsonFile, into FlatJson (for big index files; duplicate keys: last wins).
+FlatJson ParseFlatJson(std::string_view text, const std::string& path_for_errors);
+FlatJson ParseFlatJsonFile(const std::filesystem::path& path);
+
 /// Serialises like Python's json.dumps(obj, indent=4): ", " / ": " separators, non-ASCII
 /// escaped as \uXXXX, floats in shortest round-trip form. No trailing newline.
 std::string DumpJsonIndent4(const Json& value);
 
-/// Name of a JSON value's type for messages: "object", "array", "string", "number", ...
+/// Name of a JSON value's type for messages: "object", "array", "string", "integer",
+/// "number", "boolean", "null".
 std::string JsonTypeName(const Json& value);
+std::string JsonTypeName(const FlatJson& value);
+/// As JsonTypeName but "number" for every numeric type ("expected string, got number").
+template <class J>
+std::string JsonTypeWord(const J& value) {
+  return value.is_number() ? "number" : JsonTypeName(value);
+}
 
 }  // namespace mlspaces

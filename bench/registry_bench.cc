@@ -48,7 +48,7 @@ struct Fixture {
     size_t with_metadata = 0;
     for (size_t lib = 0; lib < kLibraries; ++lib) {
       const fs::path dir = root / ("lib" + std::to_string(lib));
-      Json index = Json::object();
+      FlatJson index = FlatJson::object();
       for (size_t i = 0; i < kUidsPerLibrary; ++i) {
         const std::string uid = Uid(lib, i);
         const std::string meta = "m/" + uid + ".json";
@@ -80,6 +80,9 @@ struct Fixture {
     Json gindex = {{"grasp_paths", {{"droid", {{uids[0], "g.npz"}}}}}};
     WriteSmall(grasps / "grasps_index.json", gindex.dump());
     registry->RegisterGraspLibrary("g", grasps, "lib0");
+    // Flush the thousands of files just written, so kernel writeback does not run during
+    // the timed loops.
+    ::sync();
   }
   ~Fixture() {
     std::error_code ec;

@@ -6,8 +6,10 @@
 
 #include <cerrno>
 #include <cstring>
+#include <optional>
 
 #include "mlspaces/core/error.h"
+#include "annotation_internal.h"
 #include "mlspaces/core/npz.h"
 
 namespace mlspaces {
@@ -15,14 +17,16 @@ namespace fs = std::filesystem;
 
 namespace {
 
-/// Reads a small file with as few syscalls as possible and no stat: open, read into a stack
-/// buffer (one call for files up to 16 KiB), close. Larger files continue in a string.
-std::string ReadSmallFile(const fs::path& path) {
-  int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+/// Reads a small file with as few syscalls as possible and no stat: open (relative to
+/// `dir_fd` when it is >= 0, saving the kernel a walk of the whole path), read into a stack
+/// buffer (one call for files up to 16 KiB), close. `full_path` is only used in errors.
+std::string ReadSmallFile(int dir_fd, const char* path, const fs::path& full_path) {
+  int fd = dir_fd >= 0 ? ::openat(dir_fd, path, O_RDONLY | O_CLOEXEC)
+                       : ::open(path, O_RDONLY | O_CLOEXEC);
   if (fd < 0) {
     throw Error(errno == ENOENT ? "file not found"
                                 : std::string("cannot open: ") + std::strerror(errno),
-                path.string());
+                full_path.string());
   }
   std::string out;
   char buf[16 * 1024];
@@ -34,7 +38,7 @@ std::string ReadSmallFile(const fs::path& path) {
       ::close(fd);
       throw Error(err == EISDIR ? "is a directory, expected a file"
                                 : std::string("read failed: ") + std::strerror(err),
-                  path.string());
+                  full_path.string());
     }
     out.append(buf, static_cast<size_t>(n));
     // A short read of a regular file means end of file.
@@ -134,17 +138,27 @@ Json Annotation::ToJson() const {
   return out;
 }
 
-Annotation LoadAnnotation(const std::string& uid, const std::string& library,
-                          const fs::path& metadata_json, const fs::path* metadata_npz) {
+namespace {
+
+Annotation LoadAnnotationImpl(std::string_view uid, const std::string& library, int dir_fd,
+                              const char* json_path, const fs::path& json_full,
+                              const fs::path* metadata_npz) {
   Annotation out;
   out.uid = uid;
   out.library = library;
-  out.json = ParseJson(ReadSmallFile(metadata_json), metadata_json.string());
+  const std::string text = ReadSmallFile(dir_fd, json_path, json_full);
+  try {
+    out.json = Json::parse(text);
+  } catch (const Json::parse_error&) {
+    ParseJson(text, json_full.string());  // throws the one-line error with line and column
+    throw;
+  }
   if (!out.json.is_object()) {
     throw Error("metadata must be a JSON object, got " + JsonTypeName(out.json),
-                metadata_json.string(), "", uid);
+                json_full.string(), "", std::string(uid));
   }
   if (metadata_npz == nullptr) return out;
+  const std::string uid_str(uid);
 
   std::vector<std::pair<std::string, NpyArray>> arrays = ReadNpz(*metadata_npz);
   // Merge into a skeleton copy to find collisions with the JSON and between arrays: an
@@ -153,8 +167,8 @@ Annotation LoadAnnotation(const std::string& uid, const std::string& library,
   for (auto& [key, array] : arrays) {
     const std::vector<std::string> parts = SplitKey(key);
     auto collision = [&] {
-      return Error("Key " + key + " from npz metadata already exists in metadata for uid=" + uid,
-                   metadata_npz->string(), key, uid);
+      return Error("Key " + key + " from npz metadata already exists in metadata for uid=" + uid_str,
+                   metadata_npz->string(), key, uid_str);
     };
     Json* node = &skeleton;
     for (size_t i = 0; i + 1 < parts.size(); ++i) {
@@ -174,5 +188,36 @@ Annotation LoadAnnotation(const std::string& uid, const std::string& library,
   }
   return out;
 }
+
+}  // namespace
+
+Annotation LoadAnnotation(const std::string& uid, const std::string& library,
+                          const fs::path& metadata_json, const fs::path* metadata_npz) {
+  return LoadAnnotationImpl(uid, library, -1, metadata_json.c_str(), metadata_json,
+                            metadata_npz);
+}
+
+namespace internal {
+
+Annotation LoadAnnotationAt(int dir_fd, const fs::path& dir, std::string_view uid,
+                            const std::string& library, const std::string& metadata_rel,
+                            const std::string* npz_rel) {
+  std::optional<fs::path> npz;
+  if (npz_rel != nullptr) npz = dir / *npz_rel;
+  if (dir_fd < 0) {
+    const fs::path full = dir / metadata_rel;
+    return LoadAnnotationImpl(uid, library, -1, full.c_str(), full, npz ? &*npz : nullptr);
+  }
+  // The full path is only built for an error message.
+  try {
+    return LoadAnnotationImpl(uid, library, dir_fd, metadata_rel.c_str(), fs::path(),
+                              npz ? &*npz : nullptr);
+  } catch (const Error& e) {
+    if (!e.path().empty()) throw;
+    throw Error(e.message(), (dir / metadata_rel).string(), e.field(), e.uid());
+  }
+}
+
+}  // namespace internal
 
 }  // namespace mlspaces

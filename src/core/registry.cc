@@ -9,6 +9,9 @@
 // Registration builds everything into temporaries and commits at the end (transactional).
 #include "mlspaces/core/registry.h"
 
+#include <fcntl.h>
+#include <unistd.h>
+
 #include <sys/stat.h>
 
 #include <algorithm>
@@ -21,6 +24,7 @@
 #include <unordered_map>
 #include <utility>
 
+#include "annotation_internal.h"
 #include "mlspaces/core/error.h"
 #include "mlspaces/core/npz.h"
 #include "mlspaces/core/rng.h"
@@ -173,8 +177,17 @@ GraspSet ReadGrasps(const NpzReader& reader, const NpyHeader& header,
 struct Registry::Impl {
   /// One user asset library and its uid -> entry map.
   struct UserAssetLibrary {
+    UserAssetLibrary() = default;
+    UserAssetLibrary(const UserAssetLibrary&) = delete;
+    UserAssetLibrary& operator=(const UserAssetLibrary&) = delete;
+    ~UserAssetLibrary() {
+      if (dir_fd >= 0) ::close(dir_fd);
+    }
     std::string name;
     fs::path dir;
+    /// O_PATH descriptor of `dir`, so annotation loads open files relative to it; -1 if the
+    /// folder could not be opened (then full paths are used).
+    int dir_fd = -1;
     AssetIndex index;
     StringMap<const AssetEntry*> uids;
     /// Each UID followed by its absolute MJCF path, back to back: the global map's keys and
@@ -403,6 +416,7 @@ void Registry::RegisterAssetLibrary(const std::string& name, const fs::path& dir
   lib->name = name;
   lib->dir = root;
   lib->index = AssetIndex::Load(index_file);
+  lib->dir_fd = ::open(root.c_str(), O_PATH | O_DIRECTORY | O_CLOEXEC);
   lib->uids.reserve(lib->index.entries.size());
   std::vector<std::string> mjcfs;
   mjcfs.reserve(lib->index.entries.size());
@@ -638,12 +652,10 @@ std::shared_ptr<const Annotation> Registry::GetAnnotation(std::string_view uid) 
   if (rec == nullptr) return nullptr;
   const Impl::UserAssetLibrary& lib = *impl.user_libraries[rec->library];
   const AssetEntry& entry = *rec->entry;
-  const fs::path json_path = lib.dir / entry.metadata_path;
-  std::optional<fs::path> npz_path;
-  if (entry.metadata_npz_path) npz_path = lib.dir / *entry.metadata_npz_path;
   // Loaded outside the lock so first-time loads of different UIDs run in parallel.
-  auto annotation = std::make_shared<const Annotation>(LoadAnnotation(
-      std::string(uid), lib.name, json_path, npz_path ? &*npz_path : nullptr));
+  auto annotation = std::make_shared<const Annotation>(internal::LoadAnnotationAt(
+      lib.dir_fd, lib.dir, uid, lib.name, entry.metadata_path,
+      entry.metadata_npz_path ? &*entry.metadata_npz_path : nullptr));
   std::lock_guard<std::mutex> lock(impl.annotation_mutex);
   auto [it, inserted] = impl.annotations.try_emplace(std::string(uid), std::move(annotation));
   return it->second;

@@ -359,7 +359,7 @@ bool ReadStlMesh(std::string_view data, TriMesh* out) {
       std::memcpy(f, src, 12);
       std::memcpy(key.b, src, 12);
       for (float x : f) {
-        if (!std::isfinite(x) || std::fabs(x) > std::pow(2.0, 30)) return false;
+        if (!std::isfinite(x) || std::fabs(x) > 1073741824.0) return false;  // MuJoCo: 2^30
       }
       // MuJoCo merges equal corners (== on floats): +0 and -0 are one vertex there.
       for (int k = 0; k < 3; ++k) {

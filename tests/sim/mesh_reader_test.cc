@@ -354,6 +354,45 @@ TEST_F(MeshFastPath, PolygonsEqualFullCompile) {
              "pentagon pyramid");
 }
 
+TEST_F(MeshFastPath, NumberFormatsEqualFullCompile) {
+  // A blob whose coordinates are written in every number form tinyobjloader reads.
+  std::string blob = BlobObj({});
+  std::string out;
+  std::istringstream in(blob);
+  int k = 0;
+  for (std::string line; std::getline(in, line);) {
+    if (line.rfind("v ", 0) == 0) {
+      double x, y, z;
+      std::sscanf(line.c_str(), "v %lf %lf %lf", &x, &y, &z);
+      char buf[200];
+      switch (k++ % 5) {
+        case 0:
+          std::snprintf(buf, sizeof buf, "v %.9e %.3E %+.12f", x, y, z);
+          break;
+        case 1:
+          std::snprintf(buf, sizeof buf, "v\t%.17g  %.1f\t%.15f 1.0", x, y, z);
+          break;
+        case 2:
+          std::snprintf(buf, sizeof buf, "v %.6e %.8f %.20f", x, y, z);
+          break;
+        case 3:
+          std::snprintf(buf, sizeof buf, "v %.0f%s %.5g %.4e", x * 1000, "e-3", y, z);
+          break;
+        default:
+          std::snprintf(buf, sizeof buf, "v %.10f %.10f %.10f", x, y, z);
+      }
+      out += buf;
+    } else {
+      out += line;
+    }
+    out += "\n";
+  }
+  fs::path obj = Write("formats.obj", out);
+  ASSERT_TRUE(FastReads(obj));
+  ExpectSame(Asset("<mesh name=\"f\" file=\"formats.obj\"/>", "<geom type=\"mesh\" mesh=\"f\"/>"),
+             "number formats");
+}
+
 TEST_F(MeshFastPath, SeveralObjectsAreLeftToMuJoCo) {
   // MuJoCo 2.2.2 keeps the first shape only: the fast reader declines and MuJoCo reads the file.
   std::string two = BlobObj({}) + "o second\nv 5 5 5\nv 6 5 5\nv 5 6 5\nf -1 -2 -3\n";

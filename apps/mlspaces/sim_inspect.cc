@@ -113,35 +113,46 @@ int Run(const InspectFlags& flags) {
     std::printf("%s\n", DumpJsonIndent4(out).c_str());
     return 0;
   }
+  // Text for people: 6 significant digits, names shown as "(unnamed)" when MuJoCo has none.
+  auto vec = [](const Json& v) {
+    std::string out = "[";
+    for (size_t k = 0; k < v.size(); ++k) {
+      char buf[32];
+      std::snprintf(buf, sizeof buf, "%s%.6g", k ? ", " : "", v[k].get<double>());
+      out += buf;
+    }
+    return out + "]";
+  };
+  auto name = [](const Json& item) {
+    const std::string& n = item["name"].get_ref<const std::string&>();
+    return n.empty() ? std::string("(unnamed)") : n;
+  };
   std::printf("%s: %d bodies, %d joints, %d geoms, %d actuators, %d cameras\n",
               flags.file.c_str(), m->nbody, m->njnt, m->ngeom, m->nu, m->ncam);
-  std::printf("bodies (world pose at qpos0):\n");
+  std::printf("bodies (world pose at qpos0; box = world-axes box of the body's own geoms):\n");
   for (const Json& b : bodies) {
-    std::printf("  %-24s pos %s quat %s mass %.6g", b["name"].get<std::string>().c_str(),
-                b["pos"].dump().c_str(), b["quat"].dump().c_str(), b["mass"].get<double>());
+    std::printf("  %-24s pos %s quat %s mass %.6g", name(b).c_str(), vec(b["pos"]).c_str(),
+                vec(b["quat"]).c_str(), b["mass"].get<double>());
     if (!b["aabb"].is_null()) {
-      std::printf(" box %s..%s", b["aabb"]["min"].dump().c_str(),
-                  b["aabb"]["max"].dump().c_str());
+      std::printf(" box %s..%s", vec(b["aabb"]["min"]).c_str(), vec(b["aabb"]["max"]).c_str());
     }
     std::printf("\n");
   }
   if (!joints.empty()) std::printf("joints:\n");
   for (const Json& j : joints) {
-    std::printf("  %-24s %-6s body %s%s%s\n", j["name"].get<std::string>().c_str(),
-                j["type"].get<std::string>().c_str(), j["body"].get<std::string>().c_str(),
-                j["range"].is_null() ? "" : " range ",
-                j["range"].is_null() ? "" : j["range"].dump().c_str());
+    std::printf("  %-24s %-6s body %s%s%s\n", name(j).c_str(), j["type"].get<std::string>().c_str(),
+                j["body"].get<std::string>().c_str(), j["range"].is_null() ? "" : " range ",
+                j["range"].is_null() ? "" : vec(j["range"]).c_str());
   }
   if (!actuators.empty()) std::printf("actuators:\n");
   for (const Json& a : actuators) {
-    std::printf("  %-24s %s %s\n", a["name"].get<std::string>().c_str(),
-                a["transmission"].get<std::string>().c_str(),
+    std::printf("  %-24s %s %s\n", name(a).c_str(), a["transmission"].get<std::string>().c_str(),
                 a["target"].get<std::string>().c_str());
   }
   if (!cameras.empty()) std::printf("cameras:\n");
   for (const Json& c : cameras) {
-    std::printf("  %-24s body %s pos %s\n", c["name"].get<std::string>().c_str(),
-                c["body"].get<std::string>().c_str(), c["pos"].dump().c_str());
+    std::printf("  %-24s body %s pos %s\n", name(c).c_str(), c["body"].get<std::string>().c_str(),
+                vec(c["pos"]).c_str());
   }
   for (const std::string& w : composer.warnings()) Warn(w);
   return 0;

@@ -127,11 +127,8 @@ AssetIndex BuildAssetIndex(const fs::path& dir, const AssetIndexOptions& options
 IndexReport WriteAssetIndex(const fs::path& dir, const AssetIndexOptions& options) {
   const fs::path root = internal::ResolvePath(dir);
   IndexReport report;
-  report.output = options.output.empty() ? root / "assets_index.json" : internal::ResolvePath(options.output);
-  std::error_code ec;
-  if (fs::exists(report.output, ec) && !options.overwrite) {
-    throw Error(report.output.string() + " already exists. Use --overwrite to overwrite.");
-  }
+  report.output =
+      internal::IndexOutputPath(root, options.output, "assets_index.json", options.overwrite);
   AssetIndex index = BuildAssetIndex(root, options, &report, /*use_computed=*/false);
   WriteFileAtomic(report.output, index.Serialize());
   return report;

@@ -41,6 +41,52 @@ bool UidAndRobot(const std::string& rel_dir, std::string* uid, std::string* robo
 
 void AppendIndent(std::string& out, int level) { out.append(static_cast<size_t>(level) * 4, ' '); }
 
+// Writes a path map ({uid: path} or {uid: {joint: path}}) as the original's json.dump(indent=4)
+// does, its closing brace at `level`; an empty map is "{}".
+void AppendPaths(std::string& out, const std::string& path, int /*level*/) {
+  internal::AppendJsonString(out, path);
+}
+template <class Map>
+void AppendPaths(std::string& out, const Map& map, int level) {
+  if (map.empty()) {
+    out += "{}";
+    return;
+  }
+  out += "{\n";
+  bool first = true;
+  for (const auto& [key, value] : map) {
+    if (!first) out += ",\n";
+    first = false;
+    AppendIndent(out, level + 1);
+    internal::AppendJsonString(out, key);
+    out += ": ";
+    AppendPaths(out, value, level + 1);
+  }
+  out += "\n";
+  AppendIndent(out, level);
+  out += "}";
+}
+
+// Reads a {robot: {uid: path}} or {robot: {uid: {joint: path}}} section: objects down to string
+// leaves. `depth` is 0 for the section itself; errors below the uid level name the uid.
+void ReadPaths(const FlatJson& value, const std::string& file, const std::string& pointer,
+               const std::string& uid, int /*depth*/, std::string* path) {
+  if (!value.is_string()) {
+    throw Error("expected string, got " + JsonTypeWord(value), file, pointer, uid);
+  }
+  *path = value.get<std::string>();
+}
+template <class Map>
+void ReadPaths(const FlatJson& value, const std::string& file, const std::string& pointer,
+               const std::string& uid, int depth, Map* map) {
+  RequireObject(value, file, pointer);
+  for (auto it = value.begin(); it != value.end(); ++it) {
+    const std::string& key = it.key();
+    ReadPaths(it.value(), file, Child(pointer, key), depth == 1 ? key : uid, depth + 1,
+              &(*map)[key]);
+  }
+}
+
 }  // namespace
 
 std::vector<std::string> GraspIndex::robots() const {
@@ -56,126 +102,19 @@ GraspIndex GraspIndex::Load(const fs::path& index_file) {
   RequireObject(root, file, "");
   GraspIndex index;
   if (auto it = root.find("grasp_paths"); it != root.end()) {
-    const std::string p0 = "/grasp_paths";
-    RequireObject(*it, file, p0);
-    for (auto r = it->begin(); r != it->end(); ++r) {
-      const std::string p1 = Child(p0, r.key());
-      RequireObject(r.value(), file, p1);
-      auto& uids = index.grasp_paths[r.key()];
-      for (auto u = r.value().begin(); u != r.value().end(); ++u) {
-        if (!u.value().is_string()) {
-          throw Error("expected string, got " + JsonTypeWord(u.value()), file, Child(p1, u.key()),
-                      u.key());
-        }
-        uids[u.key()] = u.value().get<std::string>();
-      }
-    }
+    ReadPaths(*it, file, "/grasp_paths", {}, 0, &index.grasp_paths);
   }
   if (auto it = root.find("articulated_grasp_paths"); it != root.end()) {
-    const std::string p0 = "/articulated_grasp_paths";
-    RequireObject(*it, file, p0);
-    for (auto r = it->begin(); r != it->end(); ++r) {
-      const std::string p1 = Child(p0, r.key());
-      RequireObject(r.value(), file, p1);
-      auto& uids = index.articulated_grasp_paths[r.key()];
-      for (auto u = r.value().begin(); u != r.value().end(); ++u) {
-        const std::string p2 = Child(p1, u.key());
-        RequireObject(u.value(), file, p2);
-        auto& joints = uids[u.key()];
-        for (auto j = u.value().begin(); j != u.value().end(); ++j) {
-          if (!j.value().is_string()) {
-            throw Error("expected string, got " + JsonTypeWord(j.value()), file, Child(p2, j.key()),
-                        u.key());
-          }
-          joints[j.key()] = j.value().get<std::string>();
-        }
-      }
-    }
+    ReadPaths(*it, file, "/articulated_grasp_paths", {}, 0, &index.articulated_grasp_paths);
   }
   return index;
 }
 
 std::string GraspIndex::Serialize() const {
   std::string out = "{\n    \"articulated_grasp_paths\": ";
-  if (articulated_grasp_paths.empty()) {
-    out += "{}";
-  } else {
-    out += "{\n";
-    bool first_robot = true;
-    for (const auto& [robot, uids] : articulated_grasp_paths) {
-      if (!first_robot) out += ",\n";
-      first_robot = false;
-      AppendIndent(out, 2);
-      internal::AppendJsonString(out, robot);
-      out += ": ";
-      if (uids.empty()) {
-        out += "{}";
-        continue;
-      }
-      out += "{\n";
-      bool first_uid = true;
-      for (const auto& [uid, joints] : uids) {
-        if (!first_uid) out += ",\n";
-        first_uid = false;
-        AppendIndent(out, 3);
-        internal::AppendJsonString(out, uid);
-        out += ": ";
-        if (joints.empty()) {
-          out += "{}";
-          continue;
-        }
-        out += "{\n";
-        bool first_joint = true;
-        for (const auto& [joint, path] : joints) {
-          if (!first_joint) out += ",\n";
-          first_joint = false;
-          AppendIndent(out, 4);
-          internal::AppendJsonString(out, joint);
-          out += ": ";
-          internal::AppendJsonString(out, path);
-        }
-        out += "\n";
-        AppendIndent(out, 3);
-        out += "}";
-      }
-      out += "\n";
-      AppendIndent(out, 2);
-      out += "}";
-    }
-    out += "\n    }";
-  }
+  AppendPaths(out, articulated_grasp_paths, 1);
   out += ",\n    \"grasp_paths\": ";
-  if (grasp_paths.empty()) {
-    out += "{}";
-  } else {
-    out += "{\n";
-    bool first_robot = true;
-    for (const auto& [robot, uids] : grasp_paths) {
-      if (!first_robot) out += ",\n";
-      first_robot = false;
-      AppendIndent(out, 2);
-      internal::AppendJsonString(out, robot);
-      out += ": ";
-      if (uids.empty()) {
-        out += "{}";
-        continue;
-      }
-      out += "{\n";
-      bool first_uid = true;
-      for (const auto& [uid, path] : uids) {
-        if (!first_uid) out += ",\n";
-        first_uid = false;
-        AppendIndent(out, 3);
-        internal::AppendJsonString(out, uid);
-        out += ": ";
-        internal::AppendJsonString(out, path);
-      }
-      out += "\n";
-      AppendIndent(out, 2);
-      out += "}";
-    }
-    out += "\n    }";
-  }
+  AppendPaths(out, grasp_paths, 1);
   out += "\n}";
   return out;
 }
@@ -230,11 +169,8 @@ GraspIndex BuildGraspIndex(const fs::path& dir, IndexReport* report) {
 IndexReport WriteGraspIndex(const fs::path& dir, const GraspIndexOptions& options) {
   const fs::path root = internal::ResolvePath(dir);
   IndexReport report;
-  report.output = options.output.empty() ? root / "grasps_index.json" : internal::ResolvePath(options.output);
-  std::error_code ec;
-  if (fs::exists(report.output, ec) && !options.overwrite) {
-    throw Error(report.output.string() + " already exists. Use --overwrite to overwrite.");
-  }
+  report.output =
+      internal::IndexOutputPath(root, options.output, "grasps_index.json", options.overwrite);
   GraspIndex index = BuildGraspIndex(root, &report);
   WriteFileAtomic(report.output, index.Serialize());
   return report;

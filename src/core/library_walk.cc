@@ -191,4 +191,15 @@ std::filesystem::path ResolvePath(const std::filesystem::path& p) {
   return ec ? abs.lexically_normal() : canon;
 }
 
+std::filesystem::path IndexOutputPath(const std::filesystem::path& root,
+                                      const std::filesystem::path& output,
+                                      std::string_view default_name, bool overwrite) {
+  std::filesystem::path path = output.empty() ? root / default_name : ResolvePath(output);
+  std::error_code ec;
+  if (std::filesystem::exists(path, ec) && !overwrite) {
+    throw Error(path.string() + " already exists. Use --overwrite to overwrite.");
+  }
+  return path;
+}
+
 }  // namespace mlspaces::internal

@@ -48,4 +48,10 @@ void AppendJsonString(std::string& out, std::string_view s);
 /// as the path exists.
 std::filesystem::path ResolvePath(const std::filesystem::path& p);
 
+/// Where an index writer writes: `output` resolved, or `root`/`default_name` when `output` is
+/// empty. @throws Error if that file exists and `overwrite` is false.
+std::filesystem::path IndexOutputPath(const std::filesystem::path& root,
+                                      const std::filesystem::path& output,
+                                      std::string_view default_name, bool overwrite);
+
 }  // namespace mlspaces::internal

@@ -282,6 +282,15 @@ void ConvertToNative(const NpyHeader& header, const uint8_t* src, uint8_t* dst) 
   if (header.dtype == DType::kB1) NormalizeBools(dst, count);
 }
 
+NpyArray ToNativeArray(NpyHeader header, std::span<const uint8_t> bytes) {
+  NpyArray out;
+  out.dtype = header.dtype;
+  out.data.resize(header.data_bytes());
+  ConvertToNative(header, bytes.data() + header.data_offset, out.data.data());
+  out.shape = std::move(header.shape);
+  return out;
+}
+
 NpyHeader ParseNpyHeader(std::span<const uint8_t> bytes, const std::string& path,
                          const std::string& member) {
   auto fail = [&](const std::string& message) -> void { throw Error(message, path, member); };
@@ -497,12 +506,7 @@ NpyArray ParseNpy(std::span<const uint8_t> bytes, const std::string& source) {
                     std::to_string(header.data_bytes()),
                 source);
   }
-  NpyArray out;
-  out.dtype = header.dtype;
-  out.data.resize(header.data_bytes());
-  internal::ConvertToNative(header, bytes.data() + header.data_offset, out.data.data());
-  out.shape = std::move(header.shape);
-  return out;
+  return internal::ToNativeArray(std::move(header), bytes);
 }
 
 std::string SerializeNpy(const NpyArray& array, const NpyWriteOptions& options) {

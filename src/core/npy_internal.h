@@ -18,6 +18,10 @@ NpyHeader ParseNpyHeader(std::span<const uint8_t> bytes, const std::string& path
 /// the header says) to native little-endian C order at `dst`. Bools become 0/1.
 void ConvertToNative(const NpyHeader& header, const uint8_t* src, uint8_t* dst);
 
+/// The array of a whole .npy image `bytes` whose parsed header is `header` and whose data size
+/// has been checked against it: its data converted with ConvertToNative.
+NpyArray ToNativeArray(NpyHeader header, std::span<const uint8_t> bytes);
+
 /// Swaps the bytes of `count` elements of `item_size` bytes in place (no-op for size 1).
 void SwapBytes(uint8_t* data, size_t count, size_t item_size);
 

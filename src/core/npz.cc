@@ -435,12 +435,7 @@ NpyArray NpzReader::Read(std::string_view key) const {
   if (bytes.size() - header.data_offset != header.data_bytes()) {
     impl_->Fail("array data size does not match its shape and dtype", m.name);
   }
-  NpyArray out;
-  out.dtype = header.dtype;
-  out.data.resize(header.data_bytes());
-  internal::ConvertToNative(header, bytes.data() + header.data_offset, out.data.data());
-  out.shape = std::move(header.shape);
-  return out;
+  return internal::ToNativeArray(std::move(header), bytes);
 }
 
 NpyArray NpzReader::ReadRows(std::string_view key, const std::vector<size_t>& rows) const {

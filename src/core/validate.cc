@@ -343,48 +343,43 @@ class Validator {
       }
     };
     if (auto it = root.find("grasp_paths"); it != root.end()) {
-      if (!it->is_object()) {
-        Add(file, "/grasp_paths", "expected object, got " + JsonTypeWord(*it));
-      } else {
-        for (auto r = it->begin(); r != it->end(); ++r) {
-          const std::string p1 = Child("/grasp_paths", r.key());
-          if (!r.value().is_object()) {
-            Add(file, p1, "expected object, got " + JsonTypeWord(r.value()));
-            continue;
-          }
-          for (auto u = r.value().begin(); u != r.value().end(); ++u) {
-            const std::string p2 = Child(p1, u.key());
-            check_uid(p2, u.key());
-            if (auto full = CheckPath(file, p2, u.value(), false)) ValidateGraspFile(*full);
-          }
-        }
-      }
+      ForEachMember(file, "/grasp_paths", *it, [&](const std::string&, const FlatJson& uids,
+                                                   const std::string& p1) {
+        ForEachMember(file, p1, uids, [&](const std::string& uid, const FlatJson& path,
+                                          const std::string& p2) {
+          check_uid(p2, uid);
+          if (auto full = CheckPath(file, p2, path, false)) ValidateGraspFile(*full);
+        });
+      });
     }
     if (auto it = root.find("articulated_grasp_paths"); it != root.end()) {
-      if (!it->is_object()) {
-        Add(file, "/articulated_grasp_paths", "expected object, got " + JsonTypeWord(*it));
-        return;
-      }
-      for (auto r = it->begin(); r != it->end(); ++r) {
-        const std::string p1 = Child("/articulated_grasp_paths", r.key());
-        if (!r.value().is_object()) {
-          Add(file, p1, "expected object, got " + JsonTypeWord(r.value()));
-          continue;
-        }
-        for (auto u = r.value().begin(); u != r.value().end(); ++u) {
-          const std::string p2 = Child(p1, u.key());
-          check_uid(p2, u.key());
-          if (!u.value().is_object()) {
-            Add(file, p2, "expected object, got " + JsonTypeWord(u.value()));
-            continue;
-          }
-          for (auto j = u.value().begin(); j != u.value().end(); ++j) {
-            const std::string p3 = Child(p2, j.key());
-            if (j.key().empty()) Add(file, p3, "empty joint name");
-            if (auto full = CheckPath(file, p3, j.value(), false)) ValidateGraspFile(*full);
-          }
-        }
-      }
+      ForEachMember(file, "/articulated_grasp_paths", *it, [&](const std::string&,
+                                                               const FlatJson& uids,
+                                                               const std::string& p1) {
+        ForEachMember(file, p1, uids, [&](const std::string& uid, const FlatJson& joints,
+                                          const std::string& p2) {
+          check_uid(p2, uid);
+          ForEachMember(file, p2, joints, [&](const std::string& joint, const FlatJson& path,
+                                              const std::string& p3) {
+            if (joint.empty()) Add(file, p3, "empty joint name");
+            if (auto full = CheckPath(file, p3, path, false)) ValidateGraspFile(*full);
+          });
+        });
+      });
+    }
+  }
+
+  // Calls fn(key, member, pointer) for each member of `value`, the JSON at `pointer`; records
+  // a problem instead when `value` is not an object.
+  template <class Fn>
+  void ForEachMember(const std::string& file, const std::string& pointer, const FlatJson& value,
+                     Fn&& fn) {
+    if (!value.is_object()) {
+      Add(file, pointer, "expected object, got " + JsonTypeWord(value));
+      return;
+    }
+    for (auto it = value.begin(); it != value.end(); ++it) {
+      fn(it.key(), it.value(), Child(pointer, it.key()));
     }
   }
 

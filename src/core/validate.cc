@@ -78,6 +78,18 @@ class Validator {
     }
   }
 
+  // Parse, then the top level must be an object; on failure records the problem and returns
+  // false.
+  template <class J>
+  bool ParseObject(const fs::path& path, J* out) {
+    if (!Parse(path, out)) return false;
+    if (!out->is_object()) {
+      Add(path.string(), "/", "expected object, got " + JsonTypeWord(*out));
+      return false;
+    }
+    return true;
+  }
+
   // Checks that a path field names an existing file under the library; returns the full path.
   std::optional<fs::path> CheckPath(const std::string& file, const std::string& pointer,
                                     const FlatJson& value, bool nullable) {
@@ -111,11 +123,7 @@ class Validator {
   void ValidateAssetIndex(const fs::path& index_path) {
     const std::string file = index_path.string();
     FlatJson root;
-    if (!Parse(index_path, &root)) return;
-    if (!root.is_object()) {
-      Add(file, "/", "expected object, got " + JsonTypeWord(root));
-      return;
-    }
+    if (!ParseObject(index_path, &root)) return;
     asset_index_ok_ = true;
     for (auto it = root.begin(); it != root.end(); ++it) {
       const std::string& uid = it.key();
@@ -156,11 +164,7 @@ class Validator {
                         const std::optional<fs::path>& npz_path) {
     const std::string file = json_path.string();
     Json meta;
-    if (!Parse(json_path, &meta)) return;
-    if (!meta.is_object()) {
-      Add(file, "/", "expected object, got " + JsonTypeWord(meta));
-      return;
-    }
+    if (!ParseObject(json_path, &meta)) return;
     CheckKnownFields(file, meta);
     if (npz_path) ValidateMetadataNpz(uid, *npz_path, meta);
   }
@@ -331,11 +335,7 @@ class Validator {
   void ValidateGraspIndex(const fs::path& index_path, bool has_assets) {
     const std::string file = index_path.string();
     FlatJson root;
-    if (!Parse(index_path, &root)) return;
-    if (!root.is_object()) {
-      Add(file, "/", "expected object, got " + JsonTypeWord(root));
-      return;
-    }
+    if (!ParseObject(index_path, &root)) return;
     const bool check_uids = has_assets && asset_index_ok_;
     auto check_uid = [&](const std::string& pointer, const std::string& uid) {
       if (check_uids && !asset_uids_.contains(uid)) {

@@ -1,69 +1,31 @@
 // Runs the mlspaces binary: index-assets, index-grasps, validate.
 #include <sys/stat.h>
-#include <sys/wait.h>
 
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <set>
-#include <sstream>
 #include <string>
 #include <vector>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include "core/library_test_util.h"
+#include "test_util.h"
 
 namespace mlspaces {
 namespace {
 
 namespace fs = std::filesystem;
+using ::mlspaces::testing::CliResult;
 using ::mlspaces::testing::CopyExampleLibrary;
 using ::mlspaces::testing::ListFiles;
+using ::mlspaces::testing::RunCli;
+using ::mlspaces::testing::Slurp;
 using ::mlspaces::testing::TempDir;
 using ::mlspaces::testing::WriteText;
 using ::testing::HasSubstr;
 using ::testing::StartsWith;
-
-struct Result {
-  int exit_code = -1;
-  std::string out;
-  std::string err;
-};
-
-std::string Slurp(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
-std::string Quote(const std::string& s) {
-  std::string out = "'";
-  for (char c : s) {
-    if (c == '\'') {
-      out += "'\\''";
-    } else {
-      out += c;
-    }
-  }
-  return out + "'";
-}
-
-// Runs mlspaces with `args`; stdout and stderr go to files outside the library folders.
-Result RunCli(const std::vector<std::string>& args) {
-  TempDir io;
-  std::string cmd = Quote(MLSPACES_CLI_PATH);
-  for (const std::string& a : args) cmd += " " + Quote(a);
-  cmd += " >" + Quote((io / "out").string()) + " 2>" + Quote((io / "err").string());
-  int status = std::system(cmd.c_str());
-  Result r;
-  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  r.out = Slurp(io / "out");
-  r.err = Slurp(io / "err");
-  return r;
-}
 
 constexpr char kExampleAssetIndexPlain[] =
     "{\n"
@@ -87,7 +49,7 @@ class IndexCliTest : public ::testing::Test {
 };
 
 TEST_F(IndexCliTest, IndexAssetsExample) {
-  Result r = RunCli({"index-assets", lib_.string()});
+  CliResult r = RunCli({"index-assets", lib_.string()});
   EXPECT_EQ(r.exit_code, 0) << r.err;
   EXPECT_EQ(r.out, "Wrote " + (lib_ / "assets_index.json").string() + " with 1 assets.\n");
   EXPECT_EQ(r.err, "");
@@ -95,7 +57,7 @@ TEST_F(IndexCliTest, IndexAssetsExample) {
 }
 
 TEST_F(IndexCliTest, IndexGraspsExample) {
-  Result r = RunCli({"index-grasps", lib_.string()});
+  CliResult r = RunCli({"index-grasps", lib_.string()});
   EXPECT_EQ(r.exit_code, 0) << r.err;
   EXPECT_EQ(r.out, "Wrote " + (lib_ / "grasps_index.json").string() +
                        " with 1 robots / 1 grasp files.\n");
@@ -108,7 +70,7 @@ TEST_F(IndexCliTest, ExistingOutputWithoutOverwrite) {
   WriteText(lib_ / "assets_index.json", "keep me");
   WriteText(lib_ / "grasps_index.json", "keep me too");
   std::set<std::string> before = ListFiles(lib_);
-  Result r = RunCli({"index-assets", lib_.string()});
+  CliResult r = RunCli({"index-assets", lib_.string()});
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_EQ(r.out, "");
   EXPECT_EQ(r.err, "mlspaces: error: " + (lib_ / "assets_index.json").string() +
@@ -131,7 +93,7 @@ TEST_F(IndexCliTest, ExistingOutputWithoutOverwrite) {
 
 TEST_F(IndexCliTest, CustomOutput) {
   const fs::path out = tmp_.path() / "elsewhere" / "idx.json";
-  Result r = RunCli({"index-assets", lib_.string(), "-o", out.string()});
+  CliResult r = RunCli({"index-assets", lib_.string(), "-o", out.string()});
   EXPECT_EQ(r.exit_code, 0) << r.err;
   EXPECT_EQ(r.out, "Wrote " + fs::weakly_canonical(out).string() + " with 1 assets.\n");
   EXPECT_EQ(Slurp(out), kExampleAssetIndexPlain);
@@ -141,7 +103,7 @@ TEST_F(IndexCliTest, CustomOutput) {
 TEST_F(IndexCliTest, MissingMetadata) {
   WriteText(lib_ / "includes" / "materials.xml", "<mujoco/>");
   std::set<std::string> before = ListFiles(lib_);
-  Result r = RunCli({"index-assets", lib_.string()});
+  CliResult r = RunCli({"index-assets", lib_.string()});
   EXPECT_EQ(r.exit_code, 1);
   const std::string message = "Expected metadata JSON for " +
                               (lib_ / "includes/materials.xml").string() + " at " +
@@ -159,7 +121,7 @@ TEST_F(IndexCliTest, MissingMetadata) {
 TEST_F(IndexCliTest, DuplicateUid) {
   WriteText(lib_ / "copy" / "red_block.xml", "<mujoco/>");
   WriteText(lib_ / "copy" / "red_block.json", "{}");
-  Result r = RunCli({"index-assets", lib_.string()});
+  CliResult r = RunCli({"index-assets", lib_.string()});
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_EQ(r.err,
             "mlspaces: error: Duplicate asset id 'red_block' found at red_block/red_block.xml "
@@ -168,7 +130,7 @@ TEST_F(IndexCliTest, DuplicateUid) {
 }
 
 TEST_F(IndexCliTest, MissingSourceFolder) {
-  Result r = RunCli({"index-assets", (tmp_.path() / "nope").string()});
+  CliResult r = RunCli({"index-assets", (tmp_.path() / "nope").string()});
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_THAT(r.err, StartsWith("mlspaces: error: "));
   EXPECT_THAT(r.err, HasSubstr("not found"));
@@ -185,7 +147,7 @@ TEST_F(IndexCliTest, BadUsage) {
         std::vector<std::string>{"index-grasps", lib_.string(), "-o"},
         std::vector<std::string>{"validate"},
         std::vector<std::string>{"validate", lib_.string(), "extra"}}) {
-    Result r = RunCli(args);
+    CliResult r = RunCli(args);
     EXPECT_EQ(r.exit_code, 2) << args.back() << ": " << r.err;
     EXPECT_THAT(r.err, HasSubstr("error"));
   }
@@ -197,7 +159,7 @@ TEST_F(IndexCliTest, BadUsage) {
 // compiled mass and box and points the index at it; rerunning keeps (never drops) it.
 TEST_F(IndexCliTest, ComputeMetadataWritesComputedJson) {
   fs::remove(lib_ / "red_block/red_block_computed.json");
-  Result r = RunCli({"index-assets", lib_.string(), "--compute-metadata"});
+  CliResult r = RunCli({"index-assets", lib_.string(), "--compute-metadata"});
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_THAT(r.out, HasSubstr("with 1 assets."));
   const std::string computed = Slurp(lib_ / "red_block/red_block_computed.json");
@@ -227,7 +189,7 @@ TEST_F(IndexCliTest, ComputeMetadataReportsBrokenAssetAndGoesOn) {
   WriteText(lib_ / "broken/broken.xml", "<mujoco><worldbody><body><geom type=\"box\" size=\"x\"/>"
                                         "</body></worldbody></mujoco>");
   WriteText(lib_ / "broken/broken.json", "{\"category\": \"junk\"}");
-  Result r = RunCli({"index-assets", lib_.string(), "--compute-metadata", "--overwrite"});
+  CliResult r = RunCli({"index-assets", lib_.string(), "--compute-metadata", "--overwrite"});
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_THAT(r.err, HasSubstr("broken.xml"));
   EXPECT_THAT(r.out, HasSubstr("1 failed"));
@@ -238,7 +200,7 @@ TEST_F(IndexCliTest, ComputeMetadataReportsBrokenAssetAndGoesOn) {
 TEST_F(IndexCliTest, ValidateExample) {
   const std::string dir =
       (fs::path(MLSPACES_EXAMPLES_DIR) / "custom_assets" / "asset_library").string();
-  Result r = RunCli({"validate", dir});
+  CliResult r = RunCli({"validate", dir});
   EXPECT_EQ(r.exit_code, 0) << r.out;
   EXPECT_EQ(r.out, dir + ": OK\n");
 }
@@ -248,7 +210,7 @@ TEST_F(IndexCliTest, ValidateReportsProblems) {
   ASSERT_EQ(RunCli({"index-grasps", lib_.string()}).exit_code, 0);
   WriteText(lib_ / "red_block/red_block.json", R"({"mass": "heavy", "synset": "block.n.01"})");
   fs::remove(lib_ / "red_block/red_block.xml");
-  Result r = RunCli({"validate", lib_.string()});
+  CliResult r = RunCli({"validate", lib_.string()});
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_EQ(r.out,
             (lib_ / "assets_index.json").string() + ": /red_block/object_path: file not found: " +

@@ -1,8 +1,6 @@
 // Runs the mlspaces binary: locate, meta, grasps; outputs and exit codes.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
-#include <sys/wait.h>
-#include <unistd.h>
 
 #include <algorithm>
 #include <cstdio>
@@ -14,31 +12,22 @@
 #include "mlspaces/core/json.h"
 #include "mlspaces/core/npz.h"
 #include "mlspaces/core/registry.h"
+#include "test_util.h"
 
 namespace mlspaces {
 namespace {
 
 namespace fs = std::filesystem;
+using ::mlspaces::testing::CliResult;
+using ::mlspaces::testing::RunCli;
+using ::mlspaces::testing::ShellQuote;
+using ::mlspaces::testing::TempDir;
 using ::testing::HasSubstr;
 using ::testing::Not;
-
-struct Result {
-  int code = -1;
-  std::string out, err;
-};
-
-std::string Quote(const std::string& s) {
-  std::string q = "'";
-  for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return q + "'";
-}
 
 class LookupCliTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    std::string tmpl = (fs::temp_directory_path() / "mlspaces_cli_XXXXXX").string();
-    ASSERT_NE(::mkdtemp(tmpl.data()), nullptr);
-    dir_ = tmpl;
     // The bundled example, copied so a missing grasps.npz can be supplied.
     const fs::path example = fs::path(MLSPACES_EXAMPLES_DIR) / "custom_assets";
     ASSERT_TRUE(fs::exists(example / "asset_library/assets_index.json"));
@@ -50,35 +39,27 @@ class LookupCliTest : public ::testing::Test {
     }
     lib_ = dir_ / "ex/asset_library";
   }
-  void TearDown() override { fs::remove_all(dir_); }
-
-  Result Run(const std::vector<std::string>& args, const std::string& env = "") {
-    std::string cmd = "env -u MLSPACES_ASSETS_DIR " + env + " " + Quote(MLSPACES_CLI_PATH);
-    for (const std::string& a : args) cmd += " " + Quote(a);
-    const fs::path out = dir_ / "stdout", err = dir_ / "stderr";
-    cmd += " >" + Quote(out.string()) + " 2>" + Quote(err.string());
-    const int status = std::system(cmd.c_str());
-    Result r;
-    r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-    r.out = ReadFile(out);
-    r.err = ReadFile(err);
-    return r;
+  // Runs the binary without the caller's MLSPACES_ASSETS_DIR; `env` is extra NAME=VALUE words.
+  CliResult Run(const std::vector<std::string>& args, const std::string& env = "") {
+    return RunCli(args, "env -u MLSPACES_ASSETS_DIR " + env + " ");
   }
 
   std::string AssetFlag() const { return "custom_assets=" + lib_.string(); }
   std::string GraspFlag() const { return "custom_grasps=" + lib_.string() + ":custom_assets"; }
 
-  fs::path dir_, lib_;
+  TempDir tmp_;
+  const fs::path dir_ = tmp_.path();
+  fs::path lib_;
 };
 
 TEST_F(LookupCliTest, LocateWithYamlAndFlags) {
   const std::string mjcf = (lib_ / "red_block/red_block.xml").string();
-  Result r = Run({"locate", "red_block", "--libraries", (dir_ / "ex/libraries.yaml").string()});
-  EXPECT_EQ(r.code, 0) << r.err;
+  CliResult r = Run({"locate", "red_block", "--libraries", (dir_ / "ex/libraries.yaml").string()});
+  EXPECT_EQ(r.exit_code, 0) << r.err;
   EXPECT_EQ(r.out, "library: custom_assets\nmjcf_path: " + mjcf + "\n");
   EXPECT_EQ(r.err, "");
   r = Run({"locate", "--asset-library", AssetFlag(), "red_block", "--json"});
-  EXPECT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(r.exit_code, 0) << r.err;
   const Json j = Json::parse(r.out);
   EXPECT_EQ(j["library"], "custom_assets");
   EXPECT_EQ(j["mjcf_path"], mjcf);
@@ -86,31 +67,31 @@ TEST_F(LookupCliTest, LocateWithYamlAndFlags) {
 }
 
 TEST_F(LookupCliTest, LocateUnknownUidAndBadFlags) {
-  Result r = Run({"locate", "blue_block", "--asset-library", AssetFlag()});
-  EXPECT_EQ(r.code, 1);
+  CliResult r = Run({"locate", "blue_block", "--asset-library", AssetFlag()});
+  EXPECT_EQ(r.exit_code, 1);
   EXPECT_EQ(r.out, "");
   EXPECT_EQ(r.err,
             "mlspaces: error: blue_block not found in asset libraries ['custom_assets']\n");
   r = Run({"locate", "red_block", "--asset-library", "custom_assets"});
-  EXPECT_EQ(r.code, 2);
+  EXPECT_EQ(r.exit_code, 2);
   EXPECT_THAT(r.err, HasSubstr("NAME=DIR"));
   r = Run({"locate", "red_block", "--asset-library", "a/b=" + lib_.string()});
-  EXPECT_EQ(r.code, 2);
+  EXPECT_EQ(r.exit_code, 2);
   EXPECT_THAT(r.err, HasSubstr("User library a/b must not contain slashes"));
   r = Run({"locate", "red_block", "--asset-library", "thor=" + lib_.string()});
-  EXPECT_EQ(r.code, 1);
+  EXPECT_EQ(r.exit_code, 1);
   EXPECT_THAT(r.err, HasSubstr("name conflicts with a built-in object source"));
   r = Run({"locate", "red_block", "--asset-library", "x=" + dir_.string()});
-  EXPECT_EQ(r.code, 1);
+  EXPECT_EQ(r.exit_code, 1);
   EXPECT_THAT(r.err, HasSubstr("does not contain an assets_index.json file"));
   r = Run({"locate"});
-  EXPECT_EQ(r.code, 2);
+  EXPECT_EQ(r.exit_code, 2);
 }
 
 TEST_F(LookupCliTest, DuplicateUidsAreWarned) {
-  Result r = Run({"locate", "red_block", "--asset-library", AssetFlag(), "--asset-library",
-                  "second=" + lib_.string()});
-  EXPECT_EQ(r.code, 0);
+  CliResult r = Run({"locate", "red_block", "--asset-library", AssetFlag(), "--asset-library",
+                     "second=" + lib_.string()});
+  EXPECT_EQ(r.exit_code, 0);
   EXPECT_THAT(r.out, HasSubstr("library: custom_assets\n"));
   EXPECT_THAT(r.out, HasSubstr("shadows: second\n"));
   EXPECT_THAT(r.err, HasSubstr("mlspaces: warning: UID red_block is in several asset "
@@ -121,18 +102,18 @@ TEST_F(LookupCliTest, DuplicateUidsAreWarned) {
 TEST_F(LookupCliTest, BuiltinsFromTheEnvironment) {
   const fs::path assets = dir_ / "assets";
   WriteFileAtomic(assets / "objects/thor/kitchen/Bowl_1.xml", "<mujoco/>");
-  Result r = Run({"locate", "Bowl_1"}, "MLSPACES_ASSETS_DIR=" + Quote(assets.string()));
-  EXPECT_EQ(r.code, 0) << r.err;
+  CliResult r = Run({"locate", "Bowl_1"}, "MLSPACES_ASSETS_DIR=" + ShellQuote(assets.string()));
+  EXPECT_EQ(r.exit_code, 0) << r.err;
   EXPECT_EQ(r.out, "library: thor\nmjcf_path: " +
                        (assets / "objects/thor/kitchen/Bowl_1.xml").string() + "\n");
   r = Run({"locate", "Bowl_1"});
-  EXPECT_EQ(r.code, 1);
+  EXPECT_EQ(r.exit_code, 1);
   EXPECT_EQ(r.err, "mlspaces: error: Bowl_1 not found in asset libraries []\n");
 }
 
 TEST_F(LookupCliTest, Meta) {
-  Result r = Run({"meta", "red_block", "--asset-library", AssetFlag()});
-  EXPECT_EQ(r.code, 0) << r.err;
+  CliResult r = Run({"meta", "red_block", "--asset-library", AssetFlag()});
+  EXPECT_EQ(r.exit_code, 0) << r.err;
   const Json j = Json::parse(r.out);
   EXPECT_EQ(j["assetId"], "red_block");
   EXPECT_EQ(j["mass"].get<double>(), 0.12500000000000003);
@@ -144,17 +125,17 @@ TEST_F(LookupCliTest, Meta) {
   index["red_block"]["metadata_npz_path"] = "red_block/red_block.npz";
   WriteFileAtomic(lib_ / "assets_index.json", index.dump(4));
   r = Run({"meta", "red_block", "--asset-library", AssetFlag()});
-  EXPECT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(r.exit_code, 0) << r.err;
   EXPECT_EQ(Json::parse(r.out)["description_short"]["clip"], Json::parse("[1.0, 2.0]"));
   r = Run({"meta", "nope", "--asset-library", AssetFlag()});
-  EXPECT_EQ(r.code, 1);
+  EXPECT_EQ(r.exit_code, 1);
   EXPECT_THAT(r.err, HasSubstr("nope not found in asset libraries"));
 }
 
 TEST_F(LookupCliTest, Grasps) {
-  Result r = Run({"grasps", "red_block", "--asset-library", AssetFlag(), "--grasp-library",
+  CliResult r = Run({"grasps", "red_block", "--asset-library", AssetFlag(), "--grasp-library",
                   GraspFlag()});
-  EXPECT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(r.exit_code, 0) << r.err;
   EXPECT_THAT(r.out, HasSubstr("library: custom_grasps/droid\n"));
   EXPECT_THAT(r.out, HasSubstr("path: " + (lib_ / "red_block/droid/grasps.npz").string()));
   EXPECT_THAT(r.out, HasSubstr("count: 1 (stored <f8)\n"));
@@ -166,25 +147,25 @@ TEST_F(LookupCliTest, Grasps) {
 
   r = Run({"grasps", "red_block", "--libraries", (dir_ / "ex/libraries.yaml").string(),
            "--robot", "franka"});
-  EXPECT_EQ(r.code, 1);
+  EXPECT_EQ(r.exit_code, 1);
   EXPECT_THAT(r.err, HasSubstr("no grasp library for robot franka serves red_block"));
   r = Run({"grasps", "red_block", "--libraries", (dir_ / "ex/libraries.yaml").string(),
            "--robot", "droid"});
-  EXPECT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(r.exit_code, 0) << r.err;
 
   r = Run({"grasps", "red_block", "--asset-library", AssetFlag()});  // no grasp library
-  EXPECT_EQ(r.code, 1);
+  EXPECT_EQ(r.exit_code, 1);
   EXPECT_EQ(r.err, "mlspaces: error: No grasp file found for red_block\n");
   r = Run({"grasps", "red_block", "--asset-library", AssetFlag(), "--grasp-library",
            GraspFlag(), "--joint", "lid"});
-  EXPECT_EQ(r.code, 1);
+  EXPECT_EQ(r.exit_code, 1);
   EXPECT_THAT(r.err, HasSubstr("No joint grasp file found for red_block/lid"));
   r = Run({"grasps", "red_block", "--asset-library", AssetFlag(), "--grasp-library",
            "custom_grasps=" + lib_.string()});
-  EXPECT_EQ(r.code, 2);
+  EXPECT_EQ(r.exit_code, 2);
   EXPECT_THAT(r.err, HasSubstr("NAME=DIR:ASSET_LIBRARY"));
   r = Run({"grasps", "red_block", "--asset-library", AssetFlag(), "--num", "0"});
-  EXPECT_EQ(r.code, 2);
+  EXPECT_EQ(r.exit_code, 2);
 }
 
 TEST_F(LookupCliTest, GraspsSubsampleAndWrite) {
@@ -201,8 +182,8 @@ TEST_F(LookupCliTest, GraspsSubsampleAndWrite) {
                                          "--grasp-library", GraspFlag()};
   std::vector<std::string> args = base;
   args.insert(args.end(), {"--num", "5", "--seed", "7", "--out", out.string()});
-  Result r = Run(args);
-  EXPECT_EQ(r.code, 0) << r.err;
+  CliResult r = Run(args);
+  EXPECT_EQ(r.exit_code, 0) << r.err;
   EXPECT_THAT(r.out, HasSubstr("count: 5 (stored <f4)\n"));
   EXPECT_THAT(r.out, HasSubstr("wrote " + out.string() + " (5 grasps)"));
   NpzReader reader(out);
@@ -218,7 +199,7 @@ TEST_F(LookupCliTest, GraspsSubsampleAndWrite) {
   }
   // All 20: a summary instead of every matrix.
   r = Run(base);
-  EXPECT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(r.exit_code, 0) << r.err;
   EXPECT_THAT(r.out, HasSubstr("count: 20"));
   EXPECT_THAT(r.out, HasSubstr("... 17 more"));
   EXPECT_THAT(r.out, Not(HasSubstr("grasp 3 (")));

@@ -2,7 +2,6 @@
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <cstdlib>
 #include <filesystem>
@@ -11,25 +10,23 @@
 #include "mlspaces/core/error.h"
 #include "mlspaces/core/files.h"
 #include "mlspaces/core/npz.h"
+#include "test_util.h"
 
 namespace mlspaces {
 namespace {
 
 namespace fs = std::filesystem;
+using ::mlspaces::testing::TempDir;
 using ::testing::HasSubstr;
 
 class AnnotationTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    std::string tmpl = (fs::temp_directory_path() / "mlspaces_annotation_XXXXXX").string();
-    ASSERT_NE(::mkdtemp(tmpl.data()), nullptr);
-    dir_ = tmpl;
     json_ = dir_ / "cube.json";
     npz_ = dir_ / "cube.npz";
     WriteFileAtomic(json_, R"({"category": "block", "description_short": {"one_word": "cube"},
                                "list": [1, 2]})");
   }
-  void TearDown() override { fs::remove_all(dir_); }
 
   std::string Collision(const std::vector<std::pair<std::string, NpyArray>>& arrays) {
     WriteNpz(npz_, arrays);
@@ -41,7 +38,9 @@ class AnnotationTest : public ::testing::Test {
     return "<no error>";
   }
 
-  fs::path dir_, json_, npz_;
+  TempDir tmp_;
+  const fs::path dir_ = tmp_.path();
+  fs::path json_, npz_;
 };
 
 NpyArray Vec(std::vector<double> v) { return NpyArray::FromDoubles({v.size()}, v); }

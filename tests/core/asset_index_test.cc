@@ -12,17 +12,18 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include "core/library_test_util.h"
 #include "mlspaces/core/error.h"
 #include "mlspaces/core/files.h"
 #include "mlspaces/core/grasp_index.h"
 #include "mlspaces/core/npz.h"
+#include "test_util.h"
 
 namespace mlspaces {
 namespace {
 
 namespace fs = std::filesystem;
 using ::mlspaces::testing::CopyExampleLibrary;
+using ::mlspaces::testing::ErrorOf;
 using ::mlspaces::testing::ExampleLibrary;
 using ::mlspaces::testing::ListFiles;
 using ::mlspaces::testing::MinimalMetadata;
@@ -40,15 +41,6 @@ constexpr char kExampleIndex[] =
     "        \"metadata_npz_path\": null\n"
     "    }\n"
     "}";
-
-std::string ErrorOf(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "<no error>";
-}
 
 void AddAsset(const fs::path& root, const std::string& rel_dir, const std::string& uid,
               bool npz = false) {

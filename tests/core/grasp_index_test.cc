@@ -9,15 +9,16 @@
 #include <gtest/gtest.h>
 
 #include "../../examples/custom_assets/example_grasps.h"
-#include "core/library_test_util.h"
 #include "mlspaces/core/error.h"
 #include "mlspaces/core/files.h"
 #include "mlspaces/core/npz.h"
+#include "test_util.h"
 
 namespace mlspaces {
 namespace {
 
 namespace fs = std::filesystem;
+using ::mlspaces::testing::ErrorOf;
 using ::mlspaces::testing::ExampleLibrary;
 using ::mlspaces::testing::ListFiles;
 using ::mlspaces::testing::TempDir;
@@ -35,15 +36,6 @@ constexpr char kExampleIndex[] =
     "        }\n"
     "    }\n"
     "}";
-
-std::string ErrorOf(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "<no error>";
-}
 
 TEST(GraspIndexTest, ExampleGolden) {
   IndexReport report;

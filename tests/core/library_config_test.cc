@@ -2,30 +2,27 @@
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <filesystem>
 
 #include "mlspaces/core/error.h"
 #include "mlspaces/core/files.h"
 #include "mlspaces/core/registry.h"
+#include "test_util.h"
 
 namespace mlspaces {
 namespace {
 
 namespace fs = std::filesystem;
+using ::mlspaces::testing::TempDir;
 using ::testing::ElementsAre;
 using ::testing::HasSubstr;
 
 class LibraryConfigTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    std::string tmpl = (fs::temp_directory_path() / "mlspaces_config_XXXXXX").string();
-    ASSERT_NE(::mkdtemp(tmpl.data()), nullptr);
-    dir_ = tmpl;
     yaml_ = dir_ / "libs.yaml";
   }
-  void TearDown() override { fs::remove_all(dir_); }
 
   /// The error of loading `text`, as (what, field).
   std::pair<std::string, std::string> YamlError(const std::string& text) {
@@ -39,7 +36,9 @@ class LibraryConfigTest : public ::testing::Test {
     return {"<no error>", ""};
   }
 
-  fs::path dir_, yaml_;
+  TempDir tmp_;
+  const fs::path dir_ = tmp_.path();
+  fs::path yaml_;
 };
 
 TEST_F(LibraryConfigTest, LoadsAndResolvesRelativePaths) {

@@ -2,7 +2,6 @@
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <bit>
 #include <cmath>
@@ -18,49 +17,16 @@
 
 #include "mlspaces/core/error.h"
 #include "mlspaces/core/files.h"
+#include "test_util.h"
 
 namespace mlspaces {
 namespace {
 
 namespace fs = std::filesystem;
+using ::mlspaces::testing::ExpectError;
+using ::mlspaces::testing::RunPython;
+using ::mlspaces::testing::TempDir;
 using ::testing::HasSubstr;
-
-// A fresh folder under the system temp dir, removed at the end of the test.
-class TempDir {
- public:
-  TempDir() {
-    std::random_device rd;
-    path_ = fs::temp_directory_path() /
-            ("mlspaces_npy_test_" + std::to_string(::getpid()) + "_" + std::to_string(rd()));
-    fs::create_directories(path_);
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path_, ec);
-  }
-  const fs::path& path() const { return path_; }
-
- private:
-  fs::path path_;
-};
-
-// Runs `script` with Debian's python (which has numpy); returns its exit status and stdout.
-int RunPython(const fs::path& dir, const std::string& script, const std::string& args,
-              std::string* output = nullptr) {
-  fs::path file = dir / "script.py";
-  std::ofstream(file) << script;
-  std::string cmd = std::string(MLSPACES_PYTHON) + " " + file.string() + " " + args;
-  FILE* pipe = ::popen(cmd.c_str(), "r");
-  if (pipe == nullptr) return -1;
-  std::string out;
-  char buf[4096];
-  size_t n;
-  while ((n = std::fread(buf, 1, sizeof buf, pipe)) > 0) out.append(buf, n);
-  int status = ::pclose(pipe);
-  if (output != nullptr) *output = out;
-  if (status != 0) ADD_FAILURE() << "python failed (" << status << "):\n" << out;
-  return status;
-}
 
 std::span<const uint8_t> Bytes(const std::string& s) {
   return {reinterpret_cast<const uint8_t*>(s.data()), s.size()};
@@ -83,19 +49,6 @@ std::string Raw(std::initializer_list<T> values) {
   std::string out;
   for (T v : values) out.append(reinterpret_cast<const char*>(&v), sizeof v);
   return out;
-}
-
-// Asserts that `fn` throws mlspaces::Error whose what() contains every one of `parts`.
-template <typename Fn>
-void ExpectError(Fn fn, std::initializer_list<std::string> parts) {
-  try {
-    fn();
-    ADD_FAILURE() << "expected mlspaces::Error";
-  } catch (const Error& e) {
-    std::string what = e.what();
-    EXPECT_EQ(what.find('\n'), std::string::npos) << what;
-    for (const std::string& p : parts) EXPECT_THAT(what, HasSubstr(p));
-  }
 }
 
 // The values the interop tests use at flat C index i, shared with the python scripts.
@@ -123,6 +76,14 @@ SHAPES = [(), (5,), (3, 4), (2, 3, 4), (2, 3, 2, 3), (0, 3)]
 def make(code, order, fortran, shape):
     a = vals(code, int(np.prod(shape))).astype(np.dtype(order + code)).reshape(shape)
     return np.asfortranarray(a) if fortran and a.ndim > 1 else a
+def cases():
+    # (code, order, fortran, shape, file name) of every interop case; names as FileName().
+    for code in CODES:
+        for order in '<>':
+            for fortran in (False, True):
+                for si, shape in enumerate(SHAPES):
+                    yield code, order, fortran, shape, '%s_%s_%s_%d.npy' % (
+                        code, 'le' if order == '<' else 'be', 'F' if fortran else 'C', si)
 )";
 
 const std::vector<std::pair<std::string, DType>> kCodes = {
@@ -452,13 +413,8 @@ TEST(NpyInteropTest, NumpyFilesLoad) {
   TempDir dir;
   ASSERT_EQ(RunPython(dir.path(), std::string(kPythonValues) + R"(
 d = sys.argv[1]
-for code in CODES:
-    for order in '<>':
-        for fortran in (False, True):
-            for si, shape in enumerate(SHAPES):
-                name = '%s_%s_%s_%d.npy' % (code, 'le' if order == '<' else 'be',
-                                            'F' if fortran else 'C', si)
-                np.save(os.path.join(d, name), make(code, order, fortran, shape))
+for code, order, fortran, shape, name in cases():
+    np.save(os.path.join(d, name), make(code, order, fortran, shape))
 a = make('f8', '>', True, (2, 3, 4))
 for v in (1, 2, 3):
     with open(os.path.join(d, 'v%d.npy' % v), 'wb') as f:
@@ -518,19 +474,14 @@ TEST(NpyInteropTest, OurFilesLoadInNumpy) {
 d = sys.argv[1]
 bad = []
 count = 0
-for code in CODES:
-    for order in '<>':
-        for fortran in (False, True):
-            for si, shape in enumerate(SHAPES):
-                name = '%s_%s_%s_%d.npy' % (code, 'le' if order == '<' else 'be',
-                                            'F' if fortran else 'C', si)
-                a = np.load(os.path.join(d, name))
-                want = make(code, order, fortran, shape)
-                count += 1
-                if a.dtype != want.dtype or a.shape != want.shape or not np.array_equal(a, want):
-                    bad.append('%s: got %s %s %r' % (name, a.dtype.str, a.shape, a))
-                elif len(shape) > 1 and a.size > 0 and a.flags.f_contiguous != fortran:
-                    bad.append('%s: wrong memory order' % name)
+for code, order, fortran, shape, name in cases():
+    a = np.load(os.path.join(d, name))
+    want = make(code, order, fortran, shape)
+    count += 1
+    if a.dtype != want.dtype or a.shape != want.shape or not np.array_equal(a, want):
+        bad.append('%s: got %s %s %r' % (name, a.dtype.str, a.shape, a))
+    elif len(shape) > 1 and a.size > 0 and a.flags.f_contiguous != fortran:
+        bad.append('%s: wrong memory order' % name)
 if bad:
     print('\n'.join(bad))
     sys.exit(1)

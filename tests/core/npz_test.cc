@@ -2,81 +2,29 @@
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
-#include <unistd.h>
 #include <zlib.h>
 
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
-#include <random>
 #include <string>
 #include <vector>
 
 #include "mlspaces/core/error.h"
 #include "mlspaces/core/files.h"
+#include "test_util.h"
 
 namespace mlspaces {
 namespace {
 
 namespace fs = std::filesystem;
+using ::mlspaces::testing::ExpectError;
+using ::mlspaces::testing::RunPython;
+using ::mlspaces::testing::TempDir;
+using ::mlspaces::testing::WriteText;
 using ::testing::ElementsAre;
 using ::testing::HasSubstr;
-
-class TempDir {
- public:
-  TempDir() {
-    std::random_device rd;
-    path_ = fs::temp_directory_path() /
-            ("mlspaces_npz_test_" + std::to_string(::getpid()) + "_" + std::to_string(rd()));
-    fs::create_directories(path_);
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path_, ec);
-  }
-  const fs::path& path() const { return path_; }
-
- private:
-  fs::path path_;
-};
-
-// Runs `script` with Debian's python (which has numpy); returns its exit status.
-int RunPython(const fs::path& dir, const std::string& script, const std::string& args,
-              std::string* output = nullptr) {
-  fs::path file = dir / "script.py";
-  std::ofstream(file) << script;
-  std::string cmd = std::string(MLSPACES_PYTHON) + " " + file.string() + " " + args + " 2>&1";
-  FILE* pipe = ::popen(cmd.c_str(), "r");
-  if (pipe == nullptr) return -1;
-  std::string out;
-  char buf[4096];
-  size_t n;
-  while ((n = std::fread(buf, 1, sizeof buf, pipe)) > 0) out.append(buf, n);
-  int status = ::pclose(pipe);
-  if (output != nullptr) *output = out;
-  if (status != 0) ADD_FAILURE() << "python failed (" << status << "):\n" << out;
-  return status;
-}
-
-// Overwrites a file quickly (no fsync), for the loops that write thousands of variants.
-void WriteQuick(const fs::path& path, std::string_view bytes) {
-  std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-  ASSERT_TRUE(out.good());
-}
-
-template <typename Fn>
-void ExpectError(Fn fn, std::initializer_list<std::string> parts) {
-  try {
-    fn();
-    ADD_FAILURE() << "expected mlspaces::Error";
-  } catch (const Error& e) {
-    std::string what = e.what();
-    EXPECT_EQ(what.find('\n'), std::string::npos) << what;
-    for (const std::string& p : parts) EXPECT_THAT(what, HasSubstr(p));
-  }
-}
 
 std::vector<double> Iota(size_t n, double scale = 1.0, double offset = 0.0) {
   std::vector<double> v(n);
@@ -444,7 +392,7 @@ TEST(NpzTest, EveryTruncationThrowsError) {
     ASSERT_NO_THROW(ReadEverything(full));
     fs::path path = dir.path() / "trunc.npz";
     for (size_t len = 0; len < bytes.size(); ++len) {
-      WriteQuick(path, std::string_view(bytes).substr(0, len));
+      WriteText(path, std::string_view(bytes).substr(0, len));
       EXPECT_THROW(ReadEverything(path), Error) << "compress " << compress << " length " << len;
     }
   }
@@ -462,7 +410,7 @@ TEST(NpzTest, EveryByteFlipLoadsOrThrowsError) {
       for (uint8_t mask : {0xFF, 0x01, 0x80}) {
         std::string bad = bytes;
         bad[i] = static_cast<char>(bad[i] ^ mask);
-        WriteQuick(path, bad);
+        WriteText(path, bad);
         try {
           ReadEverything(path);
           ++loaded;

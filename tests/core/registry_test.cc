@@ -2,7 +2,6 @@
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <cmath>
 #include <cstdlib>
@@ -19,32 +18,17 @@
 #include "mlspaces/core/json.h"
 #include "mlspaces/core/npz.h"
 #include "mlspaces/core/rng.h"
+#include "test_util.h"
 
 namespace mlspaces {
 namespace {
 
 namespace fs = std::filesystem;
+using ::mlspaces::testing::ErrorOf;
+using ::mlspaces::testing::TempDir;
 using ::testing::ElementsAre;
 using ::testing::HasSubstr;
 using ::testing::IsEmpty;
-
-class TempDir {
- public:
-  TempDir() {
-    std::string tmpl = (fs::temp_directory_path() / "mlspaces_registry_XXXXXX").string();
-    char* made = ::mkdtemp(tmpl.data());
-    if (made == nullptr) std::abort();
-    path_ = made;
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path_, ec);
-  }
-  const fs::path& path() const { return path_; }
-
- private:
-  fs::path path_;
-};
 
 /// Grasp k of a fixture file: identity rotation, translation (k, file_tag, 0).
 Mat4 FixturePose(size_t k, double file_tag = 0) {
@@ -108,16 +92,6 @@ void WriteGraspLibrary(const fs::path& dir, const GraspSpec& spec, double file_t
     }
   }
   WriteFileAtomic(dir / "grasps_index.json", DumpJsonIndent4(index));
-}
-
-template <class F>
-std::string ErrorOf(F&& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "<no error>";
 }
 
 // ---- registration --------------------------------------------------------------------------

@@ -2,31 +2,27 @@
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <filesystem>
 
 #include "mlspaces/core/error.h"
 #include "mlspaces/core/files.h"
+#include "test_util.h"
 
 namespace mlspaces {
 namespace {
 
 namespace fs = std::filesystem;
+using ::mlspaces::testing::TempDir;
 using ::testing::HasSubstr;
 
 class SceneMetadataTest : public ::testing::Test {
  protected:
-  void SetUp() override {
-    std::string tmpl = (fs::temp_directory_path() / "mlspaces_scene_XXXXXX").string();
-    ASSERT_NE(::mkdtemp(tmpl.data()), nullptr);
-    dir_ = tmpl;
-  }
-  void TearDown() override { fs::remove_all(dir_); }
   void Touch(const fs::path& p, const std::string& text = R"({"objects": {}})") {
     WriteFileAtomic(p, text);
   }
-  fs::path dir_;
+  TempDir tmp_;
+  const fs::path dir_ = tmp_.path();
 };
 
 TEST_F(SceneMetadataTest, PrimaryNames) {

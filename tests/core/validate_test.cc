@@ -9,8 +9,8 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include "core/library_test_util.h"
 #include "mlspaces/core/npz.h"
+#include "test_util.h"
 
 namespace mlspaces {
 namespace {

@@ -201,6 +201,9 @@ struct BadCase {
   const char* message;
 };
 
+// gtest prints a case (and ctest names it) by its file, not as raw bytes.
+void PrintTo(const BadCase& bad, std::ostream* os) { *os << bad.file; }
+
 class BadMjcf : public ::testing::TestWithParam<BadCase> {};
 
 TEST_P(BadMjcf, OneLineWithFileLineAndElement) {
@@ -231,7 +234,15 @@ INSTANTIATE_TEST_SUITE_P(
                 "unknown model 'nope'"},
         BadCase{"bad_nested_attach.xml", "unknown_element.xml", "line 5, element <gizmo>",
                 "unrecognized element"},
-        BadCase{"bad_xml.xml", "bad_xml.xml", "line 4", "XML parse error"}));
+        BadCase{"bad_xml.xml", "bad_xml.xml", "line 4", "XML parse error"}),
+    // The file's stem: Cases/BadMjcf.OneLineWithFileLineAndElement/unknown_element.
+    [](const ::testing::TestParamInfo<BadCase>& info) {
+      std::string name = fs::path(info.param.file).stem().string();
+      for (char& c : name) {
+        if (std::isalnum(static_cast<unsigned char>(c)) == 0) c = '_';
+      }
+      return name;
+    });
 
 TEST(Composer, NameClashNamesBothFiles) {
   try {

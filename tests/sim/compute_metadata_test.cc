@@ -4,7 +4,6 @@
 #include <cmath>
 #include <filesystem>
 #include <numbers>
-#include <random>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -13,6 +12,7 @@
 #include "mlspaces/core/files.h"
 #include "mlspaces/core/json.h"
 #include "mlspaces/sim/asset_facts.h"
+#include "test_util.h"
 
 namespace mlspaces::sim {
 namespace {
@@ -79,11 +79,10 @@ TEST(AssetFacts, MoreThanOneBodyIsAnError) {
 class ComputeMetadata : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = fs::temp_directory_path() /
-           ("mlspaces_cm_" + std::to_string(std::random_device{}()));
+    dir_ = tmp_ / "library";
     fs::copy(kData / "library", dir_, fs::copy_options::recursive);
   }
-  void TearDown() override { fs::remove_all(dir_); }
+  mlspaces::testing::TempDir tmp_;
   fs::path dir_;
 };
 

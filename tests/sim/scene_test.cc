@@ -2,13 +2,13 @@
 #include "mlspaces/sim/scene.h"
 
 #include <filesystem>
-#include <random>
 
 #include <gtest/gtest.h>
 
 #include "mlspaces/core/asset_index.h"
 #include "mlspaces/core/error.h"
 #include "mlspaces/core/files.h"
+#include "test_util.h"
 
 namespace mlspaces::sim {
 namespace {
@@ -17,8 +17,8 @@ namespace fs = std::filesystem;
 const fs::path kData = MLSPACES_TESTDATA_DIR;
 
 TEST(Scene, InsertsRobotAndUserLibraryAssetsWithMetadata) {
-  fs::path lib = fs::temp_directory_path() / ("mlspaces_scene_" +
-                                              std::to_string(std::random_device{}()));
+  const mlspaces::testing::TempDir tmp;
+  const fs::path lib = tmp / "library";
   fs::copy(kData / "library", lib, fs::copy_options::recursive);
   WriteFileAtomic(lib / "assets_index.json",
                   BuildAssetIndex(lib, AssetIndexOptions{}, nullptr).Serialize());
@@ -54,7 +54,6 @@ TEST(Scene, InsertsRobotAndUserLibraryAssetsWithMetadata) {
   EXPECT_NEAR(d->xpos[3 * b + 0], 0.5, 1e-12);  // block (0.4, 0, 0.025) + (0.1, 0.2, 0.3)
   EXPECT_NEAR(d->xpos[3 * b + 2], 0.325, 1e-12);
   EXPECT_THROW(scene.InsertAsset(registry, "no_such_uid", p), Error);
-  fs::remove_all(lib);
 }
 
 }  // namespace

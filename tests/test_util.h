@@ -1,0 +1,171 @@
+// Helpers shared by the test suites: temp folders, small files, Debian's python, the CLI
+// binary, the bundled example library and error strings. Include as "test_util.h".
+#pragma once
+
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <set>
+#include <sstream>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "mlspaces/core/error.h"
+
+namespace mlspaces::testing {
+
+/// A fresh folder under temp_directory_path() (mkdtemp), removed with everything in it on
+/// destruction.
+class TempDir {
+ public:
+  TempDir() {
+    std::string tmpl = (std::filesystem::temp_directory_path() / "mlspaces_test_XXXXXX").string();
+    if (::mkdtemp(tmpl.data()) == nullptr) std::abort();
+    path_ = tmpl;
+  }
+  ~TempDir() {
+    std::error_code ec;
+    std::filesystem::remove_all(path_, ec);
+  }
+  TempDir(const TempDir&) = delete;
+  TempDir& operator=(const TempDir&) = delete;
+  const std::filesystem::path& path() const { return path_; }
+  std::filesystem::path operator/(const std::string& rel) const { return path_ / rel; }
+
+ private:
+  std::filesystem::path path_;
+};
+
+/// Writes `text` to `path` (plain write, no fsync), creating parent folders.
+inline void WriteText(const std::filesystem::path& path, std::string_view text) {
+  std::filesystem::create_directories(path.parent_path());
+  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  out.write(text.data(), static_cast<std::streamsize>(text.size()));
+  ASSERT_TRUE(out.good()) << path;
+}
+
+/// The whole content of `path`; "" when it cannot be read.
+inline std::string Slurp(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+/// Every file name under `dir` (recursive, relative, '/'-separated).
+inline std::set<std::string> ListFiles(const std::filesystem::path& dir) {
+  std::set<std::string> out;
+  for (const auto& e : std::filesystem::recursive_directory_iterator(dir)) {
+    if (!e.is_directory()) out.insert(e.path().lexically_relative(dir).generic_string());
+  }
+  return out;
+}
+
+/// `s` single-quoted for /bin/sh.
+inline std::string ShellQuote(const std::string& s) {
+  std::string out = "'";
+  for (char c : s) {
+    if (c == '\'') {
+      out += "'\\''";
+    } else {
+      out += c;
+    }
+  }
+  return out + "'";
+}
+
+/// Runs `script` (written to `dir`/script.py) with Debian's python, which has numpy, and
+/// `args` (already shell words). Returns its exit status; `output` gets its stdout. A failure
+/// is reported with stdout and stderr.
+inline int RunPython(const std::filesystem::path& dir, const std::string& script,
+                     const std::string& args, std::string* output = nullptr) {
+  const std::filesystem::path file = dir / "script.py", err = dir / "script.err";
+  std::ofstream(file) << script;
+  const std::string cmd = std::string(MLSPACES_PYTHON) + " " + file.string() + " " + args +
+                          " 2>" + ShellQuote(err.string());
+  FILE* pipe = ::popen(cmd.c_str(), "r");
+  if (pipe == nullptr) return -1;
+  std::string out;
+  char buf[4096];
+  size_t n;
+  while ((n = std::fread(buf, 1, sizeof buf, pipe)) > 0) out.append(buf, n);
+  const int status = ::pclose(pipe);
+  if (output != nullptr) *output = out;
+  if (status != 0) ADD_FAILURE() << "python failed (" << status << "):\n" << out << Slurp(err);
+  return status;
+}
+
+/// What a run of the mlspaces binary printed and returned.
+struct CliResult {
+  int exit_code = -1;
+  std::string out;
+  std::string err;
+};
+
+/// Runs the mlspaces binary with `args`; `prefix` (shell words, e.g. "env -u X") goes before
+/// it. stdout and stderr go to files in a temp folder of their own.
+inline CliResult RunCli(const std::vector<std::string>& args, const std::string& prefix = "") {
+  TempDir io;
+  std::string cmd = prefix + ShellQuote(MLSPACES_CLI_PATH);
+  for (const std::string& a : args) cmd += " " + ShellQuote(a);
+  cmd += " >" + ShellQuote((io / "out").string()) + " 2>" + ShellQuote((io / "err").string());
+  const int status = std::system(cmd.c_str());
+  CliResult r;
+  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  r.out = Slurp(io / "out");
+  r.err = Slurp(io / "err");
+  return r;
+}
+
+/// The what() of the mlspaces::Error `f` throws, or "<no error>".
+template <class F>
+std::string ErrorOf(F&& f) {
+  try {
+    f();
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "<no error>";
+}
+
+/// Asserts that `fn` throws mlspaces::Error whose what() is one line containing every one of
+/// `parts`.
+template <typename Fn>
+void ExpectError(Fn fn, std::initializer_list<std::string> parts) {
+  try {
+    fn();
+    ADD_FAILURE() << "expected mlspaces::Error";
+  } catch (const Error& e) {
+    std::string what = e.what();
+    EXPECT_EQ(what.find('\n'), std::string::npos) << what;
+    for (const std::string& p : parts) EXPECT_THAT(what, ::testing::HasSubstr(p));
+  }
+}
+
+/// The example library in the source tree (examples/custom_assets/asset_library).
+inline std::filesystem::path ExampleLibrary() {
+  return std::filesystem::path(MLSPACES_EXAMPLES_DIR) / "custom_assets" / "asset_library";
+}
+
+/// Copies the bundled example library into `dir`/asset_library and returns that path.
+inline std::filesystem::path CopyExampleLibrary(const std::filesystem::path& dir) {
+  std::filesystem::path dst = dir / "asset_library";
+  std::filesystem::copy(ExampleLibrary(), dst, std::filesystem::copy_options::recursive);
+  return dst;
+}
+
+/// Minimal metadata JSON for a generated asset.
+inline std::string MinimalMetadata(const std::string& uid) {
+  return "{\n    \"assetId\": \"" + uid + "\",\n    \"category\": \"block\",\n"
+         "    \"synset\": \"block.n.01\"\n}";
+}
+
+}  // namespace mlspaces::testing

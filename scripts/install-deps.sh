@@ -12,6 +12,8 @@ PACKAGES=(
   libgtest-dev libgmock-dev libbenchmark-dev python3 python3-numpy hyperfine
   # sim: MuJoCo 2.2.2 (its CMake config needs qhull headers and OpenGL), XML
   libmujoco-dev libqhull-dev libgl-dev libopengl-dev libpugixml-dev
+  # datagen: HDF5 trajectories (h5py reads them back in tests)
+  libhdf5-dev python3-h5py
 )
 
 missing=()

@@ -7,7 +7,7 @@ PACKAGES=(
   # toolchain
   build-essential cmake ninja-build pkg-config ccache git
   # core: JSON, zlib (NPZ), YAML, CLI
-  nlohmann-json3-dev zlib1g-dev libyaml-cpp-dev libcli11-dev
+  nlohmann-json3-dev libsimdjson-dev zlib1g-dev libyaml-cpp-dev libcli11-dev
   # tests and benchmarks; Debian's numpy writes/reads NPY/NPZ in interop tests
   libgtest-dev libgmock-dev libbenchmark-dev python3 python3-numpy hyperfine
   # sim: MuJoCo 2.2.2 (its CMake config needs qhull headers and OpenGL), XML

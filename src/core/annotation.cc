@@ -147,12 +147,8 @@ Annotation LoadAnnotationImpl(std::string_view uid, const std::string& library, 
   out.uid = uid;
   out.library = library;
   const std::string text = ReadSmallFile(dir_fd, json_path, json_full);
-  try {
-    out.json = Json::parse(text);
-  } catch (const Json::parse_error&) {
-    ParseJson(text, json_full.string());  // throws the one-line error with line and column
-    throw;
-  }
+  // The path is only needed in an error; building it costs an allocation per lookup.
+  out.json = ParseJson(text, json_full.empty() ? std::string() : json_full.string());
   if (!out.json.is_object()) {
     throw Error("metadata must be a JSON object, got " + JsonTypeName(out.json),
                 json_full.string(), "", std::string(uid));

@@ -3,7 +3,9 @@
 // (mlspaces::UsageError and CLI11 parse errors -> 2, mlspaces::Error -> 1).
 #pragma once
 
+#include <cstdint>
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -11,6 +13,9 @@
 
 #include "mlspaces/core/library_config.h"
 #include "mlspaces/core/registry.h"
+#ifdef MLSPACES_HAVE_DATAGEN
+#include "mlspaces/datagen/config.h"
+#endif
 
 namespace mlspaces::cli {
 
@@ -38,6 +43,26 @@ void AddLocate(CLI::App& app, Action& action);
 void AddMeta(CLI::App& app, Action& action);
 void AddGrasps(CLI::App& app, Action& action);
 void AddValidate(CLI::App& app, Action& action);
+
+#ifdef MLSPACES_HAVE_DATAGEN
+/// The flags that choose and adjust a datagen config, shared by `config` and `datagen`:
+/// CONFIG (a YAML file, or a registered config name) [--set KEY=VALUE]... [--seed S]
+/// [--episodes N] [--output DIR]. Defined in datagen_config.cc.
+struct DatagenConfigFlags {
+  std::string config;
+  std::vector<std::string> sets;
+  std::optional<uint64_t> seed;
+  std::optional<int64_t> episodes;
+  std::string output;
+
+  void AddTo(CLI::App& app);
+  /// Loads CONFIG, applies the --set overrides in order, then --seed / --episodes /
+  /// --output, and validates. @throws Error (bad config: exit 1) / UsageError (bad flag).
+  datagen::ExperimentConfig Resolve(const datagen::ConfigRegistry& registry) const;
+};
+
+void AddConfig(CLI::App& app, Action& action);
+#endif
 
 /// Checks a flag value is a whole number >= 1, with a short message ("expected a whole
 /// number >= 1, got '-3'") instead of CLI11's range dump.

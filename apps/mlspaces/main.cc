@@ -41,6 +41,9 @@ int main(int argc, char** argv) {
 #ifdef MLSPACES_HAVE_SIM
   cli::AddInspect(app, action);
 #endif
+#ifdef MLSPACES_HAVE_DATAGEN
+  cli::AddConfig(app, action);
+#endif
   if (argc >= 2 && argv[1][0] != '-') {
     std::string names;
     bool known = false;

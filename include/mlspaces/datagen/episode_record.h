@@ -1,0 +1,148 @@
+// What one recorded episode holds, before it is written: per-step arrays, JSON dict sensors,
+// cameras and provenance. Pure data (no HDF5, no MuJoCo); the Recorder writes it.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "mlspaces/core/json.h"
+
+namespace mlspaces::datagen {
+
+/// Element type of a numeric dataset. kBool is written as h5py's bool (int8 enum FALSE/TRUE).
+enum class DType : uint8_t { kBool, kUint8, kInt32, kInt64, kFloat32, kFloat64 };
+
+/// Name of a dtype as numpy spells it ("bool", "uint8", "int32", "int64", "float32", ...).
+const char* DTypeName(DType dtype);
+/// Size of one element in bytes.
+size_t DTypeSize(DType dtype);
+
+/// One per-step numeric dataset: a row of `row_shape` values per step, stored as `dtype`.
+/// Its dataset shape is (T, *row_shape). Rows are appended in step order.
+class Series {
+ public:
+  Series() = default;
+  /// An empty series of rows shaped `row_shape` ({} = one scalar per step).
+  Series(DType dtype, std::vector<size_t> row_shape);
+
+  /// Appends one row; `row` holds product(row_shape) values in row-major order, converted to
+  /// dtype (float32 rounds, integers truncate toward zero and saturate, NaN -> 0; bool is
+  /// value != 0).
+  /// @throws Error if the row has the wrong number of values.
+  void Append(const std::vector<double>& row);
+  void Append(std::initializer_list<double> row) { Append(std::vector<double>(row)); }
+  /// Appends one row of integers (exact for int64 values beyond 2^53).
+  void AppendInts(const std::vector<int64_t>& row);
+
+  DType dtype() const { return dtype_; }
+  const std::vector<size_t>& row_shape() const { return row_shape_; }
+  /// Values per row (product of row_shape; 1 for scalars).
+  size_t row_size() const;
+  size_t steps() const { return steps_; }
+  /// Raw native-endian element bytes, steps() * row_size() elements.
+  const std::vector<unsigned char>& bytes() const { return bytes_; }
+
+ private:
+  void CheckRow(size_t n) const;
+
+  DType dtype_ = DType::kFloat32;
+  std::vector<size_t> row_shape_;
+  std::vector<unsigned char> bytes_;
+  size_t steps_ = 0;
+};
+
+/// One per-step dict sensor. Each step is JSON-encoded as Python's
+/// json.dumps(d, sort_keys=True, separators=(",", ":")) and stored zero-padded in a uint8
+/// row of `max_len` bytes. A longer encoding widens the dataset instead of being truncated.
+struct JsonSeries {
+  std::vector<Json> steps;
+  size_t max_len = 2000;
+};
+
+/// Values per move group ("arm", "base", "gripper"); an empty map is the JSON `{}`.
+using MoveGroupValues = std::map<std::string, std::vector<double>>;
+
+/// One camera of the episode. Per-step parameters go to obs/sensor_param/<name>/<key>
+/// (cam2world_gl (T,4,4), extrinsic_cv (T,3,4), intrinsic_cv (T,3,3), all float64);
+/// the video file names go to obs/sensor_data/<name> and obs/sensor_data/<name>_depth.
+struct CameraRecord {
+  std::string name;
+  std::map<std::string, Series> params;
+  /// The MP4 of this camera, a file name inside the recorder's folder (see
+  /// Recorder::VideoFileName). Empty: no video (no sensor_data entry). The file must exist when
+  /// the episode is written: a trajectory never names a missing video.
+  std::string video_file;
+  /// As video_file, for a depth video (obs/sensor_data/<name>_depth); usually empty.
+  std::string depth_video_file;
+};
+
+/// Where an asset used by the episode came from.
+struct AssetProvenance {
+  std::string uid;
+  std::string library;
+  std::string license;
+  std::string role;  ///< e.g. "pickup_obj", "scene", "robot"; may be empty
+};
+
+/// Provenance written with every episode (traj_k attribute "provenance", JSON).
+struct EpisodeMetadata {
+  std::string config_hash;       ///< required
+  uint64_t seed = 0;             ///< the episode's own seed
+  std::string scene;             ///< scene / house id, e.g. "house_0"
+  int64_t source_episode = -1;   ///< episode number in the run (attempt counter), -1 = unknown
+  std::string task_description;  ///< e.g. "Pick up the block"
+  std::vector<AssetProvenance> assets;
+  std::string mujoco_version;    ///< required, e.g. mj_versionString() of the running library
+  std::string mlspaces_version;  ///< required
+  Json extra = Json::object();   ///< anything else worth keeping (object)
+};
+
+/// One episode of T observations (T = 1 + number of policy steps). Every per-step member has
+/// exactly T entries; observation i is paired with action row i (row 0 the dummy, the last row
+/// the done sentinel), as in the original.
+struct EpisodeRecord {
+  EpisodeMetadata meta;
+
+  /// obs/agent/qpos and qvel: per step, values per move group. Stored as JSON with every value
+  /// rounded to float32 (as the original), rows of 2000 bytes.
+  std::vector<MoveGroupValues> qpos, qvel;
+  /// actions/<name> (commanded_action, joint_pos, joint_pos_rel, ee_twist, ee_pose): per step,
+  /// values per move group, `{}` where the action is empty. JSON rows of 2000 bytes, float64.
+  std::map<std::string, std::vector<MoveGroupValues>> actions;
+  /// obs/extra/<path> numeric sensors; the path may nest ("object_image_points/gripper/
+  /// wrist_camera/points").
+  std::map<std::string, Series> extra;
+  /// obs/extra/<path> dict sensors (task_info: max_len 4000, grasp_state_pickup_obj: 2000).
+  std::map<std::string, JsonSeries> extra_json;
+  /// env_states/<path>, e.g. "articulations/panda" (T,31) float32. Groups named in
+  /// env_state_groups are created even when nothing is below them.
+  std::map<std::string, Series> env_states;
+  std::vector<std::string> env_state_groups = {"actors", "articulations"};
+  std::vector<CameraRecord> cameras;
+
+  std::vector<float> rewards;
+  /// Per-step success flag; the episode's success is the last one (final state).
+  std::vector<bool> success;
+  /// What the task reported at each observation: terminated = done action received, truncated =
+  /// horizon reached. Only the last row may be set, and it must set at least one of them.
+  std::vector<bool> terminated, truncated;
+
+  /// obs_scene (scalar string dataset, JSON): task_type, task_description, policy_dt_ms, ...
+  Json obs_scene = Json::object();
+};
+
+/// Number of observations T (the size of qpos).
+inline size_t NumSteps(const EpisodeRecord& r) { return r.qpos.size(); }
+
+/// Python's json.dumps(value, sort_keys=True, separators=(",", ":")) (ASCII, non-ASCII escaped;
+/// NaN and infinities as Python writes them: NaN, Infinity, -Infinity).
+std::string DumpJsonCompactSorted(const Json& value);
+
+/// MoveGroupValues as a JSON object; with `round_to_float32` every value is first rounded to
+/// float32 (the original stores qpos/qvel that way).
+Json MoveGroupJson(const MoveGroupValues& values, bool round_to_float32);
+
+}  // namespace mlspaces::datagen

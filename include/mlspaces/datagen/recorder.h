@@ -1,0 +1,78 @@
+// The trajectory recorder: writes episodes to HDF5 in MolmoSpaces' layout, one durable file per
+// episode as soon as it ends, merged into trajectories_batch_<b>_of_<n>.h5 when the batch ends.
+// Schema and guarantees: docs/dataset.md.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "mlspaces/datagen/episode_record.h"
+
+namespace mlspaces::datagen {
+
+struct RecorderOptions {
+  /// The work item's folder, e.g. <output>/house_0; created if missing.
+  std::filesystem::path dir;
+  int batch = 1;        ///< 1-based batch number in the file names
+  int num_batches = 1;  ///< "..._batch_<batch>_of_<num_batches>"
+  /// Deflate level 0-9 for every dataset but obs_scene (0 = uncompressed). The original uses
+  /// lzf, which only h5py can read; deflate is built into every HDF5 reader.
+  int compression_level = 4;
+};
+
+/// Writes the episodes of one work item (scene x batch).
+///
+/// Write() validates an episode completely, then writes it as traj_<k> (k = its position in the
+/// batch, 0-based) to its own part file <batch stem>.parts/traj_<k:08d>.h5: temp file in that
+/// folder, flush and close, fsync, rename, fsync the folder. So a crash loses at most the episode
+/// being written, and a failed write leaves nothing behind. Finish() copies every part into
+/// <dir>/trajectories_batch_<b>_of_<n>.h5 (same atomic procedure) and removes the parts.
+///
+/// A Recorder opened on a folder whose parts survived a crash continues after them (their
+/// episodes count, next_index() is past them) and removes stale temp files.
+///
+/// Output bytes depend only on the records: no timestamps, fixed file-format version bounds
+/// (HDF5 1.8 format), deterministic dataset order. One Recorder per batch; a Recorder is not
+/// thread-safe, separate Recorders may run in separate threads.
+class Recorder {
+ public:
+  /// @throws Error if the folder cannot be created or the options are out of range.
+  explicit Recorder(RecorderOptions options);
+
+  /// The final batch file: <dir>/trajectories_batch_<b>_of_<n>.h5.
+  std::filesystem::path batch_file() const;
+  /// The folder holding the per-episode part files until Finish().
+  std::filesystem::path parts_dir() const;
+  /// The index k the next written episode gets (= episodes written so far in this batch).
+  int next_index() const { return static_cast<int>(parts_.size()); }
+
+  /// The original's video file name: episode_<k:08d>_<camera>_batch_<b>_of_<n>.mp4 (pass
+  /// "<camera>_depth" for a depth video). Write videos under this name in dir() before Write().
+  std::string VideoFileName(int episode_index, const std::string& camera) const;
+  const std::filesystem::path& dir() const { return options_.dir; }
+
+  /// Checks `record` (every per-step field has NumSteps() rows, names are valid, flags are
+  /// consistent, videos exist, metadata present) and writes it durably as traj_<next_index()>.
+  /// @returns the episode's index k. @throws Error naming the field (an HDF5 path) on bad input,
+  /// or the file on I/O failure; nothing is left on disk then and next_index() is unchanged.
+  int Write(const EpisodeRecord& record);
+
+  /// Merges every part into batch_file() (replacing it atomically) and removes the parts.
+  /// With no episode, writes nothing and returns false. Afterwards Write() and Finish() throw.
+  /// @throws Error on I/O failure; the parts are then kept, and Finish() may be called again.
+  bool Finish();
+
+ private:
+  RecorderOptions options_;
+  std::string stem_;                          // trajectories_batch_<b>_of_<n>
+  std::vector<std::filesystem::path> parts_;  // parts_[k] holds traj_k
+  bool finished_ = false;
+};
+
+/// Checks a record without writing it (what Write() checks first, except video existence
+/// when `video_dir` is empty). @throws Error naming the field (an HDF5 path).
+void ValidateEpisode(const EpisodeRecord& record, const std::filesystem::path& video_dir = {});
+
+}  // namespace mlspaces::datagen

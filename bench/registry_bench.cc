@@ -24,7 +24,7 @@ namespace fs = std::filesystem;
 constexpr size_t kLibraries = 3;
 constexpr size_t kUidsPerLibrary = 50000;
 // UIDs with a metadata file on disk (the first-time benchmark reads each once).
-constexpr size_t kMetadataFiles = 60000;
+constexpr size_t kMetadataFiles = 21000;  // 20,000 first-time loads (4,000 x 5 repeats)
 
 std::string Uid(size_t lib, size_t i) {
   char buf[40];
@@ -51,7 +51,8 @@ struct Fixture {
       FlatJson index = FlatJson::object();
       for (size_t i = 0; i < kUidsPerLibrary; ++i) {
         const std::string uid = Uid(lib, i);
-        const std::string meta = "m/" + uid + ".json";
+        // The tutorial layout: <uid>/<uid>.json, one small folder per asset.
+        const std::string meta = uid + "/" + uid + ".json";
         index[uid] = {{"uid", uid},
                       {"object_path", uid + "/" + uid + ".xml"},
                       {"metadata_path", meta},

@@ -20,3 +20,5 @@ set -x
 "$ML" meta red_block --libraries libraries.yaml
 "$ML" grasps red_block --libraries libraries.yaml --robot droid --num 1 --out red_block_grasps.npz
 /usr/bin/python3 -c "import numpy as np; print(np.load('red_block_grasps.npz')['transforms'])"
+"$ML" config datagen.yaml > resolved_datagen_config.yaml
+head -5 resolved_datagen_config.yaml

@@ -1,0 +1,127 @@
+// The datagen environment: one user scene + the robot + the scene's objects, composed and
+// compiled once per scene (sim::Scene), then reset per episode without recompiling.
+//
+// The compiled model is shared and immutable (shared_ptr<const mjModel>); each Env owns its
+// mjData. Reset() = mj_resetData + the robot's home pose (the model's custom numerics
+// `<prefix>home_arm` / `<prefix>home_gripper`, arm servo targets set to it, gripper open) + the
+// mocap base at the configured base pose + mj_forward.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include <mujoco/mujoco.h>
+
+#include "mlspaces/core/json.h"
+#include "mlspaces/sim/mujoco_handlers.h"
+#include "mlspaces/sim/scene.h"
+
+namespace mlspaces::datagen {
+
+/// A world pose as 7 numbers: x, y, z, then the unit quaternion w, x, y, z.
+using Pose7 = std::array<double, 7>;
+
+Pose7 ToPose7(const sim::Pose& pose);
+sim::Pose FromPose7(const Pose7& pose);
+
+/// Which robot to insert and how to find its home pose.
+struct RobotSpec {
+  std::filesystem::path xml;
+  std::string prefix = "robot_0/";
+  /// The base pose of every episode after Reset().
+  sim::Pose base;
+  /// The top mocap body (after the prefix).
+  std::string base_body = "base";
+  /// Arm joints (after the prefix), in the order of the `home_arm` numeric; each has a
+  /// position actuator of the same name whose ctrl Reset() sets to the home angle.
+  std::vector<std::string> arm_joints;
+  /// Gripper driver joints (after the prefix), in the order of `home_gripper`.
+  std::vector<std::string> gripper_joints;
+  /// Joints held at minus a driver's angle by an equality: {follower, driver} (after prefix).
+  std::vector<std::pair<std::string, std::string>> mirrored_joints;
+  std::string home_arm_numeric = "home_arm";
+  std::string home_gripper_numeric = "home_gripper";
+};
+
+/// franka_droid from assets/robots/franka_droid under `prefix` at `base`.
+/// `source_dir` is the mlspaces source tree (where assets/ lives).
+RobotSpec FrankaDroidSpec(const std::filesystem::path& source_dir, const sim::Pose& base = {},
+                          std::string prefix = "robot_0/");
+
+class Env {
+ public:
+  /// Inserts the robot into `scene` (which may already hold inserted assets), compiles it once
+  /// and resets. `scene_key` names the scene for seeding (e.g. its path as written in the
+  /// config); it should not depend on where the checkout lives.
+  /// @throws Error for compile errors, a robot without its home numerics or joints.
+  static Env Create(sim::Scene scene, const RobotSpec& robot, std::string scene_key);
+  /// Loads `scene_xml` (sim::Scene::Load) and calls Create; scene_key = the path as given.
+  static Env Load(const std::filesystem::path& scene_xml, const RobotSpec& robot);
+
+  Env(Env&&) noexcept = default;
+  Env& operator=(Env&&) noexcept = default;
+
+  /// Per-episode reset, no recompile: mj_resetData, robot home pose and servo targets,
+  /// base mocap at robot().base, mj_forward. Every object returns to its compiled pose.
+  void Reset();
+
+  /// Body id. @throws Error naming the body when unknown.
+  int BodyId(std::string_view name) const;
+  /// True when the body's pose is state: a mocap body or a top-level body with a free joint.
+  bool IsMovable(std::string_view name) const;
+  /// World pose of a body: for movable bodies the state itself (mocap_pos/quat or free-joint
+  /// qpos, exact), for others xpos/xquat of the last forward pass.
+  /// @throws Error naming the body when unknown.
+  Pose7 GetBodyPose(std::string_view name) const;
+  /// Writes a movable body's pose into mocap_pos/quat or its free-joint qpos (quaternion
+  /// normalised unless unit to 1e-12, free-joint velocity zeroed). Call ForwardPosition()
+  /// before reading derived quantities.
+  /// @throws Error naming the body when unknown, not movable, or a bad quaternion.
+  void SetBodyPose(std::string_view name, const Pose7& pose);
+
+  /// The robot's base pose (its mocap body).
+  Pose7 GetRobotBasePose() const { return GetBodyPose(robot_base_body_); }
+  void SetRobotBasePose(const Pose7& pose) { SetBodyPose(robot_base_body_, pose); }
+
+  /// mj_fwdPosition (kinematics, collisions) / full mj_forward.
+  void ForwardPosition();
+  void Forward();
+
+  const mjModel* model() const { return model_.get(); }
+  std::shared_ptr<const mjModel> shared_model() const { return model_; }
+  mjData* data() { return data_.get(); }
+  const mjData* data() const { return data_.get(); }
+  const RobotSpec& robot() const { return robot_; }
+  /// `<prefix><base_body>`, e.g. "robot_0/base".
+  const std::string& robot_base_body() const { return robot_base_body_; }
+  const std::string& scene_key() const { return scene_key_; }
+  /// The scene metadata (sim::Scene::metadata) of the composed scene.
+  const Json& metadata() const { return metadata_; }
+  /// Home joint angles applied by Reset(): arm then gripper drivers.
+  const std::vector<double>& home_qpos() const { return home_values_; }
+  /// qpos addresses of the arm joints, in RobotSpec order.
+  const std::vector<int>& arm_qpos_adr() const { return arm_qpos_adr_; }
+
+ private:
+  Env() = default;
+
+  std::shared_ptr<const mjModel> model_;
+  sim::DataPtr data_;
+  RobotSpec robot_;
+  std::string robot_base_body_;
+  std::string scene_key_;
+  Json metadata_;
+  // Resolved once at creation.
+  std::vector<int> home_qpos_adr_;  // arm joints then gripper joints
+  std::vector<double> home_values_;
+  std::vector<int> arm_qpos_adr_;
+  std::vector<int> arm_actuators_;  // -1 when a joint has no actuator of its name
+  std::vector<std::pair<int, int>> mirrored_qpos_adr_;  // follower, driver
+};
+
+}  // namespace mlspaces::datagen

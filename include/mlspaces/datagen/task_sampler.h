@@ -1,0 +1,138 @@
+// Task samplers: the per-episode part of MolmoSpaces' PickTaskSampler (spec section 3).
+//
+// SampleTask(env, episode) runs the original's hooks in order on one Rng seeded with
+// EpisodeSeed(run seed, env.scene_key(), episode):
+//   1. RandomizeScene(env, rng)      default: env.Reset() + U(+-noise) on the arm joints
+//                                    (robot_config.init_qpos_noise_range), servo targets too;
+//   2. mj_forward;
+//   3. SelectPickupObject(env, rng)  default: task_config.pickup_obj_name when set, else the
+//                                    candidates (top-level free bodies outside the robot)
+//                                    in turn, one per call;
+//   4. SampleAndPlaceRobot(env, rng, draft)  (pure virtual; the tutorial's override point):
+//                                    move the robot base and/or the object and fill the
+//                                    draft's robot_base_pose, pickup_obj_start_pose and
+//                                    pickup_obj_goal_pose;
+//   5. mj_forward; then every required field is checked: a missing or malformed one is an
+//      mlspaces::Error naming the sampler and the field, never a failed episode.
+// Samplers are created through a TaskSamplerRegistry (a value; explicit registration).
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "mlspaces/core/rng.h"
+#include "mlspaces/datagen/config.h"
+#include "mlspaces/datagen/env.h"
+
+namespace mlspaces::datagen {
+
+/// The seed of one episode: DeriveSeed(run_seed, {HashString(scene_key), episode}).
+uint64_t EpisodeSeed(uint64_t run_seed, std::string_view scene_key, int64_t episode);
+
+/// What the hooks fill; every field is required after the hooks ran.
+struct TaskDraft {
+  std::optional<std::string> pickup_obj_name;
+  std::optional<Pose7> robot_base_pose;
+  std::optional<Pose7> pickup_obj_start_pose;
+  std::optional<Pose7> pickup_obj_goal_pose;
+};
+
+/// A sampled task (the original's frozen PickTaskConfig). Poses: world, xyz + quat wxyz.
+struct Task {
+  std::string pickup_obj_name;
+  Pose7 robot_base_pose{};
+  Pose7 pickup_obj_start_pose{};
+  Pose7 pickup_obj_goal_pose{};
+  int64_t episode = 0;
+  uint64_t seed = 0;
+};
+
+class TaskSampler {
+ public:
+  TaskSampler(ExperimentConfig config, uint64_t run_seed);
+  virtual ~TaskSampler() = default;
+  TaskSampler(const TaskSampler&) = delete;
+  TaskSampler& operator=(const TaskSampler&) = delete;
+
+  /// Samples episode `episode` in `env` (reset and randomised here; the model is reused).
+  /// @throws Error naming the sampler and the field a hook left unset or malformed, or an
+  /// Error from a hook.
+  Task SampleTask(Env& env, int64_t episode);
+
+  /// The name it was created under ("" when constructed directly).
+  const std::string& name() const { return name_; }
+  const ExperimentConfig& config() const { return config_; }
+  uint64_t run_seed() const { return run_seed_; }
+
+ protected:
+  virtual void RandomizeScene(Env& env, Rng& rng);
+  virtual std::string SelectPickupObject(Env& env, Rng& rng);
+  virtual void SampleAndPlaceRobot(Env& env, Rng& rng, TaskDraft& draft) = 0;
+
+  /// Candidate pickup objects: named top-level bodies with a free joint whose names do not
+  /// start with the robot prefix, by body id.
+  static std::vector<std::string> CandidateObjects(const Env& env);
+
+ private:
+  friend class TaskSamplerRegistry;
+  ExperimentConfig config_;
+  uint64_t run_seed_;
+  std::string name_;
+  int64_t task_counter_ = 0;
+};
+
+/// `pose @ T(dx, dy, yaw)`: a planar move expressed in the frame of `pose` (the tutorial's
+/// `pose @ random_pose`): pos += R (dx, dy, 0), quat = quat * RotZ(yaw). yaw in radians.
+Pose7 ComposePlanar(const Pose7& pose, double dx, double dy, double yaw);
+
+/// The built-in config-driven sampler: the tutorial's BlockPickupTaskSampler. The robot base
+/// and then the pickup object move by task_sampler_config.robot_base_noise / object_noise
+/// (draws x, y, yaw for the robot, then x, y, yaw for the object, each U(-a, a)), composed on
+/// their current poses; goal = start + goal_offset_z along world z.
+class BlockPickupTaskSampler : public TaskSampler {
+ public:
+  using TaskSampler::TaskSampler;
+
+ protected:
+  void SampleAndPlaceRobot(Env& env, Rng& rng, TaskDraft& draft) override;
+};
+
+using TaskSamplerFactory =
+    std::function<std::unique_ptr<TaskSampler>(const ExperimentConfig& config, uint64_t seed)>;
+
+/// Task samplers by name; names compare case-insensitively.
+class TaskSamplerRegistry {
+ public:
+  /// An empty registry.
+  TaskSamplerRegistry() = default;
+  /// A registry holding the built-in samplers ("block_pickup").
+  static TaskSamplerRegistry WithBuiltins();
+
+  /// @throws UsageError for an empty name or one already registered (any case).
+  void Register(std::string_view name, TaskSamplerFactory factory);
+  bool Contains(std::string_view name) const;
+  /// Registered names as given, sorted case-insensitively.
+  std::vector<std::string> names() const;
+
+  /// Creates sampler `name`. @throws Error (field /task_sampler_config/task_sampler_class)
+  /// listing the valid names for an unknown one.
+  std::unique_ptr<TaskSampler> Create(std::string_view name, const ExperimentConfig& config,
+                                      uint64_t run_seed) const;
+  /// Creates config.task_sampler_config.task_sampler_class.
+  std::unique_ptr<TaskSampler> Create(const ExperimentConfig& config, uint64_t run_seed) const;
+
+ private:
+  struct Entry {
+    std::string name;
+    TaskSamplerFactory factory;
+  };
+  std::map<std::string, Entry> entries_;  // key: lower-case name
+};
+
+}  // namespace mlspaces::datagen

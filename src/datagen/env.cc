@@ -1,0 +1,187 @@
+#include "mlspaces/datagen/env.h"
+
+#include <cmath>
+#include <string>
+#include <utility>
+
+#include "mlspaces/core/error.h"
+
+namespace mlspaces::datagen {
+namespace {
+
+int NameToId(const mjModel* m, mjtObj type, const std::string& name) {
+  return mj_name2id(m, type, name.c_str());
+}
+
+// The free joint of a top-level body, or -1.
+int FreeJointOf(const mjModel* m, int body) {
+  if (m->body_parentid[body] != 0 || m->body_jntnum[body] != 1) return -1;
+  const int j = m->body_jntadr[body];
+  return m->jnt_type[j] == mjJNT_FREE ? j : -1;
+}
+
+int JointQposAdr(const mjModel* m, const std::string& name, const std::string& what) {
+  const int j = NameToId(m, mjOBJ_JOINT, name);
+  if (j < 0) throw Error("robot " + what + " joint " + name + " is not in the model");
+  return m->jnt_qposadr[j];
+}
+
+std::vector<double> Numeric(const mjModel* m, const std::string& name, size_t size) {
+  const int id = NameToId(m, mjOBJ_NUMERIC, name);
+  if (id < 0) throw Error("the model has no custom numeric " + name + " (the robot's home pose)");
+  if (static_cast<size_t>(m->numeric_size[id]) != size) {
+    throw Error("custom numeric " + name + " has " + std::to_string(m->numeric_size[id]) +
+                " values, the robot spec lists " + std::to_string(size) + " joints");
+  }
+  const mjtNum* data = m->numeric_data + m->numeric_adr[id];
+  return std::vector<double>(data, data + size);
+}
+
+}  // namespace
+
+Pose7 ToPose7(const sim::Pose& pose) {
+  return {pose.pos[0],  pose.pos[1],  pose.pos[2], pose.quat[0],
+          pose.quat[1], pose.quat[2], pose.quat[3]};
+}
+
+sim::Pose FromPose7(const Pose7& pose) {
+  sim::Pose out;
+  out.pos = {pose[0], pose[1], pose[2]};
+  out.quat = {pose[3], pose[4], pose[5], pose[6]};
+  return out;
+}
+
+RobotSpec FrankaDroidSpec(const std::filesystem::path& source_dir, const sim::Pose& base,
+                          std::string prefix) {
+  RobotSpec spec;
+  spec.xml = source_dir / "assets/robots/franka_droid/franka_droid.xml";
+  spec.prefix = std::move(prefix);
+  spec.base = base;
+  for (int i = 1; i <= 7; ++i) spec.arm_joints.push_back("fr3_joint" + std::to_string(i));
+  spec.gripper_joints = {"gripper/left_driver_joint", "gripper/right_driver_joint"};
+  spec.mirrored_joints = {{"gripper/left_follower_joint", "gripper/left_driver_joint"},
+                          {"gripper/right_follower_joint", "gripper/right_driver_joint"}};
+  return spec;
+}
+
+Env Env::Load(const std::filesystem::path& scene_xml, const RobotSpec& robot) {
+  return Create(sim::Scene::Load(scene_xml), robot, scene_xml.generic_string());
+}
+
+Env Env::Create(sim::Scene scene, const RobotSpec& robot, std::string scene_key) {
+  scene.InsertRobot(robot.xml, robot.prefix, robot.base);
+  Env env;
+  env.model_ = std::shared_ptr<const mjModel>(scene.Compile().release(), sim::ModelDeleter{});
+  env.data_ = sim::MakeData(env.model_.get());
+  env.robot_ = robot;
+  env.robot_base_body_ = robot.prefix + robot.base_body;
+  env.scene_key_ = std::move(scene_key);
+  env.metadata_ = scene.metadata();
+
+  const mjModel* m = env.model_.get();
+  const int base = NameToId(m, mjOBJ_BODY, env.robot_base_body_);
+  if (base < 0 || m->body_mocapid[base] < 0) {
+    throw Error("robot base " + env.robot_base_body_ + " is not a mocap body of the model",
+                robot.xml.string());
+  }
+  const std::vector<double> arm =
+      Numeric(m, robot.prefix + robot.home_arm_numeric, robot.arm_joints.size());
+  const std::vector<double> gripper =
+      Numeric(m, robot.prefix + robot.home_gripper_numeric, robot.gripper_joints.size());
+  for (size_t i = 0; i < robot.arm_joints.size(); ++i) {
+    const std::string name = robot.prefix + robot.arm_joints[i];
+    const int adr = JointQposAdr(m, name, "arm");
+    env.arm_qpos_adr_.push_back(adr);
+    env.home_qpos_adr_.push_back(adr);
+    env.home_values_.push_back(arm[i]);
+    env.arm_actuators_.push_back(NameToId(m, mjOBJ_ACTUATOR, name));
+  }
+  for (size_t i = 0; i < robot.gripper_joints.size(); ++i) {
+    env.home_qpos_adr_.push_back(
+        JointQposAdr(m, robot.prefix + robot.gripper_joints[i], "gripper"));
+    env.home_values_.push_back(gripper[i]);
+  }
+  for (const auto& [follower, driver] : robot.mirrored_joints) {
+    env.mirrored_qpos_adr_.emplace_back(JointQposAdr(m, robot.prefix + follower, "gripper"),
+                                        JointQposAdr(m, robot.prefix + driver, "gripper"));
+  }
+  env.Reset();
+  return env;
+}
+
+void Env::Reset() {
+  const mjModel* m = model_.get();
+  mjData* d = data_.get();
+  mj_resetData(m, d);
+  for (size_t i = 0; i < home_qpos_adr_.size(); ++i) d->qpos[home_qpos_adr_[i]] = home_values_[i];
+  for (const auto& [follower, driver] : mirrored_qpos_adr_) d->qpos[follower] = -d->qpos[driver];
+  for (size_t i = 0; i < arm_actuators_.size(); ++i) {
+    if (arm_actuators_[i] >= 0) d->ctrl[arm_actuators_[i]] = home_values_[i];
+  }
+  SetRobotBasePose(ToPose7(robot_.base));
+  mj_forward(m, d);
+}
+
+int Env::BodyId(std::string_view name) const {
+  const int id = NameToId(model_.get(), mjOBJ_BODY, std::string(name));
+  if (id < 0) throw Error("no body named '" + std::string(name) + "' in the model");
+  return id;
+}
+
+bool Env::IsMovable(std::string_view name) const {
+  const int body = BodyId(name);
+  return model_->body_mocapid[body] >= 0 || FreeJointOf(model_.get(), body) >= 0;
+}
+
+Pose7 Env::GetBodyPose(std::string_view name) const {
+  const mjModel* m = model_.get();
+  const mjData* d = data_.get();
+  const int body = BodyId(name);
+  Pose7 out;
+  if (const int mocap = m->body_mocapid[body]; mocap >= 0) {
+    for (int i = 0; i < 3; ++i) out[i] = d->mocap_pos[3 * mocap + i];
+    for (int i = 0; i < 4; ++i) out[3 + i] = d->mocap_quat[4 * mocap + i];
+  } else if (const int j = FreeJointOf(m, body); j >= 0) {
+    for (int i = 0; i < 7; ++i) out[i] = d->qpos[m->jnt_qposadr[j] + i];
+  } else {
+    for (int i = 0; i < 3; ++i) out[i] = d->xpos[3 * body + i];
+    for (int i = 0; i < 4; ++i) out[3 + i] = d->xquat[4 * body + i];
+  }
+  return out;
+}
+
+void Env::SetBodyPose(std::string_view name, const Pose7& pose) {
+  const mjModel* m = model_.get();
+  mjData* d = data_.get();
+  const int body = BodyId(name);
+  for (double v : pose) {
+    if (!std::isfinite(v)) {
+      throw Error("pose of body '" + std::string(name) + "' has a non-finite value");
+    }
+  }
+  double norm =
+      std::sqrt(pose[3] * pose[3] + pose[4] * pose[4] + pose[5] * pose[5] + pose[6] * pose[6]);
+  if (norm < 1e-9) {
+    throw Error("pose of body '" + std::string(name) + "' has a zero quaternion");
+  }
+  if (std::abs(norm - 1.0) < 1e-12) norm = 1.0;  // unit already: stored bit for bit
+  if (const int mocap = m->body_mocapid[body]; mocap >= 0) {
+    for (int i = 0; i < 3; ++i) d->mocap_pos[3 * mocap + i] = pose[i];
+    for (int i = 0; i < 4; ++i) d->mocap_quat[4 * mocap + i] = pose[3 + i] / norm;
+  } else if (const int j = FreeJointOf(m, body); j >= 0) {
+    const int adr = m->jnt_qposadr[j];
+    for (int i = 0; i < 3; ++i) d->qpos[adr + i] = pose[i];
+    for (int i = 0; i < 4; ++i) d->qpos[adr + 3 + i] = pose[3 + i] / norm;
+    for (int i = 0; i < 6; ++i) d->qvel[m->jnt_dofadr[j] + i] = 0;
+  } else {
+    throw Error("body '" + std::string(name) +
+                "' cannot be moved: it is neither a mocap body nor a top-level body with a "
+                "free joint");
+  }
+}
+
+void Env::ForwardPosition() { mj_fwdPosition(model_.get(), data_.get()); }
+
+void Env::Forward() { mj_forward(model_.get(), data_.get()); }
+
+}  // namespace mlspaces::datagen

@@ -1,0 +1,129 @@
+#include "mlspaces/datagen/env.h"
+
+#include <cmath>
+#include <filesystem>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "mlspaces/core/error.h"
+#include "test_util.h"
+
+namespace mlspaces::datagen {
+namespace {
+
+const std::filesystem::path kScene =
+    std::filesystem::path(MLSPACES_EXAMPLES_DIR) / "custom_assets" / "scene.xml";
+
+sim::Pose Base() {
+  sim::Pose base;
+  base.pos = {0.1, -0.2, 0.0};
+  base.quat = {std::cos(0.25), 0, 0, std::sin(0.25)};
+  return base;
+}
+
+class EnvTest : public ::testing::Test {
+ protected:
+  EnvTest() : env_(Env::Load(kScene, FrankaDroidSpec(MLSPACES_SOURCE_DIR, Base()))) {}
+  double Qpos(const std::string& joint) const {
+    const int j = mj_name2id(env_.model(), mjOBJ_JOINT, joint.c_str());
+    EXPECT_GE(j, 0) << joint;
+    return env_.data()->qpos[env_.model()->jnt_qposadr[j]];
+  }
+  Env env_;
+};
+
+TEST_F(EnvTest, ComposedSceneHasRobotAndObjectAtHome) {
+  EXPECT_EQ(env_.robot_base_body(), "robot_0/base");
+  EXPECT_TRUE(env_.IsMovable("robot_0/base"));
+  EXPECT_TRUE(env_.IsMovable("red_block"));
+  EXPECT_FALSE(env_.IsMovable("robot_0/fr3_link3"));
+  const double home[7] = {0, -0.7853, 0, -2.35619, 0, 1.57079, 0};
+  for (int i = 0; i < 7; ++i) {
+    const std::string joint = "robot_0/fr3_joint" + std::to_string(i + 1);
+    EXPECT_EQ(Qpos(joint), home[i]) << joint;
+    const int act = mj_name2id(env_.model(), mjOBJ_ACTUATOR, joint.c_str());
+    EXPECT_EQ(env_.data()->ctrl[act], home[i]) << joint;
+  }
+  EXPECT_EQ(Qpos("robot_0/gripper/left_driver_joint"), 0.00296);
+  EXPECT_EQ(Qpos("robot_0/gripper/left_follower_joint"), -0.00296);
+  const Pose7 base = env_.GetRobotBasePose();
+  for (int i = 0; i < 7; ++i) EXPECT_NEAR(base[i], ToPose7(Base())[i], 1e-15) << i;
+  const Pose7 block = env_.GetBodyPose("red_block");
+  EXPECT_NEAR(block[0], 0.4, 1e-12);
+  EXPECT_NEAR(block[1], 0.0, 1e-12);
+  EXPECT_NEAR(block[2], 0.025, 1e-12);
+  // Forward ran: the arm root sits on the base.
+  const int link0 = env_.BodyId("robot_0/fr3_link0");
+  EXPECT_NEAR(env_.data()->xpos[3 * link0 + 0], 0.1, 1e-12);
+  EXPECT_NEAR(env_.data()->xpos[3 * link0 + 1], -0.2, 1e-12);
+}
+
+TEST_F(EnvTest, ResetRestoresHomeAndObjectPosesExactly) {
+  const std::vector<double> qpos0(env_.data()->qpos, env_.data()->qpos + env_.model()->nq);
+  const std::vector<double> ctrl0(env_.data()->ctrl, env_.data()->ctrl + env_.model()->nu);
+  const Pose7 base0 = env_.GetRobotBasePose();
+  env_.SetBodyPose("red_block", {0.6, 0.3, 0.4, 0, 0, 0, 1});
+  env_.SetRobotBasePose({1, 1, 0, 0, 0, 0, 1});
+  env_.data()->ctrl[0] = 0.5;
+  for (int i = 0; i < 200; ++i) mj_step(env_.model(), env_.data());
+  ASSERT_NE(std::vector<double>(env_.data()->qpos, env_.data()->qpos + env_.model()->nq), qpos0);
+  const mjModel* model_before = env_.model();
+  env_.Reset();
+  EXPECT_EQ(env_.model(), model_before);  // no recompile
+  EXPECT_EQ(std::vector<double>(env_.data()->qpos, env_.data()->qpos + env_.model()->nq), qpos0);
+  EXPECT_EQ(std::vector<double>(env_.data()->ctrl, env_.data()->ctrl + env_.model()->nu), ctrl0);
+  EXPECT_EQ(env_.GetRobotBasePose(), base0);
+  EXPECT_EQ(env_.data()->time, 0.0);
+  for (int i = 0; i < env_.model()->nv; ++i) EXPECT_EQ(env_.data()->qvel[i], 0.0);
+}
+
+TEST_F(EnvTest, SetGetPoseRoundTrip) {
+  const double h = std::sqrt(0.5);
+  const Pose7 block = {0.55, -0.1, 0.3, h, 0, 0, h};
+  env_.SetBodyPose("red_block", block);
+  Pose7 got = env_.GetBodyPose("red_block");
+  for (int i = 0; i < 7; ++i) EXPECT_NEAR(got[i], block[i], 1e-15) << i;
+  env_.ForwardPosition();
+  const int id = env_.BodyId("red_block");
+  EXPECT_NEAR(env_.data()->xpos[3 * id + 2], 0.3, 1e-12);
+
+  const Pose7 base = {-0.3, 0.2, 0.05, 0, 0, 0, 2};  // normalised on write
+  env_.SetRobotBasePose(base);
+  got = env_.GetRobotBasePose();
+  EXPECT_EQ(got, (Pose7{-0.3, 0.2, 0.05, 0, 0, 0, 1}));
+  env_.ForwardPosition();
+  const int link0 = env_.BodyId("robot_0/fr3_link0");
+  EXPECT_NEAR(env_.data()->xpos[3 * link0], -0.3, 1e-12);
+  // A non-movable body reports its forward-kinematics pose.
+  const Pose7 link = env_.GetBodyPose("robot_0/fr3_link0");
+  EXPECT_NEAR(link[1], 0.2, 1e-12);
+}
+
+TEST_F(EnvTest, ErrorsNameTheBody) {
+  EXPECT_THAT([&] { env_.GetBodyPose("blue_block"); },
+              ::testing::ThrowsMessage<Error>(::testing::HasSubstr("'blue_block'")));
+  EXPECT_THAT([&] { env_.SetBodyPose("no_such", {0, 0, 0, 1, 0, 0, 0}); },
+              ::testing::ThrowsMessage<Error>(::testing::HasSubstr("'no_such'")));
+  EXPECT_THAT([&] { env_.SetBodyPose("robot_0/fr3_link4", {0, 0, 0, 1, 0, 0, 0}); },
+              ::testing::ThrowsMessage<Error>(::testing::AllOf(
+                  ::testing::HasSubstr("'robot_0/fr3_link4'"),
+                  ::testing::HasSubstr("cannot be moved"))));
+  EXPECT_THAT([&] { env_.SetBodyPose("red_block", {0, 0, 0, 0, 0, 0, 0}); },
+              ::testing::ThrowsMessage<Error>(::testing::HasSubstr("zero quaternion")));
+}
+
+TEST(EnvCreateTest, SharedModelAndMissingHomeNumeric) {
+  Env env = Env::Load(kScene, FrankaDroidSpec(MLSPACES_SOURCE_DIR));
+  std::shared_ptr<const mjModel> shared = env.shared_model();
+  EXPECT_EQ(shared.get(), env.model());
+  EXPECT_EQ(env.scene_key(), kScene.generic_string());
+
+  RobotSpec bad = FrankaDroidSpec(MLSPACES_SOURCE_DIR);
+  bad.home_arm_numeric = "no_home";
+  EXPECT_THAT([&] { Env::Load(kScene, bad); },
+              ::testing::ThrowsMessage<Error>(::testing::HasSubstr("robot_0/no_home")));
+}
+
+}  // namespace
+}  // namespace mlspaces::datagen

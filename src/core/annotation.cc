@@ -2,13 +2,13 @@
 #include "mlspaces/core/annotation.h"
 
 #include <fcntl.h>
-#include <unistd.h>
 
 #include <cerrno>
 #include <cstring>
 #include <optional>
 
 #include "mlspaces/core/error.h"
+#include "mlspaces/core/files.h"
 #include "annotation_internal.h"
 #include "mlspaces/core/npz.h"
 
@@ -16,37 +16,6 @@ namespace mlspaces {
 namespace fs = std::filesystem;
 
 namespace {
-
-/// Reads a small file with as few syscalls as possible and no stat: open (relative to
-/// `dir_fd` when it is >= 0, saving the kernel a walk of the whole path), read into a stack
-/// buffer (one call for files up to 16 KiB), close. `full_path` is only used in errors.
-std::string ReadSmallFile(int dir_fd, const char* path, const fs::path& full_path) {
-  int fd = dir_fd >= 0 ? ::openat(dir_fd, path, O_RDONLY | O_CLOEXEC)
-                       : ::open(path, O_RDONLY | O_CLOEXEC);
-  if (fd < 0) {
-    throw Error(errno == ENOENT ? "file not found"
-                                : std::string("cannot open: ") + std::strerror(errno),
-                full_path.string());
-  }
-  std::string out;
-  char buf[16 * 1024];
-  for (;;) {
-    ssize_t n = ::read(fd, buf, sizeof buf);
-    if (n < 0) {
-      if (errno == EINTR) continue;
-      const int err = errno;
-      ::close(fd);
-      throw Error(err == EISDIR ? "is a directory, expected a file"
-                                : std::string("read failed: ") + std::strerror(err),
-                  full_path.string());
-    }
-    out.append(buf, static_cast<size_t>(n));
-    // A short read of a regular file means end of file.
-    if (static_cast<size_t>(n) < sizeof buf) break;
-  }
-  ::close(fd);
-  return out;
-}
 
 /// Splits an NPZ key on '/', keeping empty parts (as Python's str.split does).
 std::vector<std::string> SplitKey(std::string_view key) {
@@ -146,7 +115,7 @@ Annotation LoadAnnotationImpl(std::string_view uid, const std::string& library, 
   Annotation out;
   out.uid = uid;
   out.library = library;
-  const std::string text = ReadSmallFile(dir_fd, json_path, json_full);
+  const std::string text = ReadFileAt(dir_fd, json_path, json_full);
   // The path is only needed in an error; building it costs an allocation per lookup.
   out.json = ParseJson(text, json_full.empty() ? std::string() : json_full.string());
   if (!out.json.is_object()) {
@@ -189,7 +158,7 @@ Annotation LoadAnnotationImpl(std::string_view uid, const std::string& library, 
 
 Annotation LoadAnnotation(const std::string& uid, const std::string& library,
                           const fs::path& metadata_json, const fs::path* metadata_npz) {
-  return LoadAnnotationImpl(uid, library, -1, metadata_json.c_str(), metadata_json,
+  return LoadAnnotationImpl(uid, library, AT_FDCWD, metadata_json.c_str(), metadata_json,
                             metadata_npz);
 }
 
@@ -202,7 +171,7 @@ Annotation LoadAnnotationAt(int dir_fd, const fs::path& dir, std::string_view ui
   if (npz_rel != nullptr) npz = dir / *npz_rel;
   if (dir_fd < 0) {
     const fs::path full = dir / metadata_rel;
-    return LoadAnnotationImpl(uid, library, -1, full.c_str(), full, npz ? &*npz : nullptr);
+    return LoadAnnotationImpl(uid, library, AT_FDCWD, full.c_str(), full, npz ? &*npz : nullptr);
   }
   // The full path is only built for an error message.
   try {

@@ -13,34 +13,45 @@
 namespace mlspaces {
 namespace fs = std::filesystem;
 
-std::string ReadFile(const fs::path& path) {
-  int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+std::string ReadFileAt(int dir_fd, const char* path, const fs::path& path_for_errors) {
+  int fd = ::openat(dir_fd, path, O_RDONLY | O_CLOEXEC);
   if (fd < 0) {
-    throw Error(errno == ENOENT ? "file not found" : std::string("cannot open: ") +
-                                                          std::strerror(errno),
-                path.string());
+    throw Error(errno == ENOENT ? "file not found"
+                                : std::string("cannot open: ") + std::strerror(errno),
+                path_for_errors.string());
   }
   std::string out;
-  struct stat st {};
-  if (::fstat(fd, &st) == 0 && S_ISDIR(st.st_mode)) {
-    ::close(fd);
-    throw Error("is a directory, expected a file", path.string());
-  }
-  if (st.st_size > 0) out.reserve(static_cast<size_t>(st.st_size));
-  char buf[65536];
+  char buf[16 * 1024];
+  bool sized = false;
   for (;;) {
     ssize_t n = ::read(fd, buf, sizeof buf);
     if (n < 0) {
       if (errno == EINTR) continue;
-      int err = errno;
+      const int err = errno;
       ::close(fd);
-      throw Error(std::string("read failed: ") + std::strerror(err), path.string());
+      throw Error(err == EISDIR ? "is a directory, expected a file"
+                                : std::string("read failed: ") + std::strerror(err),
+                  path_for_errors.string());
     }
     if (n == 0) break;
     out.append(buf, static_cast<size_t>(n));
+    // A short first read of a regular file is the whole file: no stat for small files.
+    if (!sized && static_cast<size_t>(n) < sizeof buf) break;
+    if (!sized) {
+      sized = true;
+      struct stat st {};
+      if (::fstat(fd, &st) == 0 && st.st_size > 0) out.reserve(static_cast<size_t>(st.st_size));
+    }
   }
   ::close(fd);
   return out;
+}
+
+std::string ReadFile(const fs::path& path) { return ReadFileAt(AT_FDCWD, path.c_str(), path); }
+
+bool IsFile(const fs::path& path) {
+  struct stat st {};
+  return ::stat(path.c_str(), &st) == 0 && !S_ISDIR(st.st_mode);
 }
 
 void WriteFileAtomic(const fs::path& path, std::string_view data) {

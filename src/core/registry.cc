@@ -12,7 +12,6 @@
 #include <fcntl.h>
 #include <unistd.h>
 
-#include <sys/stat.h>
 
 #include <algorithm>
 #include <cmath>
@@ -26,6 +25,7 @@
 
 #include "annotation_internal.h"
 #include "mlspaces/core/error.h"
+#include "mlspaces/core/files.h"
 #include "mlspaces/core/npz.h"
 #include "mlspaces/core/rng.h"
 
@@ -72,12 +72,6 @@ fs::path MakeAbsolute(const fs::path& path) {
     out = out.parent_path();
   }
   return out;
-}
-
-/// A regular file (or anything that is not a folder) exists at `path`: one stat.
-bool FileExists(const fs::path& path) {
-  struct stat st {};
-  return ::stat(path.c_str(), &st) == 0 && !S_ISDIR(st.st_mode);
 }
 
 std::string QuotedList(const std::vector<std::string>& names) {
@@ -406,7 +400,7 @@ void Registry::RegisterAssetLibrary(const std::string& name, const fs::path& dir
   }
   const fs::path root = MakeAbsolute(dir);
   const fs::path index_file = root / "assets_index.json";
-  if (!FileExists(index_file)) {
+  if (!IsFile(index_file)) {
     throw Error("User library " + name + " path " + root.string() +
                 " does not contain an assets_index.json file");
   }
@@ -498,7 +492,7 @@ std::vector<std::string> Registry::RegisterGraspLibrary(const std::string& root_
   }
   const fs::path root = MakeAbsolute(dir);
   const fs::path index_file = root / "grasps_index.json";
-  if (!FileExists(index_file)) throw Error(index_file.string() + " does not exist");
+  if (!IsFile(index_file)) throw Error(index_file.string() + " does not exist");
   if (!impl.IsAssetLibrary(asset_library)) {
     throw Error("Object library " + asset_library + " not found");
   }
@@ -672,7 +666,7 @@ std::optional<GraspFileLocation> Registry::FindPickupGraspFile(std::string_view 
   for (const std::string& name : impl.Walk(uid, filter)) {
     const Impl::GraspLibrary& lib = *impl.grasp_libraries.find(name)->second;
     std::optional<fs::path> candidate = impl.PickupCandidate(lib, uid);
-    if (candidate && FileExists(*candidate)) return GraspFileLocation{name, *candidate};
+    if (candidate && IsFile(*candidate)) return GraspFileLocation{name, *candidate};
   }
   return std::nullopt;
 }
@@ -690,7 +684,7 @@ std::optional<GraspFileLocation> Registry::FindJointGraspFile(std::string_view u
   for (const std::string& name : walk) {
     const Impl::GraspLibrary& lib = *impl.grasp_libraries.find(name)->second;
     std::optional<fs::path> candidate = impl.JointCandidate(lib, uid, joint);
-    if (candidate && FileExists(*candidate)) return GraspFileLocation{name, *candidate};
+    if (candidate && IsFile(*candidate)) return GraspFileLocation{name, *candidate};
   }
   return std::nullopt;
 }

@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "mlspaces/core/error.h"
+#include "mlspaces/core/files.h"
 
 namespace mlspaces {
 namespace fs = std::filesystem;
@@ -14,11 +15,6 @@ namespace {
 constexpr std::string_view kXml = ".xml";
 constexpr std::string_view kCeilingXml = "_ceiling.xml";
 constexpr std::string_view kMetadataSuffix = "_metadata.json";
-
-bool IsFile(const fs::path& path) {
-  std::error_code ec;
-  return fs::exists(path, ec) && !fs::is_directory(path, ec);
-}
 
 }  // namespace
 

@@ -10,6 +10,15 @@ namespace mlspaces {
 /// Reads a whole file. @throws Error naming the path if it cannot be opened or read.
 std::string ReadFile(const std::filesystem::path& path);
 
+/// Reads a whole file opened with openat(dir_fd, path) (dir_fd may be AT_FDCWD): hot lookups
+/// keep an O_PATH descriptor of their folder and save the kernel the walk of the full path.
+/// Small files cost open, one read and close (no stat). `path_for_errors` names the file in
+/// errors. @throws Error as ReadFile.
+std::string ReadFileAt(int dir_fd, const char* path, const std::filesystem::path& path_for_errors);
+
+/// True when `path` exists and is not a directory (follows symlinks).
+bool IsFile(const std::filesystem::path& path);
+
 /// Writes `data` to a temp file beside `path`, flushes it to disk and renames it over `path`,
 /// so readers see the old file or the new one, never a half-written one. Creates missing
 /// parent folders. @throws Error naming the path on failure (the temp file is removed).

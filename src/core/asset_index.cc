@@ -124,12 +124,15 @@ AssetIndex BuildAssetIndex(const fs::path& dir, const AssetIndexOptions& options
   return index;
 }
 
+fs::path AssetIndexOutputPath(const fs::path& dir, const AssetIndexOptions& options) {
+  return internal::IndexOutputPath(internal::ResolvePath(dir), options.output,
+                                   "assets_index.json", options.overwrite);
+}
+
 IndexReport WriteAssetIndex(const fs::path& dir, const AssetIndexOptions& options) {
-  const fs::path root = internal::ResolvePath(dir);
   IndexReport report;
-  report.output =
-      internal::IndexOutputPath(root, options.output, "assets_index.json", options.overwrite);
-  AssetIndex index = BuildAssetIndex(root, options, &report, /*use_computed=*/false);
+  report.output = AssetIndexOutputPath(dir, options);
+  AssetIndex index = BuildAssetIndex(dir, options, &report, /*use_computed=*/false);
   WriteFileAtomic(report.output, index.Serialize());
   return report;
 }

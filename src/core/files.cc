@@ -54,7 +54,7 @@ bool IsFile(const fs::path& path) {
   return ::stat(path.c_str(), &st) == 0 && !S_ISDIR(st.st_mode);
 }
 
-void WriteFileAtomic(const fs::path& path, std::string_view data) {
+void WriteFileAtomic(const fs::path& path, std::string_view data, bool sync) {
   static std::atomic<unsigned> counter{0};
   std::error_code ec;
   fs::path parent = path.parent_path();
@@ -82,8 +82,10 @@ void WriteFileAtomic(const fs::path& path, std::string_view data) {
     p += n;
     left -= static_cast<size_t>(n);
   }
-  if (::fsync(fd) != 0 || ::close(fd) != 0) {
-    int err = errno;
+  // Close even when fsync fails (a short-circuit here leaked the descriptor).
+  int err = sync && ::fsync(fd) != 0 ? errno : 0;
+  if (::close(fd) != 0 && err == 0) err = errno;
+  if (err != 0) {
     ::unlink(tmp.c_str());
     throw Error(std::string("write failed: ") + std::strerror(err), path.string());
   }

@@ -54,6 +54,12 @@ struct IndexReport {
 AssetIndex BuildAssetIndex(const std::filesystem::path& dir, const AssetIndexOptions& options,
                            IndexReport* report, bool use_computed = false);
 
+/// The index file `index-assets` writes: options.output resolved, or <dir>/assets_index.json.
+/// @throws Error "<output> already exists. Use --overwrite to overwrite." when it exists and
+/// options.overwrite is false (checked before any work, as the original does).
+std::filesystem::path AssetIndexOutputPath(const std::filesystem::path& dir,
+                                           const AssetIndexOptions& options);
+
 /// `mlspaces index-assets` without --compute-metadata: refuses to replace an existing output
 /// unless `overwrite`, builds, and writes atomically. @throws Error.
 IndexReport WriteAssetIndex(const std::filesystem::path& dir, const AssetIndexOptions& options);

@@ -19,10 +19,12 @@ std::string ReadFileAt(int dir_fd, const char* path, const std::filesystem::path
 /// True when `path` exists and is not a directory (follows symlinks).
 bool IsFile(const std::filesystem::path& path);
 
-/// Writes `data` to a temp file beside `path`, flushes it to disk and renames it over `path`,
-/// so readers see the old file or the new one, never a half-written one. Creates missing
-/// parent folders. @throws Error naming the path on failure (the temp file is removed).
-void WriteFileAtomic(const std::filesystem::path& path, std::string_view data);
+/// Writes `data` to a temp file beside `path`, flushes it to disk (unless `sync` is false) and
+/// renames it over `path`, so readers see the old file or the new one, never a half-written
+/// one. Creates missing parent folders. `sync = false` is for batches of small files that the
+/// caller makes durable with one syncfs() instead of an fsync each.
+/// @throws Error naming the path on failure (the temp file is removed).
+void WriteFileAtomic(const std::filesystem::path& path, std::string_view data, bool sync = true);
 
 /// `path` relative to `base`, with '/' separators (the form the index files store).
 std::string RelativeGenericPath(const std::filesystem::path& path,

@@ -222,17 +222,6 @@ void Transpose(const std::vector<size_t>& shape, size_t item_size, const uint8_t
   }
 }
 
-std::string ShapeRepr(const std::vector<size_t>& shape) {
-  std::string out = "(";
-  for (size_t i = 0; i < shape.size(); ++i) {
-    if (i > 0) out += ", ";
-    out += std::to_string(shape[i]);
-  }
-  if (shape.size() == 1) out += ",";
-  out += ")";
-  return out;
-}
-
 size_t ShapeProduct(const std::vector<size_t>& shape) {
   size_t n = 1;
   for (size_t d : shape) n *= d;
@@ -357,6 +346,17 @@ NpyHeader ParseNpyHeader(std::span<const uint8_t> bytes, const std::string& path
 }
 
 }  // namespace internal
+
+std::string ShapeRepr(const std::vector<size_t>& shape) {
+  std::string out = "(";
+  for (size_t i = 0; i < shape.size(); ++i) {
+    if (i > 0) out += ", ";
+    out += std::to_string(shape[i]);
+  }
+  if (shape.size() == 1) out += ",";
+  out += ")";
+  return out;
+}
 
 size_t DTypeSize(DType dtype) {
   switch (dtype) {

@@ -83,20 +83,10 @@ std::string QuotedList(const std::vector<std::string>& names) {
   return out + "]";
 }
 
-std::string ShapeString(const std::vector<size_t>& shape) {
-  std::string out = "(";
-  for (size_t i = 0; i < shape.size(); ++i) {
-    if (i > 0) out += ", ";
-    out += std::to_string(shape[i]);
-  }
-  if (shape.size() == 1) out += ",";
-  return out + ")";
-}
-
 /// Checks a transforms.npy header; returns N.
 size_t CheckGraspHeader(const NpyHeader& header, const fs::path& npz) {
   if (header.shape.size() != 3 || header.shape[1] != 4 || header.shape[2] != 4) {
-    throw Error("grasp transforms must have shape (N, 4, 4), got " + ShapeString(header.shape),
+    throw Error("grasp transforms must have shape (N, 4, 4), got " + ShapeRepr(header.shape),
                 npz.string(), std::string(kTransformsMember));
   }
   if (header.dtype == DType::kB1) {

@@ -395,12 +395,7 @@ class Validator {
       NpyHeader header = reader.ReadHeader("transforms");
       const auto& s = header.shape;
       if (s.size() != 3 || s[1] != 4 || s[2] != 4) {
-        std::string shape = "(";
-        for (size_t i = 0; i < s.size(); ++i) {
-          shape += (i ? ", " : "") + std::to_string(s[i]);
-        }
-        shape += s.size() == 1 ? ",)" : ")";
-        Add(file, kMember, "expected shape (N, 4, 4), got " + shape);
+        Add(file, kMember, "expected shape (N, 4, 4), got " + ShapeRepr(s));
         return;
       }
       if (s[0] == 0) {

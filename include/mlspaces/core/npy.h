@@ -21,6 +21,9 @@ size_t DTypeSize(DType dtype);
 /// The descr numpy writes for a little-endian array of this dtype: "<f8", "|u1", "|b1", ...
 std::string DTypeDescr(DType dtype, bool big_endian = false);
 
+/// Python's repr of a shape tuple, as numpy prints it: "()", "(3,)", "(2, 4)".
+std::string ShapeRepr(const std::vector<size_t>& shape);
+
 /// What a .npy header says.
 struct NpyHeader {
   DType dtype = DType::kF8;

@@ -41,8 +41,9 @@ void ProgressBar::Draw(size_t done) {
   bar.resize(kWidth, '.');
   double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
   double rate = secs > 0 ? done / secs : 0;
-  std::fprintf(stderr, "\r%s [%s] %zu/%zu (%.0f/s)", label_.c_str(), bar.c_str(), done, total_,
-               rate);
+  // "\x1b[K" clears what a longer previous draw left behind.
+  std::fprintf(stderr, "\r%s [%s] %zu/%zu (%.0f/s)\x1b[K", label_.c_str(), bar.c_str(), done,
+               total_, rate);
   std::fflush(stderr);
 }
 

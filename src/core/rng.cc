@@ -1,5 +1,8 @@
 #include "mlspaces/core/rng.h"
 
+#include <cmath>
+#include <numbers>
+
 namespace mlspaces {
 namespace {
 inline uint64_t Rotl(uint64_t x, int k) { return (x << k) | (x >> (64 - k)); }
@@ -65,5 +68,22 @@ uint64_t Rng::UniformInt(uint64_t bound) {
 double Rng::Uniform01() { return static_cast<double>(NextU64() >> 11) * 0x1.0p-53; }
 
 double Rng::Uniform(double lo, double hi) { return lo + (hi - lo) * Uniform01(); }
+
+double Rng::Normal() {
+  // 1 - u is in (0, 1]: log never sees 0.
+  const double u1 = 1.0 - Uniform01();
+  const double u2 = Uniform01();
+  return std::sqrt(-2.0 * std::log(u1)) * std::cos(2.0 * std::numbers::pi * u2);
+}
+
+double Rng::TruncatedNormal(double sigma, double limit) {
+  if (!(sigma > 0) || !(limit > 0)) return 0.0;
+  if (limit < 0.05 * sigma) return Uniform(-limit, limit);
+  // Acceptance >= P(|Z| < 0.05) ~ 4%; typical bounds accept far more often.
+  for (;;) {
+    const double x = sigma * Normal();
+    if (std::abs(x) <= limit) return x;
+  }
+}
 
 }  // namespace mlspaces

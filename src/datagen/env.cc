@@ -1,10 +1,12 @@
 #include "mlspaces/datagen/env.h"
 
 #include <cmath>
+#include <cstdlib>
 #include <string>
 #include <utility>
 
 #include "mlspaces/core/error.h"
+#include "mlspaces/datagen/config.h"
 
 namespace mlspaces::datagen {
 namespace {
@@ -64,6 +66,30 @@ RobotSpec FrankaDroidSpec(const std::filesystem::path& source_dir, const sim::Po
   return spec;
 }
 
+std::filesystem::path RobotsDir() {
+  if (const char* dir = std::getenv("MLSPACES_ROBOTS_DIR"); dir != nullptr && *dir != 0) {
+    return dir;
+  }
+  return MLSPACES_DEFAULT_ROBOTS_DIR;
+}
+
+RobotSpec RobotSpecFromConfig(const RobotConfig& config) {
+  if (config.name != "franka_droid") {
+    throw Error("unknown robot '" + config.name + "' (mlspaces has: franka_droid)", "",
+                "robot_config.name");
+  }
+  RobotSpec spec = FrankaDroidSpec({}, {}, config.robot_namespace);
+  spec.xml = config.robot_xml_path ? *config.robot_xml_path
+                                   : RobotsDir() / config.name / (config.name + ".xml");
+  if (!std::filesystem::is_regular_file(spec.xml)) {
+    throw Error("robot model not found (set MLSPACES_ROBOTS_DIR or robot_config.robot_xml_path)",
+                spec.xml.string(), "robot_config.robot_xml_path");
+  }
+  spec.home_arm.assign(config.init_qpos.arm.begin(), config.init_qpos.arm.end());
+  spec.home_gripper.assign(config.init_qpos.gripper.begin(), config.init_qpos.gripper.end());
+  return spec;
+}
+
 Env Env::Load(const std::filesystem::path& scene_xml, const RobotSpec& robot) {
   return Create(sim::Scene::Load(scene_xml), robot, scene_xml.generic_string());
 }
@@ -77,6 +103,7 @@ Env Env::Create(sim::Scene scene, const RobotSpec& robot, std::string scene_key)
   env.robot_base_body_ = robot.prefix + robot.base_body;
   env.scene_key_ = std::move(scene_key);
   env.metadata_ = scene.metadata();
+  env.scene_ = std::make_shared<const sim::Scene>(std::move(scene));
 
   const mjModel* m = env.model_.get();
   const int base = NameToId(m, mjOBJ_BODY, env.robot_base_body_);
@@ -84,10 +111,19 @@ Env Env::Create(sim::Scene scene, const RobotSpec& robot, std::string scene_key)
     throw Error("robot base " + env.robot_base_body_ + " is not a mocap body of the model",
                 robot.xml.string());
   }
+  auto home = [&](const std::vector<double>& given, const std::string& numeric, size_t size,
+                  const char* what) {
+    if (given.empty()) return Numeric(m, robot.prefix + numeric, size);
+    if (given.size() != size) {
+      throw Error(std::string("home ") + what + " pose has " + std::to_string(given.size()) +
+                  " values, the robot has " + std::to_string(size) + " joints");
+    }
+    return given;
+  };
   const std::vector<double> arm =
-      Numeric(m, robot.prefix + robot.home_arm_numeric, robot.arm_joints.size());
+      home(robot.home_arm, robot.home_arm_numeric, robot.arm_joints.size(), "arm");
   const std::vector<double> gripper =
-      Numeric(m, robot.prefix + robot.home_gripper_numeric, robot.gripper_joints.size());
+      home(robot.home_gripper, robot.home_gripper_numeric, robot.gripper_joints.size(), "gripper");
   for (size_t i = 0; i < robot.arm_joints.size(); ++i) {
     const std::string name = robot.prefix + robot.arm_joints[i];
     const int adr = JointQposAdr(m, name, "arm");

@@ -48,6 +48,27 @@ double Uniform01(std::mt19937_64& rng) {
 
 }  // namespace
 
+std::vector<double> DampedLeastSquares(std::span<const double> jac, size_t n,
+                                       const std::array<double, 6>& b, double lambda) {
+  if (jac.size() != 6 * n) throw std::invalid_argument("DampedLeastSquares: jac is not 6 x n");
+  double a[36];
+  for (int r = 0; r < 6; ++r) {
+    for (int c = 0; c < 6; ++c) {
+      double s = r == c ? lambda * lambda : 0.0;
+      for (size_t k = 0; k < n; ++k) s += jac[r * n + k] * jac[c * n + k];
+      a[6 * r + c] = s;
+    }
+  }
+  double y[6];
+  std::copy(b.begin(), b.end(), y);
+  Solve6(a, y);
+  std::vector<double> x(n, 0.0);
+  for (size_t k = 0; k < n; ++k) {
+    for (int r = 0; r < 6; ++r) x[k] += jac[r * n + k] * y[r];
+  }
+  return x;
+}
+
 IkSolver::IkSolver(const mjModel* m, std::string_view site, std::span<const std::string> joints,
                    std::span<const double> rest, IkOptions options)
     : m_(m), d_(sim::MakeData(m)), options_(options) {

@@ -98,5 +98,49 @@ TEST(RngTest, DeriveSeedAndHashString) {
   EXPECT_EQ(DeriveSeed(9, {}), SplitMix64(state));
 }
 
+TEST(RngTest, NormalHasUnitMomentsAndIsReproducible) {
+  Rng rng(11);
+  constexpr int kN = 200000;
+  double sum = 0, sum2 = 0, sum4 = 0;
+  for (int i = 0; i < kN; ++i) {
+    const double x = rng.Normal();
+    ASSERT_TRUE(std::isfinite(x));
+    sum += x;
+    sum2 += x * x;
+    sum4 += x * x * x * x;
+  }
+  EXPECT_NEAR(sum / kN, 0.0, 0.01);
+  EXPECT_NEAR(sum2 / kN, 1.0, 0.02);
+  EXPECT_NEAR(sum4 / kN, 3.0, 0.1);  // kurtosis of a normal
+  Rng a(5), b(5);
+  for (int i = 0; i < 10; ++i) EXPECT_EQ(a.Normal(), b.Normal());
+}
+
+TEST(RngTest, TruncatedNormalStaysInsideItsBound) {
+  Rng rng(12);
+  double max_abs = 0, sum2 = 0;
+  constexpr int kN = 100000;
+  for (int i = 0; i < kN; ++i) {
+    const double x = rng.TruncatedNormal(1.0, 0.5);
+    max_abs = std::max(max_abs, std::abs(x));
+    sum2 += x * x;
+  }
+  EXPECT_LE(max_abs, 0.5);
+  EXPECT_GT(max_abs, 0.49);
+  // Variance of N(0,1) truncated to [-0.5, 0.5]: 1 - 2 a phi(a) / (2 Phi(a) - 1) = 0.0797.
+  EXPECT_NEAR(sum2 / kN, 0.0797, 0.002);
+  // A wide bound leaves the normal as it is.
+  double wide2 = 0;
+  for (int i = 0; i < kN; ++i) {
+    const double x = rng.TruncatedNormal(0.01, 1.0);
+    wide2 += x * x;
+  }
+  EXPECT_NEAR(wide2 / kN, 1e-4, 3e-6);
+  // Degenerate inputs and far-tail bounds.
+  EXPECT_EQ(rng.TruncatedNormal(0.0, 1.0), 0.0);
+  EXPECT_EQ(rng.TruncatedNormal(1.0, 0.0), 0.0);
+  for (int i = 0; i < 100; ++i) EXPECT_LE(std::abs(rng.TruncatedNormal(10.0, 0.1)), 0.1);
+}
+
 }  // namespace
 }  // namespace mlspaces

@@ -30,6 +30,14 @@ class Rng {
   double Uniform01();
   /// Uniform double in [lo, hi).
   double Uniform(double lo, double hi);
+  /// Standard normal draw (Box-Muller on two Uniform01 draws; one draw per call, the second
+  /// value is discarded so the stream position depends only on the number of calls).
+  double Normal();
+  /// Normal(0, sigma) truncated to [-limit, limit] by rejection (scipy's truncnorm(-a, a)
+  /// scaled by sigma, a = limit / sigma). sigma <= 0 or limit <= 0 gives 0. When the bound
+  /// is far in the tail (limit < 0.05 sigma) a uniform draw in [-limit, limit] stands in:
+  /// the truncated density is flat there to within 0.1%.
+  double TruncatedNormal(double sigma, double limit);
 
  private:
   uint64_t s_[4];

@@ -306,7 +306,7 @@ struct CameraSystemConfig {
 };
 
 /// The grasp ranking cost weights (rot is per degree).
-struct GraspCostWeights {
+struct GraspCostConfig {
   double pos = 1.0;
   double rot = 0.01;
   double vertical = 2.0;
@@ -344,7 +344,7 @@ struct PolicyConfig {
   double grasp_length = 0.05;
   double grasp_height = 0.01;
   std::array<double, 3> grasp_base_pos{0.0, 0.0, -0.04};  ///< TCP frame
-  GraspCostWeights grasp_cost_weights;
+  GraspCostConfig grasp_cost_weights;
   bool filter_feasible_grasps = true;
   int64_t grasp_feasibility_batch_size = 256;
   int64_t grasp_feasibility_max_grasps = 256;

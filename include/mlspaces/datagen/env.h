@@ -46,12 +46,43 @@ struct RobotSpec {
   std::vector<std::pair<std::string, std::string>> mirrored_joints;
   std::string home_arm_numeric = "home_arm";
   std::string home_gripper_numeric = "home_gripper";
+  /// Home angles overriding the numerics (e.g. robot_config.init_qpos); empty = the model's.
+  std::vector<double> home_arm, home_gripper;
+
+  // What the planner and recorder need (after the prefix); see RobotView.
+  /// Root body of the arm (its subtree gets gravity compensation).
+  std::string arm_root_body = "fr3_link0";
+  /// Root body of the gripper subtree (grasp state, the collision probe).
+  std::string gripper_body = "gripper/base";
+  /// The gripper's one actuator: ctrl gripper_open_ctrl = open .. gripper_closed_ctrl = closed.
+  std::string gripper_actuator = "gripper/fingers_actuator";
+  double gripper_open_ctrl = 0;
+  double gripper_closed_ctrl = 255;
+  /// The TCP site (+z approach, fingers along +-y).
+  std::string tcp_site = "gripper/grasp_site";
+  /// The two finger pad geoms whose gap is the inter-finger distance.
+  std::array<std::string, 2> finger_pads = {"gripper/left_pad2", "gripper/right_pad2"};
+  /// The recorded articulation name (env_states/articulations/<name>) and its row width.
+  std::string articulation_name = "panda";
+  size_t articulation_width = 31;
 };
 
 /// franka_droid from assets/robots/franka_droid under `prefix` at `base`.
 /// `source_dir` is the mlspaces source tree (where assets/ lives).
 RobotSpec FrankaDroidSpec(const std::filesystem::path& source_dir, const sim::Pose& base = {},
                           std::string prefix = "robot_0/");
+
+/// Where bundled robots live: $MLSPACES_ROBOTS_DIR when set, else the source tree's
+/// assets/robots.
+std::filesystem::path RobotsDir();
+
+struct RobotConfig;
+/// The RobotSpec a robot_config asks for: robot `name` (only "franka_droid" so far) from
+/// robot_xml_path or RobotsDir()/<name>/<name>.xml, under robot_namespace, with init_qpos as
+/// its home pose, at the identity base pose (samplers move it).
+/// @throws Error (field robot_config.name / robot_xml_path) for an unknown robot or a
+/// missing file.
+RobotSpec RobotSpecFromConfig(const RobotConfig& config);
 
 class Env {
  public:
@@ -102,6 +133,9 @@ class Env {
   const std::string& scene_key() const { return scene_key_; }
   /// The scene metadata (sim::Scene::metadata) of the composed scene.
   const Json& metadata() const { return metadata_; }
+  /// The composed scene (robot inserted) that was compiled: what the grasp collision probe
+  /// is built from.
+  const sim::Scene& scene() const { return *scene_; }
   /// Home joint angles applied by Reset(): arm then gripper drivers.
   const std::vector<double>& home_qpos() const { return home_values_; }
   /// qpos addresses of the arm joints, in RobotSpec order.
@@ -111,6 +145,7 @@ class Env {
   Env() = default;
 
   std::shared_ptr<const mjModel> model_;
+  std::shared_ptr<const sim::Scene> scene_;
   sim::DataPtr data_;
   RobotSpec robot_;
   std::string robot_base_body_;

@@ -15,6 +15,7 @@
 // generator).
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <span>
 #include <string>
@@ -56,6 +57,11 @@ struct IkResult {
   int iterations = 0;     ///< total over all attempts
   int attempts = 0;       ///< 1 + restarts used
 };
+
+/// Damped minimum-norm least squares for a 6 x n Jacobian `jac` (row-major):
+/// x = J^T (J J^T + lambda^2 I)^-1 b. @throws std::invalid_argument when jac.size() != 6 n.
+std::vector<double> DampedLeastSquares(std::span<const double> jac, size_t n,
+                                       const std::array<double, 6>& b, double lambda);
 
 class IkSolver {
  public:

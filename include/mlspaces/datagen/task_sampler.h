@@ -26,6 +26,7 @@
 #include <string_view>
 #include <vector>
 
+#include "mlspaces/core/error.h"
 #include "mlspaces/core/rng.h"
 #include "mlspaces/datagen/config.h"
 #include "mlspaces/datagen/env.h"
@@ -34,6 +35,14 @@ namespace mlspaces::datagen {
 
 /// The seed of one episode: DeriveSeed(run_seed, {HashString(scene_key), episode}).
 uint64_t EpisodeSeed(uint64_t run_seed, std::string_view scene_key, int64_t episode);
+
+/// Thrown by a hook that cannot place this episode's task (no room for the robot, object
+/// unreachable, ...): the attempt is journaled as "sampler_reject" and the run goes on with
+/// the next episode. Any other exception from a hook is a bug or bad input and stops the run.
+class TaskRejected : public Error {
+ public:
+  using Error::Error;
+};
 
 /// What the hooks fill; every field is required after the hooks ran.
 struct TaskDraft {

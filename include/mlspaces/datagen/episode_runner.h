@@ -1,0 +1,78 @@
+// One pick episode end to end: sample the task, load the object's grasps, plan, then step
+// policy -> controller -> physics until the planner is done or the horizon runs out, judging
+// success on the final state and recording every observation (spec 6-8, 11.3).
+//
+// Per policy step: the planner's action; arm targets get the configured action noise (drawn
+// from the episode's own Rng); the gripper ctrl is set; then policy_dt / sim_dt physics steps,
+// each mj_step1 -> arm gravity compensation -> mj_step2; then the observation is recorded.
+// Observation 0 is the state after sampling; row i of the actions is the action that led to
+// observation i (row 0 a dummy `{}`, the last row the `done` action when the plan finished).
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+
+#include "mlspaces/core/registry.h"
+#include "mlspaces/datagen/config.h"
+#include "mlspaces/datagen/env.h"
+#include "mlspaces/datagen/episode_record.h"
+#include "mlspaces/datagen/journal.h"
+#include "mlspaces/datagen/pick_planner.h"
+#include "mlspaces/datagen/robot_view.h"
+#include "mlspaces/datagen/task_sampler.h"
+
+namespace mlspaces::datagen {
+
+/// The outcome of one episode.
+struct EpisodeResult {
+  /// The journal line: outcome, message, per-stage timings (sample, grasps, plan, policy,
+  /// physics, observe), and extra figures (lift, retries, grasp index, steps).
+  AttemptRecord attempt;
+  bool success = false;
+  /// The recorded trajectory; set when the rollout ran (whatever its outcome) and recording
+  /// is on.
+  std::optional<EpisodeRecord> record;
+  int64_t policy_steps = 0;
+  int64_t physics_steps = 0;
+};
+
+struct EpisodeRunnerOptions {
+  /// Scene name in records and the journal, e.g. "house_0".
+  std::string scene_name = "house_0";
+  /// Record observations (off: only the outcome, for benchmarks of the bare loop).
+  bool record = true;
+};
+
+class EpisodeRunner {
+ public:
+  /// `env`, `sampler` and `registry` must outlive the runner. Builds the robot view and the
+  /// planner (IK solver, grasp collision probe) once. @throws Error for a config the env
+  /// cannot run (policy_dt not a multiple of sim_dt, a robot element missing).
+  EpisodeRunner(Env& env, TaskSampler& sampler, const Registry& registry,
+                const ExperimentConfig& config, EpisodeRunnerOptions options = {});
+  ~EpisodeRunner();
+
+  /// Runs episode `episode` (its seed: EpisodeSeed(run seed, scene key, episode)).
+  /// A hook's TaskRejected gives outcome sampler_reject; other sampler errors propagate.
+  EpisodeResult Run(int64_t episode);
+
+  const RobotView& robot() const { return robot_; }
+  /// Physics steps per policy step (policy_dt_ms / sim_dt_ms).
+  int substeps() const { return substeps_; }
+
+ private:
+  struct Impl;
+  Env& env_;
+  TaskSampler& sampler_;
+  const Registry& registry_;
+  ExperimentConfig config_;
+  EpisodeRunnerOptions options_;
+  RobotView robot_;
+  PickPlanner planner_;
+  int substeps_ = 1;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace mlspaces::datagen

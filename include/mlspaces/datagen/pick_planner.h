@@ -1,0 +1,175 @@
+// The pick planner policy (spec 8): plan a grasp from the object's grasp library, then drive the
+// arm through the original's phases with per-step IK, retrying from the current state when a
+// phase fails.
+//
+// Plan (at the start of an episode and on every retry):
+//   1. candidates = object pose x library grasps, plus their 180-degree flips about the TCP z;
+//   2. rank by the original's cost, keep policy.grasp_collision_max_grasps, drop those where
+//      the open gripper would touch anything (GraspCollisionChecker, no proxy bodies in the
+//      simulated model), IK-check the rest in cost order from the measured arm state and take
+//      the first feasible one;
+//   3. pregrasp = grasp + pregrasp_z_offset along world z, lift = grasp + postgrasp_z_offset;
+//      each of the three must have an IK solution;
+//   4. phases: gripper open (instant) -> move to pregrasp (speed_fast) -> move to grasp
+//      (speed_slow) -> settle -> close (gripper_close_duration) -> lift (speed_slow, holding) ->
+//      settle.
+// Act (once per policy step, on the simulation clock d->time):
+//   - a move's target at elapsed time t is the straight-line/slerp interpolation between its
+//     segment's end poses, evaluated one policy step ahead (where the arm should be when the
+//     step ends; the original evaluates it at the step's start and so lags a step behind);
+//     the arm command is an IK solution of it seeded with the previous command (continuous);
+//   - a move fails when the TCP is more than tcp_pos_err_threshold / tcp_rot_err_threshold
+//     from the target of the current time (something blocks the arm), when the gripper closes
+//     on nothing while holding (gap < gripper_empty_threshold), or after
+//     max_sequential_ik_failures IK failures in a row; a phase that runs phase_timeout past its
+//     nominal duration fails too;
+//   - a failure replans from the current state (after re-opening the gripper), at most
+//     max_retries times; then the planner gives up (done, with the failure's reason).
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include <mujoco/mujoco.h>
+
+#include "mlspaces/core/json.h"
+#include "mlspaces/core/transform.h"
+#include "mlspaces/datagen/config.h"
+#include "mlspaces/datagen/env.h"
+#include "mlspaces/datagen/grasp_selection.h"
+#include "mlspaces/datagen/ik.h"
+#include "mlspaces/datagen/robot_view.h"
+
+namespace mlspaces::datagen {
+
+/// The original's policy phase ids (obs/extra/policy_phase).
+enum class PolicyPhase : int64_t {
+  kUnknown = 0,
+  kGripperOpen = 1,
+  kPregrasp = 2,
+  kGrasp = 3,
+  kGripperClose = 4,
+  kLift = 5,
+  kPreplace = 6,
+  kPlace = 7,
+  kRetreat = 8,
+  kGoHome = 9,
+};
+
+/// {"unknown": 0, "gripper-open": 1, ..., "go_home": 9}, the original's phase map.
+Json PolicyPhaseMap();
+
+/// Why planning or execution failed.
+enum class PlanFailure {
+  kNone,
+  kNoGrasp,    ///< no candidate survived the collision and IK checks (or no grasps at all)
+  kIkFail,     ///< pregrasp, grasp or lift has no IK solution; or IK failed step after step
+  kCollision,  ///< the TCP fell too far behind its target: the arm is blocked
+  kEmptyGrasp, ///< the gripper closed on nothing, or let go while lifting
+  kPhaseTimeout,
+};
+const char* PlanFailureName(PlanFailure failure);
+
+/// One policy step's command.
+struct PlannerAction {
+  std::vector<double> arm;  ///< absolute joint targets
+  double gripper = 0;       ///< gripper ctrl
+  bool done = false;        ///< the plan finished (or was given up): the episode ends
+};
+
+/// What the planner did, for the journal.
+struct PlannerStats {
+  size_t num_candidates = 0;
+  size_t num_collision_free = 0;
+  size_t num_ik_checked = 0;
+  int64_t ik_calls = 0;
+  int64_t ik_failures = 0;
+  double plan_seconds = 0;
+};
+
+class PickPlanner {
+ public:
+  /// Builds the IK solver and the grasp collision probe for `env`'s model, which must outlive
+  /// the planner. One planner serves every episode of the env. `policy_dt` is the policy
+  /// step in seconds (the experiment's policy_dt_ms / 1000).
+  PickPlanner(const Env& env, const RobotView& robot, const PolicyConfig& config,
+              double policy_dt);
+  ~PickPlanner();
+  PickPlanner(const PickPlanner&) = delete;
+  PickPlanner& operator=(const PickPlanner&) = delete;
+
+  /// Starts an episode: `object_body` is the pickup object's body id and `grasps` its library
+  /// grasps in the body frame. Plans from the state in `d` (forward must have run).
+  /// @returns kNone, or why no plan exists (message() says more).
+  PlanFailure Reset(const mjData* d, int object_body, std::vector<Mat4> grasps);
+
+  /// The command for the policy step that starts at d->time.
+  PlannerAction Act(const mjData* d);
+
+  /// The phase of the last Act (kUnknown before the first).
+  PolicyPhase phase() const { return phase_; }
+  /// Retries so far in this episode.
+  int retries() const { return retries_; }
+  /// The planned grasp (world TCP pose), identity before a plan exists.
+  const Mat4& grasp_pose() const { return grasp_; }
+  /// True after the planner gave up (failure() says why).
+  bool gave_up() const { return gave_up_; }
+  /// The last failure (kNone when nothing failed yet).
+  PlanFailure failure() const { return failure_; }
+  const std::string& message() const { return message_; }
+  const PlannerStats& stats() const { return stats_; }
+  /// The index (into library grasps, flips counted after them) of the planned grasp.
+  std::optional<size_t> grasp_index() const { return grasp_index_; }
+
+ private:
+  struct Segment {
+    Mat4 start, end;
+    double duration = 0;
+    PolicyPhase phase = PolicyPhase::kUnknown;
+  };
+  struct Primitive {
+    bool move = false;
+    PolicyPhase phase = PolicyPhase::kUnknown;  // gripper primitives
+    double gripper = 0;                         // gripper primitives
+    double duration = 0;                        // gripper primitives
+    std::vector<Segment> segments;              // moves
+    double settle = 0;                          // moves
+    bool holding = false;                       // moves
+  };
+
+  PlanFailure Plan(const mjData* d);
+  void Fail(PlanFailure failure, std::string message);
+  bool SolveIk(const Mat4& target, std::vector<double>& q, bool allow_restarts);
+
+  const Env* env_;
+  const RobotView* robot_;
+  PolicyConfig config_;
+  double dt_policy_;
+  std::unique_ptr<IkSolver> ik_;
+  std::unique_ptr<GraspCollisionChecker> probe_;
+
+  int object_body_ = -1;
+  std::vector<Mat4> grasps_local_;
+  std::vector<Primitive> primitives_;
+  size_t current_ = 0;
+  std::optional<double> started_at_;
+  std::vector<double> command_;   // last arm command
+  double gripper_command_ = 0;
+  int ik_fail_streak_ = 0;
+  int retries_ = 0;
+  bool gave_up_ = false;
+  bool pending_retry_ = false;
+  PlanFailure failure_ = PlanFailure::kNone;
+  std::string message_;
+  PolicyPhase phase_ = PolicyPhase::kUnknown;
+  Mat4 grasp_;
+  std::optional<size_t> grasp_index_;
+  PlannerStats stats_;
+};
+
+}  // namespace mlspaces::datagen

@@ -1,0 +1,424 @@
+#include "mlspaces/datagen/episode_runner.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <utility>
+
+#include "mlspaces/core/error.h"
+#include "mlspaces/core/scene_metadata.h"
+#include "mlspaces/core/version.h"
+#include "mlspaces/datagen/action_noise.h"
+#include "mlspaces/datagen/se3.h"
+#include "mlspaces/datagen/success.h"
+
+namespace mlspaces::datagen {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double Since(Clock::time_point t0) {
+  return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+std::vector<double> PoseRow(const Mat4& pose) {
+  const Vec3 p = Translation(pose);
+  const Quat q = QuatFromMat4(pose);
+  return {p[0], p[1], p[2], q[0], q[1], q[2], q[3]};
+}
+
+std::vector<double> PoseRow(const Pose7& pose) { return {pose.begin(), pose.end()}; }
+
+Mat4 Pose7ToMat4(const Pose7& p) {
+  return PoseToMat4(std::array<double, 3>{p[0], p[1], p[2]},
+                    std::array<double, 4>{p[3], p[4], p[5], p[6]});
+}
+
+// SE(3) log of a rigid transform as [v; w] (the twist that reaches it in unit time).
+std::vector<double> Se3Log(const Mat4& t) {
+  const Vec3 w = RotationLog(t);
+  const Vec3 p = Translation(t);
+  const double theta = std::sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]);
+  // v = V^-1 p, V^-1 = I - W/2 + c W^2 with W = [w]x.
+  auto cross = [](const Vec3& a, const Vec3& b) {
+    return Vec3{a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
+  };
+  double c = 1.0 / 12.0;
+  if (theta > 1e-6) {
+    c = (1.0 - theta * std::sin(theta) / (2.0 * (1.0 - std::cos(theta)))) / (theta * theta);
+  }
+  const Vec3 wp = cross(w, p);
+  const Vec3 wwp = cross(w, wp);
+  std::vector<double> out(6);
+  for (int i = 0; i < 3; ++i) {
+    out[i] = p[i] - 0.5 * wp[i] + c * wwp[i];
+    out[3 + i] = w[i];
+  }
+  return out;
+}
+
+Outcome OutcomeOfFailure(PlanFailure f) {
+  switch (f) {
+    case PlanFailure::kNoGrasp: return Outcome::kNoGrasp;
+    case PlanFailure::kIkFail: return Outcome::kIkFail;
+    case PlanFailure::kCollision: return Outcome::kCollision;
+    case PlanFailure::kEmptyGrasp: return Outcome::kGraspSlip;
+    case PlanFailure::kPhaseTimeout: return Outcome::kTimeout;
+    case PlanFailure::kNone: break;
+  }
+  return Outcome::kGraspSlip;
+}
+
+// The referral expression of the pickup object: the asset's category, else the body name
+// with underscores as spaces.
+std::string Referral(const std::string& body, const Annotation* annotation) {
+  if (annotation != nullptr && annotation->json.is_object()) {
+    const auto it = annotation->json.find("category");
+    if (it != annotation->json.end() && it->is_string() && !it->get<std::string>().empty()) {
+      return it->get<std::string>();
+    }
+  }
+  std::string out = body;
+  std::replace(out.begin(), out.end(), '_', ' ');
+  return out;
+}
+
+}  // namespace
+
+struct EpisodeRunner::Impl {
+  sim::DataPtr scratch;  // forward kinematics of commanded joints
+  std::vector<int> object_geoms;
+};
+
+EpisodeRunner::EpisodeRunner(Env& env, TaskSampler& sampler, const Registry& registry,
+                             const ExperimentConfig& config, EpisodeRunnerOptions options)
+    : env_(env),
+      sampler_(sampler),
+      registry_(registry),
+      config_(config),
+      options_(std::move(options)),
+      robot_(env.model(), env.robot()),
+      planner_(env, robot_, config.policy_config, config.policy_dt_ms / 1000.0),
+      impl_(std::make_unique<Impl>()) {
+  const double ratio = config.policy_dt_ms / config.sim_dt_ms;
+  substeps_ = static_cast<int>(std::lround(ratio));
+  if (substeps_ < 1 || std::abs(ratio - substeps_) > 1e-9) {
+    throw Error("policy_dt_ms must be a whole multiple of sim_dt_ms", "", "policy_dt_ms");
+  }
+  if (std::abs(env.model()->opt.timestep * 1000.0 - config.sim_dt_ms) > 1e-9) {
+    // The scene's own timestep rules the physics; say so instead of silently differing.
+    throw Error("the scene's timestep is " + std::to_string(env.model()->opt.timestep * 1000.0) +
+                    " ms but sim_dt_ms is " + std::to_string(config.sim_dt_ms),
+                env.scene_key(), "sim_dt_ms");
+  }
+  impl_->scratch = sim::MakeData(env.model());
+}
+
+EpisodeRunner::~EpisodeRunner() = default;
+
+EpisodeResult EpisodeRunner::Run(int64_t episode) {
+  const mjModel* m = env_.model();
+  mjData* d = env_.data();
+  EpisodeResult result;
+  AttemptRecord& attempt = result.attempt;
+  attempt.scene = options_.scene_name;
+  attempt.episode = episode;
+  attempt.seed = EpisodeSeed(sampler_.run_seed(), env_.scene_key(), episode);
+  attempt.extra = Json::object();
+
+  // 1. Sample the task.
+  auto t0 = Clock::now();
+  Task task;
+  try {
+    task = sampler_.SampleTask(env_, episode);
+  } catch (const TaskRejected& e) {
+    attempt.AddTiming("sample", Since(t0));
+    attempt.outcome = Outcome::kSamplerReject;
+    attempt.message = e.what();
+    return result;
+  }
+  attempt.AddTiming("sample", Since(t0));
+  const int object = env_.BodyId(task.pickup_obj_name);
+
+  // 2. The object's grasps (missing ones are a "no grasp" attempt, as the original's
+  // candidate rejection).
+  t0 = Clock::now();
+  std::string uid;
+  std::shared_ptr<const Annotation> annotation;
+  GraspSet grasps;
+  try {
+    const std::optional<Json> metadata =
+        env_.metadata().is_null() ? std::nullopt : std::optional<Json>(env_.metadata());
+    uid = SceneObjectAssetId(metadata, task.pickup_obj_name);
+    const std::vector<std::string> filter = config_.policy_config.grasp_libraries
+                                                ? *config_.policy_config.grasp_libraries
+                                                : std::vector<std::string>{};
+    grasps = registry_.LoadPickupGrasps(uid, filter, std::numeric_limits<size_t>::max());
+    annotation = registry_.GetAnnotation(uid);
+  } catch (const Error& e) {
+    attempt.AddTiming("grasps", Since(t0));
+    attempt.outcome = Outcome::kNoGrasp;
+    attempt.message = e.what();
+    return result;
+  }
+  attempt.AddTiming("grasps", Since(t0));
+
+  // 3. Plan.
+  t0 = Clock::now();
+  const PlanFailure planned = planner_.Reset(d, object, grasps.poses);
+  attempt.AddTiming("plan", Since(t0));
+  attempt.extra["num_grasps"] = grasps.poses.size();
+  attempt.extra["num_collision_free"] = planner_.stats().num_collision_free;
+  if (planned != PlanFailure::kNone) {
+    attempt.outcome = OutcomeOfFailure(planned);
+    attempt.message = planner_.message();
+    return result;
+  }
+  attempt.extra["grasp_index"] = *planner_.grasp_index();
+
+  // 4. Roll out.
+  Rng noise_rng(DeriveSeed(attempt.seed, {0x6e6f697365ULL}));  // "noise"
+  const bool record = options_.record;
+  EpisodeRecord rec;
+  const Mat4 grasp_world = planner_.grasp_pose();
+  const double start_z = task.pickup_obj_start_pose[2];
+  const Mat4 goal = Pose7ToMat4(task.pickup_obj_goal_pose);
+  const size_t n_arm = robot_.num_arm();
+  const size_t n_grip = robot_.num_gripper();
+  const std::string& artic = env_.robot().articulation_name;
+  const size_t artic_width = env_.robot().articulation_width;
+  if (record) {
+    rec.extra["robot_base_pose"] = Series(DType::kFloat32, {7});
+    rec.extra["obj_start"] = Series(DType::kFloat32, {7});
+    rec.extra["obj_end"] = Series(DType::kFloat32, {7});
+    rec.extra["tcp_pose"] = Series(DType::kFloat32, {7});
+    rec.extra["grasp_pose"] = Series(DType::kFloat32, {7});
+    rec.extra["policy_phase"] = Series(DType::kInt64, {});
+    rec.extra["policy_num_retries"] = Series(DType::kInt64, {});
+    rec.extra_json["task_info"].max_len = 4000;
+    rec.extra_json["grasp_state_pickup_obj"].max_len = 2000;
+    rec.env_states["articulations/" + artic] = Series(DType::kFloat32, {artic_width});
+  }
+
+  // FK of the TCP with the arm at `q` (other joints as now), in the world frame.
+  mjData* scratch = impl_->scratch.get();
+  auto fk = [&](const std::vector<double>& q) {
+    std::copy_n(d->qpos, m->nq, scratch->qpos);
+    std::copy_n(d->mocap_pos, 3 * m->nmocap, scratch->mocap_pos);
+    std::copy_n(d->mocap_quat, 4 * m->nmocap, scratch->mocap_quat);
+    for (size_t i = 0; i < n_arm; ++i) scratch->qpos[robot_.arm_qpos_adr()[i]] = q[i];
+    mj_kinematics(m, scratch);
+    return robot_.TcpPose(scratch);
+  };
+
+  Mat4 prev_tcp = robot_.TcpPose(d);
+  std::vector<double> prev_arm_qpos = robot_.ArmQpos(d);
+  std::vector<double> prev_grip_qpos = robot_.GripperQpos(d);
+  PickSuccess verdict;
+  int64_t step = 0;
+  bool terminated = false, truncated = false;
+
+  // Records the observation after `step` policy steps; `action` is what led to it (null for
+  // observation 0), `applied_arm` its un-noised arm targets.
+  auto observe = [&](const PlannerAction* action) {
+    verdict = EvaluatePickSuccess(m, d, object, start_z, env_.robot().prefix,
+                                  config_.task_config.succ_pos_threshold);
+    if (!record) return;
+    const std::vector<double> arm_q = robot_.ArmQpos(d), grip_q = robot_.GripperQpos(d);
+    const std::vector<double> arm_v = robot_.ArmQvel(d), grip_v = robot_.GripperQvel(d);
+    rec.qpos.push_back({{"arm", arm_q}, {"base", {}}, {"gripper", grip_q}});
+    rec.qvel.push_back({{"arm", arm_v}, {"base", {}}, {"gripper", grip_v}});
+    const Mat4 base = robot_.BasePose(d);
+    const Mat4 base_inv = InverseRigid(base);
+    rec.extra["robot_base_pose"].Append(PoseRow(env_.GetRobotBasePose()));
+    rec.extra["obj_start"].Append(PoseRow(task.pickup_obj_start_pose));
+    rec.extra["obj_end"].Append(PoseRow(task.pickup_obj_goal_pose));
+    rec.extra["tcp_pose"].Append(PoseRow(base_inv * robot_.TcpPose(d)));
+    rec.extra["grasp_pose"].Append(PoseRow(grasp_world));
+    rec.extra["policy_phase"].AppendInts({static_cast<int64_t>(planner_.phase())});
+    rec.extra["policy_num_retries"].AppendInts({planner_.retries()});
+    std::vector<double> panda(artic_width, 0.0);
+    size_t k = 0;
+    for (double v : arm_q) if (k < artic_width) panda[k++] = v;
+    for (double v : grip_q) if (k < artic_width) panda[k++] = v;
+    for (double v : arm_v) if (k < artic_width) panda[k++] = v;
+    for (double v : grip_v) if (k < artic_width) panda[k++] = v;
+    rec.env_states["articulations/" + artic].Append(panda);
+
+    const Mat4 obj = Pose7ToMat4({d->xpos[3 * object], d->xpos[3 * object + 1],
+                                  d->xpos[3 * object + 2], d->xquat[4 * object],
+                                  d->xquat[4 * object + 1], d->xquat[4 * object + 2],
+                                  d->xquat[4 * object + 3]});
+    rec.extra_json["task_info"].steps.push_back(
+        Json{{"episode_step", step},
+             {"position_error", TranslationDistance(obj, goal)},
+             {"rotation_error", RotationAngle(obj, goal)},
+             {"success", verdict.success}});
+    // Grasp state: contacts of the object with gripper geoms and with anything else.
+    bool touching = false, other = false;
+    for (int c = 0; c < d->ncon; ++c) {
+      const mjContact& con = d->contact[c];
+      const int b1 = m->geom_bodyid[con.geom1], b2 = m->geom_bodyid[con.geom2];
+      auto in_object = [&](int b) {
+        for (; b > 0; b = m->body_parentid[b]) if (b == object) return true;
+        return false;
+      };
+      const bool o1 = in_object(b1), o2 = in_object(b2);
+      if (o1 == o2) continue;
+      const int g = o1 ? con.geom2 : con.geom1;
+      if (robot_.IsGripperGeom(g)) touching = true;
+      else other = true;
+    }
+    rec.extra_json["grasp_state_pickup_obj"].steps.push_back(
+        Json{{"gripper", Json{{"touching", touching}, {"held", touching && !other}}}});
+
+    const bool terminal = action != nullptr && action->done;
+    auto& acts = rec.actions;
+    if (action == nullptr) {
+      // Observation 0: a dummy command, the servo targets after reset, zero motion.
+      const std::vector<double> targets = robot_.ArmTargets(d);
+      const Mat4 cmd_tcp = fk(targets);
+      acts["commanded_action"].push_back({});
+      acts["joint_pos"].push_back({{"arm", targets}, {"gripper", {robot_.GripperCtrl(d)}}});
+      acts["joint_pos_rel"].push_back({{"arm", std::vector<double>(n_arm, 0.0)},
+                                       {"base", {}},
+                                       {"gripper", std::vector<double>(n_grip, 0.0)}});
+      acts["ee_twist"].push_back(
+          {{"arm", std::vector<double>(6, 0.0)}, {"gripper", std::vector<double>(6, 0.0)}});
+      const std::vector<double> ee = PoseRow(base_inv * cmd_tcp);
+      acts["ee_pose"].push_back(
+          {{"arm", ee}, {"base", {0, 0, 0, 1, 0, 0, 0}}, {"gripper", ee}});
+    } else {
+      acts["commanded_action"].push_back(
+          {{"arm", action->arm}, {"base", {}}, {"gripper", {action->gripper}}});
+      if (terminal) {
+        for (const char* name : {"joint_pos", "joint_pos_rel", "ee_twist", "ee_pose"}) {
+          acts[name].push_back({});
+        }
+      } else {
+        // fk() reads the joints of the previous state, restored below; the arm is replaced.
+        const Mat4 cmd_tcp = fk(action->arm);
+        std::vector<double> rel(n_arm);
+        for (size_t i = 0; i < n_arm; ++i) rel[i] = action->arm[i] - prev_arm_qpos[i];
+        acts["joint_pos"].push_back({{"arm", action->arm}, {"gripper", {action->gripper}}});
+        acts["joint_pos_rel"].push_back({{"arm", rel}});
+        const std::vector<double> twist = Se3Log(InverseRigid(prev_tcp) * cmd_tcp);
+        acts["ee_twist"].push_back({{"arm", twist}, {"gripper", twist}});
+        const std::vector<double> ee = PoseRow(base_inv * cmd_tcp);
+        acts["ee_pose"].push_back(
+            {{"arm", ee}, {"base", {0, 0, 0, 1, 0, 0, 0}}, {"gripper", ee}});
+      }
+    }
+    rec.rewards.push_back(static_cast<float>(verdict.reward));
+    rec.success.push_back(verdict.success);
+    rec.terminated.push_back(terminated);
+    rec.truncated.push_back(truncated);
+    prev_tcp = robot_.TcpPose(d);
+    prev_arm_qpos = arm_q;
+    prev_grip_qpos = grip_q;
+  };
+
+  double t_policy = 0, t_physics = 0, t_observe = 0;
+  auto t_obs = Clock::now();
+  observe(nullptr);
+  t_observe += Since(t_obs);
+  const bool gravcomp = config_.robot_config.gravcomp;
+  const ActionNoiseConfig& noise = config_.robot_config.action_noise_config;
+  while (!terminated && !truncated) {
+    auto tp = Clock::now();
+    const PlannerAction action = planner_.Act(d);
+    // The controller: noisy arm targets (un-noised ones are recorded), gripper ctrl.
+    const std::vector<double> q_now = robot_.ArmQpos(d);
+    const std::vector<double> jac = robot_.ArmJacobian(d);
+    const std::vector<double> target = NoisyArmTarget(action.arm, q_now, jac, robot_.arm_lower(),
+                                                      robot_.arm_upper(), noise, noise_rng);
+    t_policy += Since(tp);
+    auto ts = Clock::now();
+    robot_.SetArmTargets(d, target);
+    robot_.SetGripperCtrl(d, action.gripper);
+    robot_.Step(d, substeps_, gravcomp);
+    mj_forward(m, d);  // positions, contacts and Jacobians of the new state
+    t_physics += Since(ts);
+    result.physics_steps += substeps_;
+    ++step;
+    terminated = action.done;
+    truncated = step >= config_.task_horizon;
+    t_obs = Clock::now();
+    observe(&action);
+    t_observe += Since(t_obs);
+    if (config_.end_on_success && verdict.success && !terminated) {
+      terminated = true;
+      if (record) rec.terminated.back() = true;
+    }
+  }
+  result.policy_steps = step;
+  attempt.AddTiming("policy", t_policy);
+  attempt.AddTiming("physics", t_physics);
+  attempt.AddTiming("observe", t_observe);
+  attempt.extra["policy_steps"] = step;
+  attempt.extra["retries"] = planner_.retries();
+  attempt.extra["lift"] = verdict.lift;
+
+  result.success = verdict.success;
+  if (verdict.success) {
+    attempt.outcome = Outcome::kSuccess;
+  } else if (planner_.gave_up()) {
+    attempt.outcome = OutcomeOfFailure(planner_.failure());
+    attempt.message = std::string(PlanFailureName(planner_.failure())) + ": " + planner_.message() +
+                      " (after " + std::to_string(planner_.retries()) + " retries)";
+  } else if (truncated && !terminated) {
+    attempt.outcome = Outcome::kTimeout;
+    attempt.message = "the horizon of " + std::to_string(config_.task_horizon) +
+                      " policy steps ran out";
+  } else {
+    attempt.outcome = Outcome::kGraspSlip;
+    attempt.message = "the plan finished but the object is not held: lift " +
+                      std::to_string(verdict.lift) + " m, " +
+                      std::to_string(verdict.robot_contacts) + " robot / " +
+                      std::to_string(verdict.other_contacts) + " other contacts";
+  }
+
+  if (record) {
+    EpisodeMetadata& meta = rec.meta;
+    meta.config_hash = ConfigHashHex(config_);
+    meta.seed = attempt.seed;
+    meta.scene = options_.scene_name;
+    meta.source_episode = episode;
+    const std::string expr = Referral(task.pickup_obj_name, annotation.get());
+    meta.task_description = "Pick up the " + expr;
+    std::string license = "unknown";
+    if (annotation && annotation->json.is_object()) {
+      for (const char* key : {"license", "licence"}) {
+        const auto it = annotation->json.find(key);
+        if (it != annotation->json.end() && it->is_string()) license = it->get<std::string>();
+      }
+    }
+    const std::optional<AssetLocation> where = registry_.Locate(uid);
+    meta.assets.push_back({uid, where ? where->library : std::string("unknown"), license,
+                           "pickup_obj"});
+    meta.mujoco_version = mj_versionString();
+    meta.mlspaces_version = std::string(Version());
+    meta.extra = Json{{"scene_key", env_.scene_key()},
+                      {"grasp_file", grasps.source.string()},
+                      {"outcome", std::string(OutcomeName(attempt.outcome))}};
+    rec.obs_scene = Json{{"task_type", "pick"},
+                         {"task_description", meta.task_description},
+                         {"policy_dt_ms", config_.policy_dt_ms},
+                         {"referral_expressions",
+                          Json{{"pickup_obj_name", Json::array({Json::array({expr, 1.0})})}}},
+                         {"policy_phases", PolicyPhaseMap()},
+                         {"frozen_config",
+                          Json{{"pickup_obj_name", task.pickup_obj_name},
+                               {"robot_base_pose", task.robot_base_pose},
+                               {"pickup_obj_start_pose", task.pickup_obj_start_pose},
+                               {"pickup_obj_goal_pose", task.pickup_obj_goal_pose},
+                               {"config_hash", meta.config_hash}}},
+                         {"text", "pick " + task.pickup_obj_name},
+                         {"object_name", task.pickup_obj_name}};
+    result.record = std::move(rec);
+  }
+  return result;
+}
+
+}  // namespace mlspaces::datagen

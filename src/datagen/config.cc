@@ -991,4 +991,14 @@ std::string ConfigHashHex(const ExperimentConfig& config) {
   return buf;
 }
 
+std::string DataConfigHashHex(const ExperimentConfig& config) {
+  ExperimentConfig data = config;
+  const ExperimentConfig defaults;
+  data.output_dir = defaults.output_dir;
+  data.log_level = defaults.log_level;
+  data.num_workers = defaults.num_workers;
+  data.profile = defaults.profile;
+  return ConfigHashHex(data);
+}
+
 }  // namespace mlspaces::datagen

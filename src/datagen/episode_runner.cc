@@ -381,7 +381,7 @@ EpisodeResult EpisodeRunner::Run(int64_t episode) {
 
   if (record) {
     EpisodeMetadata& meta = rec.meta;
-    meta.config_hash = ConfigHashHex(config_);
+    meta.config_hash = DataConfigHashHex(config_);
     meta.seed = attempt.seed;
     meta.scene = options_.scene_name;
     meta.source_episode = episode;

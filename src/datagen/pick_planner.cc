@@ -62,6 +62,10 @@ PickPlanner::PickPlanner(const Env& env, const RobotView& robot, const PolicyCon
     probe.gripper_body = robot.spec().prefix + robot.spec().gripper_body;
     probe.tcp_site = robot.spec().prefix + robot.spec().tcp_site;
     probe.robot_prefix = robot.spec().prefix;
+    // The probe tests the open hand against the scene and objects. The original's proxies
+    // also hit the robot as it stands at planning time, so a retry with the arm down near
+    // the object rejected good grasps for touching the arm's current (soon moved) links.
+    probe.collide_with_robot = false;
     probe_ = std::make_unique<GraspCollisionChecker>(env.scene().composer(), env.model(), probe);
   }
 }
@@ -154,9 +158,18 @@ PlanFailure PickPlanner::Plan(const mjData* d) {
   if (candidates.empty()) return finish(PlanFailure::kNoGrasp, "the object has no grasps");
   if (!chosen.index) {
     if (chosen.num_collision_free == 0) {
+      std::string what;
+      if (probe_ && !chosen.ranked.empty()) {
+        const std::vector<ProbeContact> hits = probe_->Contacts(candidates[chosen.ranked[0]]);
+        if (!hits.empty()) {
+          const char* name = mj_id2name(env_->model(), mjOBJ_GEOM, hits[0].sim_geom);
+          what = " (the cheapest touches geom " +
+                 (name ? std::string(name) : std::to_string(hits[0].sim_geom)) + ")";
+        }
+      }
       return finish(PlanFailure::kNoGrasp,
                     "every one of " + std::to_string(chosen.ranked.size()) +
-                        " ranked grasps collides with the scene");
+                        " ranked grasps collides with the scene" + what);
     }
     return finish(PlanFailure::kNoGrasp, "no feasible grasp: IK failed for all " +
                                              std::to_string(chosen.num_ik_checked) +
@@ -182,8 +195,18 @@ PlanFailure PickPlanner::Plan(const mjData* d) {
   Primitive approach;
   approach.move = true;
   approach.settle = config_.move_settle_time;
+  Mat4 from = tcp;
+  if (tcp(2, 3) < lift(2, 3) - 1e-3) {
+    // Below the lift height (a retry after a failed grasp): rise straight up to it, cross
+    // over at that height to above the new grasp, then descend. Going straight to the
+    // pregrasp (4 cm above the grasp) would sweep the open fingers through the object.
+    const Mat4 up = RaisedBy(tcp, lift(2, 3) - tcp(2, 3));
+    approach.segments.push_back({tcp, up, SegmentDuration(tcp, up, slow), PolicyPhase::kRetreat});
+    approach.segments.push_back({up, lift, SegmentDuration(up, lift, fast), PolicyPhase::kPregrasp});
+    from = lift;
+  }
   approach.segments.push_back(
-      {tcp, pregrasp, SegmentDuration(tcp, pregrasp, fast), PolicyPhase::kPregrasp});
+      {from, pregrasp, SegmentDuration(from, pregrasp, fast), PolicyPhase::kPregrasp});
   approach.segments.push_back(
       {pregrasp, grasp_, SegmentDuration(pregrasp, grasp_, slow), PolicyPhase::kGrasp});
   Primitive close;

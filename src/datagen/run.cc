@@ -46,9 +46,9 @@ ExperimentConfig SettleRunConfig(const ExperimentConfig& config, const fs::path&
   }
   const ExperimentConfig stored = LoadConfigFile(file, ConfigRegistry::WithBuiltins());
   if (!run.seed) run.seed = stored.seed;
-  if (ConfigHashHex(stored) != ConfigHashHex(run)) {
-    throw Error("the folder holds a run of another config (hash " + ConfigHashHex(stored) +
-                    ", this one " + ConfigHashHex(run) +
+  if (DataConfigHashHex(stored) != DataConfigHashHex(run)) {
+    throw Error("the folder holds a run of another config (data hash " +
+                    DataConfigHashHex(stored) + ", this one " + DataConfigHashHex(run) +
                     "): choose another output folder, or remove this one to start over",
                 file.string());
   }
@@ -111,9 +111,9 @@ RunReport RunDatagen(const ExperimentConfig& input, const TaskSamplerRegistry& s
   const fs::path config_file = report.folder / "config.yaml";
   const ExperimentConfig config = SettleRunConfig(input, config_file);
   report.seed = *config.seed;
-  const std::string hash = ConfigHashHex(config);
+  const std::string hash = DataConfigHashHex(config);
   if (!fs::exists(config_file)) {
-    WriteFileAtomic(config_file, "# mlspaces datagen run; config hash " + hash + "\n" +
+    WriteFileAtomic(config_file, "# mlspaces datagen run; data hash " + hash + "\n" +
                                      DumpConfig(config));
   }
   const std::vector<WorkItem> items = PlanWorkItems(config);
@@ -233,7 +233,7 @@ RunReport RunDatagen(const ExperimentConfig& input, const TaskSamplerRegistry& s
   report.summary = Summarize(attempts);
   // summary.txt covers the whole run, earlier invocations included.
   WriteFileAtomic(report.folder / "summary.txt",
-                  "config hash " + hash + ", seed " + std::to_string(report.seed) + "\n" +
+                  "data hash " + hash + ", seed " + std::to_string(report.seed) + "\n" +
                       FormatSummary(Summarize(ReadJournal(journal_file).records)));
   report.seconds = std::chrono::duration<double>(Clock::now() - t_start).count();
   return report;

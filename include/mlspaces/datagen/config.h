@@ -511,4 +511,10 @@ uint64_t ConfigHash(const ExperimentConfig& config);
 /// ConfigHash as 16 lowercase hex digits.
 std::string ConfigHashHex(const ExperimentConfig& config);
 
+/// The hash of what shapes the data: ConfigHashHex of the config with the fields that only
+/// say where output goes and how a run is carried out (output_dir, log_level, num_workers,
+/// profile) reset to their defaults. Recorded with every episode; a run folder may be resumed
+/// by any config with the same data hash (e.g. with more workers or another log level).
+std::string DataConfigHashHex(const ExperimentConfig& config);
+
 }  // namespace mlspaces::datagen

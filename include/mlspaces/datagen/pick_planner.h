@@ -10,7 +10,9 @@
 //      the first feasible one;
 //   3. pregrasp = grasp + pregrasp_z_offset along world z, lift = grasp + postgrasp_z_offset;
 //      each of the three must have an IK solution;
-//   4. phases: gripper open (instant) -> move to pregrasp (speed_fast) -> move to grasp
+//   4. phases: gripper open (instant) -> [when the TCP is below the lift height, i.e. on a
+//      retry: straight up to it, then across to the lift pose] -> move to pregrasp
+//      (speed_fast) -> move to grasp
 //      (speed_slow) -> settle -> close (gripper_close_duration) -> lift (speed_slow, holding) ->
 //      settle.
 // Act (once per policy step, on the simulation clock d->time):

@@ -24,6 +24,8 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <vector>
+#include <algorithm>
 #include <system_error>
 
 #include "mlspaces/core/registry.h"
@@ -186,6 +188,11 @@ BENCHMARK(BM_DatagenEpisode)
 //      over the episode's own "physics" timing: its stepping and mj_forward only)
 //   4. kBareSteps bare mj_steps from the episode's final state (object grasped and lifted,
 //      more contacts than the reset pose)                   -> bare_grasp_steps_per_s
+//   5. the episode's own states: at every policy step of step 3 the state (qpos, qvel, act,
+//      ctrl, mocap, warm start, time) was saved; each is restored and followed by the same
+//      number of bare mj_steps                              -> bare_same_states_steps_per_s
+// overhead_same_states_pct = (bare_same_states / datagen - 1) * 100 compares datagen with
+// bare stepping through exactly the states it simulated.
 // overhead_pct = (bare / datagen - 1) * 100, the figure (target < 25);
 // overhead_grasp_pct the same against the grasped-state bare rate.
 void BM_DatagenOverhead(benchmark::State& state) {
@@ -193,12 +200,31 @@ void BM_DatagenOverhead(benchmark::State& state) {
   if (!dgn) return;
   const mjModel* m = dgn->env.model();
   mjData* d = dgn->env.data();
-  const dg::RobotView& robot = dgn->runner->robot();
   const int substeps = dgn->runner->substeps();
   const bool gravcomp = dgn->config.robot_config.gravcomp;
   const int64_t loop_policy_steps = kBareSteps / substeps;
   int64_t episode = 0, bare_steps = 0, loop_steps = 0, datagen_steps = 0;
   double bare_s = 0, bare_grasp_s = 0, loop_s = 0, datagen_s = 0, physics_stage_s = 0;
+  // Step 5: the states datagen stepped from.
+  struct Snapshot {
+    std::vector<mjtNum> qpos, qvel, act, ctrl, mocap_pos, mocap_quat, warmstart;
+    mjtNum time = 0;
+  };
+  std::vector<Snapshot> snapshots;
+  auto grab = [](const mjtNum* p, int n) { return std::vector<mjtNum>(p, p + n); };
+  dgn->runner.reset();
+  dg::EpisodeRunnerOptions hooked;
+  hooked.record = state.range(0) != 0;
+  hooked.on_step = [&](const mjModel* mm, const mjData* dd, int64_t) {
+    snapshots.push_back({grab(dd->qpos, mm->nq), grab(dd->qvel, mm->nv), grab(dd->act, mm->na),
+                         grab(dd->ctrl, mm->nu), grab(dd->mocap_pos, 3 * mm->nmocap),
+                         grab(dd->mocap_quat, 4 * mm->nmocap), grab(dd->qacc_warmstart, mm->nv),
+                         dd->time});
+  };
+  dgn->runner.emplace(dgn->env, *dgn->sampler, dgn->registry, dgn->config, hooked);
+  int64_t same_steps = 0;
+  double same_s = 0;
+  const dg::RobotView& robot = dgn->runner->robot();
   try {
     for (auto _ : state) {
       dgn->env.Reset();
@@ -228,6 +254,22 @@ void BM_DatagenOverhead(benchmark::State& state) {
       t0 = Clock::now();
       for (int64_t i = 0; i < kBareSteps; ++i) mj_step(m, d);
       bare_grasp_s += Since(t0);
+
+      for (const Snapshot& snap : snapshots) {
+        std::copy(snap.qpos.begin(), snap.qpos.end(), d->qpos);
+        std::copy(snap.qvel.begin(), snap.qvel.end(), d->qvel);
+        std::copy(snap.act.begin(), snap.act.end(), d->act);
+        std::copy(snap.ctrl.begin(), snap.ctrl.end(), d->ctrl);
+        std::copy(snap.mocap_pos.begin(), snap.mocap_pos.end(), d->mocap_pos);
+        std::copy(snap.mocap_quat.begin(), snap.mocap_quat.end(), d->mocap_quat);
+        std::copy(snap.warmstart.begin(), snap.warmstart.end(), d->qacc_warmstart);
+        d->time = snap.time;
+        t0 = Clock::now();
+        for (int i = 0; i < substeps; ++i) mj_step(m, d);
+        same_s += Since(t0);
+        same_steps += substeps;
+      }
+      snapshots.clear();
     }
   } catch (const std::exception& e) {
     state.SkipWithError(e.what());
@@ -245,6 +287,10 @@ void BM_DatagenOverhead(benchmark::State& state) {
       rate(static_cast<double>(datagen_steps), physics_stage_s);
   state.counters["overhead_pct"] = datagen > 0 ? (bare / datagen - 1.0) * 100.0 : 0;
   state.counters["overhead_grasp_pct"] = datagen > 0 ? (bare_grasp / datagen - 1.0) * 100.0 : 0;
+  const double bare_same = rate(static_cast<double>(same_steps), same_s);
+  state.counters["bare_same_states_steps_per_s"] = bare_same;
+  state.counters["overhead_same_states_pct"] =
+      datagen > 0 ? (bare_same / datagen - 1.0) * 100.0 : 0;
 }
 BENCHMARK(BM_DatagenOverhead)
     ->ArgName("record")

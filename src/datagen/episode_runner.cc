@@ -337,6 +337,7 @@ EpisodeResult EpisodeRunner::Run(int64_t episode) {
     auto ts = Clock::now();
     robot_.SetArmTargets(d, target);
     robot_.SetGripperCtrl(d, action.gripper);
+    if (options_.on_step) options_.on_step(m, d, step);
     robot_.Step(d, substeps_, gravcomp);
     mj_forward(m, d);  // positions, contacts and Jacobians of the new state
     t_physics += Since(ts);

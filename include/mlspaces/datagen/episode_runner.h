@@ -10,6 +10,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -43,6 +44,10 @@ struct EpisodeRunnerOptions {
   std::string scene_name = "house_0";
   /// Record observations (off: only the outcome, for benchmarks of the bare loop).
   bool record = true;
+  /// Called once per policy step after the controller wrote ctrl, right before the physics
+  /// steps (for custom logging, or replaying the exact states in a benchmark). Must not
+  /// modify the data.
+  std::function<void(const mjModel*, const mjData*, int64_t step)> on_step;
 };
 
 class EpisodeRunner {

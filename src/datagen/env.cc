@@ -1,7 +1,10 @@
 #include "mlspaces/datagen/env.h"
 
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
+
+#include <unistd.h>
 #include <string>
 #include <utility>
 
@@ -85,6 +88,7 @@ RobotSpec RobotSpecFromConfig(const RobotConfig& config) {
     throw Error("robot model not found (set MLSPACES_ROBOTS_DIR or robot_config.robot_xml_path)",
                 spec.xml.string(), "robot_config.robot_xml_path");
   }
+  spec.pedestal_size = config.base_size;
   spec.home_arm.assign(config.init_qpos.arm.begin(), config.init_qpos.arm.end());
   spec.home_gripper.assign(config.init_qpos.gripper.begin(), config.init_qpos.gripper.end());
   return spec;
@@ -94,8 +98,56 @@ Env Env::Load(const std::filesystem::path& scene_xml, const RobotSpec& robot) {
   return Create(sim::Scene::Load(scene_xml), robot, scene_xml.generic_string());
 }
 
+namespace {
+
+// The robot standing on a box pedestal: a wrapper model whose mocap base holds the box and
+// the robot's arm subtree mounted on top, written to a temp file for the composer.
+void InsertRobotOnPedestal(sim::Scene& scene, const RobotSpec& robot) {
+  const std::array<double, 3>& size = *robot.pedestal_size;
+  char buf[128];
+  auto num = [&](double v) {
+    std::snprintf(buf, sizeof buf, "%.17g", v);
+    return std::string(buf);
+  };
+  const std::string xml =
+      "<mujoco model=\"robot_on_pedestal\">\n"
+      "  <asset><model name=\"robot\" file=\"" + std::filesystem::absolute(robot.xml).string() +
+      "\"/></asset>\n"
+      "  <worldbody>\n"
+      "    <body name=\"" + robot.base_body + "\" mocap=\"true\">\n"
+      "      <geom name=\"pedestal\" type=\"box\" size=\"" + num(size[0] / 2) + " " +
+      num(size[1] / 2) + " " + num(size[2] / 2) + "\" pos=\"0 0 " + num(size[2] / 2) +
+      "\" group=\"0\" rgba=\"0.35 0.25 0.18 1\" mass=\"20\"/>\n"
+      "      <frame pos=\"0 0 " + num(size[2]) + "\">\n"
+      "        <attach model=\"robot\" body=\"" + robot.arm_root_body + "\" prefix=\"\"/>\n"
+      "      </frame>\n"
+      "    </body>\n"
+      "  </worldbody>\n"
+      "</mujoco>\n";
+  std::string tmpl = (std::filesystem::temp_directory_path() / "mlspaces_pedestal_XXXXXX").string();
+  const int fd = ::mkstemp(tmpl.data());
+  if (fd < 0) throw Error("cannot create a temp file for the robot pedestal", tmpl);
+  const bool written = ::write(fd, xml.data(), xml.size()) == static_cast<ssize_t>(xml.size());
+  ::close(fd);
+  const std::filesystem::path file = tmpl;
+  try {
+    if (!written) throw Error("cannot write the robot pedestal model", tmpl);
+    scene.InsertRobot(file, robot.prefix, robot.base);
+  } catch (...) {
+    std::filesystem::remove(file);
+    throw;
+  }
+  std::filesystem::remove(file);
+}
+
+}  // namespace
+
 Env Env::Create(sim::Scene scene, const RobotSpec& robot, std::string scene_key) {
-  scene.InsertRobot(robot.xml, robot.prefix, robot.base);
+  if (robot.pedestal_size) {
+    InsertRobotOnPedestal(scene, robot);
+  } else {
+    scene.InsertRobot(robot.xml, robot.prefix, robot.base);
+  }
   Env env;
   env.model_ = std::shared_ptr<const mjModel>(scene.Compile().release(), sim::ModelDeleter{});
   env.data_ = sim::MakeData(env.model_.get());

@@ -290,8 +290,19 @@ EpisodeResult EpisodeRunner::Run(int64_t episode) {
       acts["ee_pose"].push_back(
           {{"arm", ee}, {"base", {0, 0, 0, 1, 0, 0, 0}}, {"gripper", ee}});
     } else {
-      acts["commanded_action"].push_back(
-          {{"arm", action->arm}, {"base", {}}, {"gripper", {action->gripper}}});
+      // The policy's action as the original stores it: in its action dtype, the arm as
+      // absolute targets or, in joint_rel_position mode, as the change from the joints at
+      // the previous observation.
+      std::vector<double> arm = action->arm;
+      if (config_.robot_config.command_mode.arm == ArmCommandMode::kJointRelPosition) {
+        for (size_t i = 0; i < n_arm; ++i) arm[i] -= prev_arm_qpos[i];
+      }
+      double gripper = action->gripper;
+      if (config_.task_config.action_dtype == ActionDtype::kFloat32) {
+        for (double& v : arm) v = static_cast<float>(v);
+        gripper = static_cast<float>(gripper);
+      }
+      acts["commanded_action"].push_back({{"arm", arm}, {"base", {}}, {"gripper", {gripper}}});
       if (terminal) {
         for (const char* name : {"joint_pos", "joint_pos_rel", "ee_twist", "ee_pose"}) {
           acts[name].push_back({});

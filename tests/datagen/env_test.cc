@@ -127,3 +127,36 @@ TEST(EnvCreateTest, SharedModelAndMissingHomeNumeric) {
 
 }  // namespace
 }  // namespace mlspaces::datagen
+
+namespace mlspaces::datagen {
+namespace {
+
+TEST(EnvPedestalTest, RobotStandsOnABoxAndTheBaseStaysOnTheFloor) {
+  RobotSpec spec = FrankaDroidSpec(MLSPACES_SOURCE_DIR, Base());
+  spec.pedestal_size = std::array<double, 3>{0.5, 0.4, 0.58};
+  Env env = Env::Load(kScene, spec);
+  const mjModel* m = env.model();
+  const int box = mj_name2id(m, mjOBJ_GEOM, "robot_0/pedestal");
+  ASSERT_GE(box, 0);
+  EXPECT_NEAR(m->geom_size[3 * box + 0], 0.25, 1e-12);
+  EXPECT_NEAR(m->geom_size[3 * box + 1], 0.20, 1e-12);
+  EXPECT_NEAR(m->geom_size[3 * box + 2], 0.29, 1e-12);
+  EXPECT_EQ(m->geom_bodyid[box], env.BodyId("robot_0/base"));
+  // The base pose is the floor pose; the arm root sits on the pedestal's top.
+  EXPECT_NEAR(env.GetRobotBasePose()[2], 0.0, 1e-12);
+  const int link0 = env.BodyId("robot_0/fr3_link0");
+  EXPECT_NEAR(env.data()->xpos[3 * link0 + 2], 0.58, 1e-12);
+  EXPECT_NEAR(env.data()->xpos[3 * link0 + 0], 0.1, 1e-12);
+  EXPECT_NEAR(env.data()->xpos[3 * link0 + 1], -0.2, 1e-12);
+  // Everything the robot needs came along: servos, gripper, TCP.
+  EXPECT_GE(mj_name2id(m, mjOBJ_ACTUATOR, "robot_0/fr3_joint7"), 0);
+  EXPECT_GE(mj_name2id(m, mjOBJ_ACTUATOR, "robot_0/gripper/fingers_actuator"), 0);
+  EXPECT_GE(mj_name2id(m, mjOBJ_SITE, "robot_0/gripper/grasp_site"), 0);
+  // No temp file is left behind.
+  for (const auto& e : std::filesystem::directory_iterator(std::filesystem::temp_directory_path())) {
+    EXPECT_EQ(e.path().filename().string().rfind("mlspaces_pedestal_", 0), std::string::npos);
+  }
+}
+
+}  // namespace
+}  // namespace mlspaces::datagen

@@ -122,6 +122,29 @@ TEST(EpisodeRunnerTest, RecordingOffStillJudgesTheEpisode) {
   EXPECT_FALSE(r.record.has_value());
 }
 
+TEST(EpisodeRunnerTest, CommandedActionFollowsTheActionDtypeAndCommandMode) {
+  ExperimentConfig config = TutorialConfig();
+  config.task_config.action_dtype = ActionDtype::kFloat64;
+  Rig absolute(config);
+  const EpisodeRecord a = *absolute.runner->Run(0).record;
+  config.robot_config.command_mode.arm = ArmCommandMode::kJointRelPosition;
+  Rig relative(config);
+  const EpisodeRecord r = *relative.runner->Run(0).record;
+  ASSERT_EQ(NumSteps(a), NumSteps(r));  // the same episode: the mode only changes the record
+  const size_t k = 10;
+  const std::vector<double>& cmd = a.actions.at("commanded_action")[k].at("arm");
+  const std::vector<double>& delta = r.actions.at("commanded_action")[k].at("arm");
+  const std::vector<double>& q_prev = a.qpos[k - 1].at("arm");
+  for (size_t i = 0; i < 7; ++i) EXPECT_NEAR(delta[i], cmd[i] - q_prev[i], 1e-12);
+  // float32 (the default) rounds the commanded values.
+  Rig f32(TutorialConfig());
+  const EpisodeRecord f = *f32.runner->Run(0).record;
+  for (size_t i = 0; i < 7; ++i) {
+    const double v = f.actions.at("commanded_action")[k].at("arm")[i];
+    EXPECT_EQ(v, static_cast<double>(static_cast<float>(cmd[i])));
+  }
+}
+
 TEST(EpisodeRunnerTest, HorizonTruncatesAsTimeout) {
   ExperimentConfig config = TutorialConfig();
   config.task_horizon = 10;

@@ -11,6 +11,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -48,6 +49,10 @@ struct RobotSpec {
   std::string home_gripper_numeric = "home_gripper";
   /// Home angles overriding the numerics (e.g. robot_config.init_qpos); empty = the model's.
   std::vector<double> home_arm, home_gripper;
+  /// A box pedestal of this full size (x, y, z; robot_config.base_size) in the base body,
+  /// standing on the base frame, with the arm root mounted on its top (as the original's
+  /// add_robot_to_scene). The base pose stays the floor pose; nullopt = no pedestal.
+  std::optional<std::array<double, 3>> pedestal_size;
 
   // What the planner and recorder need (after the prefix); see RobotView.
   /// Root body of the arm (its subtree gets gravity compensation).

@@ -12,6 +12,8 @@ namespace mlspaces::datagen {
 namespace {
 
 constexpr double kDegToRad = 3.14159265358979323846 / 180.0;
+// Joint-space travel: no joint moves faster than this (rad/s).
+constexpr double kMaxJointSpeed = 1.0;
 
 Mat4 RaisedBy(const Mat4& pose, double dz) {
   Mat4 out = pose;
@@ -71,6 +73,16 @@ PickPlanner::PickPlanner(const Env& env, const RobotView& robot, const PolicyCon
 }
 
 PickPlanner::~PickPlanner() = default;
+
+PickPlanner::Segment PickPlanner::Line(const Mat4& start, const Mat4& end,
+                                       const SegmentTiming& timing, PolicyPhase phase) {
+  Segment s;
+  s.start = start;
+  s.end = end;
+  s.duration = SegmentDuration(start, end, timing);
+  s.phase = phase;
+  return s;
+}
 
 void PickPlanner::Fail(PlanFailure failure, std::string message) {
   failure_ = failure;
@@ -142,7 +154,7 @@ PlanFailure PickPlanner::Plan(const mjData* d) {
       [&](const Mat4& g) {
         if (!config_.filter_feasible_grasps) return true;
         std::vector<double> q = q_now;
-        if (!SolveIk(g, q, false)) return false;
+        if (!SolveIk(g, q, true)) return false;
         q_grasp = std::move(q);
         return true;
       },
@@ -195,20 +207,34 @@ PlanFailure PickPlanner::Plan(const mjData* d) {
   Primitive approach;
   approach.move = true;
   approach.settle = config_.move_settle_time;
-  Mat4 from = tcp;
   if (tcp(2, 3) < lift(2, 3) - 1e-3) {
     // Below the lift height (a retry after a failed grasp): rise straight up to it, cross
     // over at that height to above the new grasp, then descend. Going straight to the
     // pregrasp (4 cm above the grasp) would sweep the open fingers through the object.
     const Mat4 up = RaisedBy(tcp, lift(2, 3) - tcp(2, 3));
-    approach.segments.push_back({tcp, up, SegmentDuration(tcp, up, slow), PolicyPhase::kRetreat});
-    approach.segments.push_back({up, lift, SegmentDuration(up, lift, fast), PolicyPhase::kPregrasp});
-    from = lift;
+    approach.segments.push_back(Line(tcp, up, slow, PolicyPhase::kRetreat));
+    approach.segments.push_back(Line(up, lift, fast, PolicyPhase::kPregrasp));
+  } else {
+    // From above: travel in joint space to the lift pose above the grasp (IK with restarts,
+    // seeded from the measured joints). A Cartesian line can need a wrist turn beyond the
+    // joint limits (a yawed object) that the per-step IK cannot follow; the joint path
+    // reaches any pose the planner found feasible.
+    std::vector<double> q_above = q_grasp.empty() ? q_now : q_grasp;
+    if (!SolveIk(lift, q_above, true)) {
+      return finish(PlanFailure::kIkFail, "lift has no IK solution");
+    }
+    double joint_span = 0;
+    for (size_t i = 0; i < q_now.size(); ++i) {
+      joint_span = std::max(joint_span, std::abs(q_above[i] - q_now[i]));
+    }
+    Segment travel = Line(tcp, lift, fast, PolicyPhase::kPregrasp);
+    travel.duration = std::max(travel.duration, joint_span / kMaxJointSpeed);
+    travel.q_start = q_now;
+    travel.q_end = q_above;
+    approach.segments.push_back(travel);
   }
-  approach.segments.push_back(
-      {from, pregrasp, SegmentDuration(from, pregrasp, fast), PolicyPhase::kPregrasp});
-  approach.segments.push_back(
-      {pregrasp, grasp_, SegmentDuration(pregrasp, grasp_, slow), PolicyPhase::kGrasp});
+  approach.segments.push_back(Line(lift, pregrasp, fast, PolicyPhase::kPregrasp));
+  approach.segments.push_back(Line(pregrasp, grasp_, slow, PolicyPhase::kGrasp));
   Primitive close;
   close.phase = PolicyPhase::kGripperClose;
   close.gripper = robot_->spec().gripper_closed_ctrl;
@@ -217,7 +243,7 @@ PlanFailure PickPlanner::Plan(const mjData* d) {
   raise.move = true;
   raise.holding = true;
   raise.settle = config_.move_settle_time;
-  raise.segments.push_back({grasp_, lift, SegmentDuration(grasp_, lift, slow), PolicyPhase::kLift});
+  raise.segments.push_back(Line(grasp_, lift, slow, PolicyPhase::kLift));
   primitives_ = {open, approach, close, raise};
   command_ = q_now;
   return finish(PlanFailure::kNone, "");
@@ -282,23 +308,42 @@ PlannerAction PickPlanner::Act(const mjData* d) {
     if (elapsed > total + p.settle + config_.phase_timeout) {
       return fail(PlanFailure::kPhaseTimeout, "phase timed out");
     }
-    // The segment at time `at` and its interpolated target.
-    auto target_at = [&](double at, PolicyPhase* phase) {
+    // The segment at time `at`, its target pose and, for joint-space travel, its joints.
+    ik_->SyncState(d);
+    struct Target {
+      Mat4 pose;
+      std::vector<double> q;  // empty: Cartesian
+      PolicyPhase phase = PolicyPhase::kUnknown;
+    };
+    auto target_at = [&](double at) {
       double start = 0;
       for (size_t i = 0; i < p.segments.size(); ++i) {
         const Segment& s = p.segments[i];
         if (at < start + s.duration || i + 1 == p.segments.size()) {
-          if (phase) *phase = s.phase;
-          const double u = s.duration > 0 ? (at - start) / s.duration : 1.0;
-          return InterpolatePose(s.start, s.end, std::clamp(u, 0.0, 1.0));
+          const double u = std::clamp(s.duration > 0 ? (at - start) / s.duration : 1.0, 0.0, 1.0);
+          Target t;
+          t.phase = s.phase;
+          if (s.q_end.empty()) {
+            t.pose = InterpolatePose(s.start, s.end, u);
+          } else {
+            t.q.resize(s.q_end.size());
+            for (size_t k = 0; k < t.q.size(); ++k) {
+              t.q[k] = s.q_start[k] + u * (s.q_end[k] - s.q_start[k]);
+            }
+            t.pose = ik_->Forward(t.q);
+          }
+          return t;
         }
         start += s.duration;
       }
-      return p.segments.back().end;
+      Target last;
+      last.pose = p.segments.back().end;
+      last.phase = p.segments.back().phase;
+      return last;
     };
-    PolicyPhase phase = PolicyPhase::kUnknown;
-    const Mat4 now_target = target_at(elapsed, &phase);
-    phase_ = phase;
+    const Target now = target_at(elapsed);
+    const Mat4& now_target = now.pose;
+    phase_ = now.phase;
     const Mat4 tcp = robot_->TcpPose(d);
     const double pos_err = TranslationDistance(tcp, now_target);
     const double rot_err = RotationAngle(tcp, now_target);
@@ -312,10 +357,14 @@ PlannerAction PickPlanner::Act(const mjData* d) {
         robot_->InterFingerDistance(d) < config_.gripper_empty_threshold) {
       return fail(PlanFailure::kEmptyGrasp, "the gripper closed on nothing");
     }
-    const Mat4 ahead = target_at(elapsed + dt_policy_, nullptr);
-    ik_->SyncState(d);
+    Target ahead = target_at(elapsed + dt_policy_);
+    if (!ahead.q.empty()) {
+      command_ = std::move(ahead.q);
+      ik_fail_streak_ = 0;
+      return hold(false);
+    }
     std::vector<double> q = command_;
-    if (SolveIk(ahead, q, false)) {
+    if (SolveIk(ahead.pose, q, false)) {
       command_ = std::move(q);
       ik_fail_streak_ = 0;
     } else if (++ik_fail_streak_ >= config_.max_sequential_ik_failures) {

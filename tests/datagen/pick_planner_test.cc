@@ -148,6 +148,32 @@ TEST_F(PickPlannerTest, ObjectMovedAwayBeforeTheCloseIsRetriedAndPickedWhereItIs
   EXPECT_GT(BlockZ(), 0.025 + 0.05);
 }
 
+TEST_F(PickPlannerTest, TravelAboveTheGraspIsAStraightLineInJointSpace) {
+  ASSERT_EQ(planner_.Reset(env_.data(), block_, grasps_), PlanFailure::kNone);
+  const std::vector<double> q0 = robot_.ArmQpos(env_.data());
+  std::vector<std::vector<double>> pregrasp_phase;
+  Drive(200, [&](PlannerAction& a, int) {
+    if (planner_.phase() == PolicyPhase::kPregrasp) pregrasp_phase.push_back(a.arm);
+  });
+  // The phase is the joint travel to the lift pose, then a 4 cm Cartesian descent (0.2 s at
+  // speed_fast: at most 4 policy steps with the one-step look-ahead).
+  ASSERT_GT(pregrasp_phase.size(), 10u);
+  const std::vector<std::vector<double>> travel(pregrasp_phase.begin(), pregrasp_phase.end() - 4);
+  const std::vector<double>& last = travel.back();
+  size_t big = 0;
+  for (size_t i = 1; i < 7; ++i) {
+    if (std::abs(last[i] - q0[i]) > std::abs(last[big] - q0[big])) big = i;
+  }
+  // Every command on the travel is q0 + s (q_end - q0) for one s per step, s increasing.
+  double prev_s = 0;
+  for (const std::vector<double>& q : travel) {
+    const double s = (q[big] - q0[big]) / (last[big] - q0[big]);
+    EXPECT_GE(s, prev_s);
+    prev_s = s;
+    for (size_t i = 0; i < 7; ++i) EXPECT_NEAR(q[i], q0[i] + s * (last[i] - q0[i]), 1e-9) << i;
+  }
+}
+
 TEST(PolicyPhaseMapTest, IsTheOriginalsMap) {
   const Json map = PolicyPhaseMap();
   EXPECT_EQ(map.size(), 10u);

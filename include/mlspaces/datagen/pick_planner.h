@@ -10,14 +10,17 @@
 //      the first feasible one;
 //   3. pregrasp = grasp + pregrasp_z_offset along world z, lift = grasp + postgrasp_z_offset;
 //      each of the three must have an IK solution;
-//   4. phases: gripper open (instant) -> [when the TCP is below the lift height, i.e. on a
-//      retry: straight up to it, then across to the lift pose] -> move to pregrasp
-//      (speed_fast) -> move to grasp
-//      (speed_slow) -> settle -> close (gripper_close_duration) -> lift (speed_slow, holding) ->
-//      settle.
+//   4. phases: gripper open (instant) -> travel to the lift pose above the grasp (joint space,
+//      speed_fast along the TCP, at most 1 rad/s per joint; on a retry, with the TCP below the
+//      lift height: straight up to it, then across in Cartesian space) -> down to the pregrasp
+//      (speed_fast) -> down to the grasp (speed_slow) -> settle -> close
+//      (gripper_close_duration) -> lift (speed_slow, holding) -> settle.
+//      The original moves in one Cartesian line to the pregrasp; a yawed object can then need
+//      a wrist turn past the joint limits mid-way, which per-step IK cannot follow.
 // Act (once per policy step, on the simulation clock d->time):
-//   - a move's target at elapsed time t is the straight-line/slerp interpolation between its
-//     segment's end poses, evaluated one policy step ahead (where the arm should be when the
+//   - a Cartesian segment's target at elapsed time t is the straight-line/slerp interpolation
+//     between its end poses (a joint segment's: the joint-space interpolation), evaluated one
+//     policy step ahead (where the arm should be when the
 //     step ends; the original evaluates it at the step's start and so lags a step behind);
 //     the arm command is an IK solution of it seeded with the previous command (continuous);
 //   - a move fails when the TCP is more than tcp_pos_err_threshold / tcp_rot_err_threshold
@@ -46,6 +49,7 @@
 #include "mlspaces/datagen/grasp_selection.h"
 #include "mlspaces/datagen/ik.h"
 #include "mlspaces/datagen/robot_view.h"
+#include "mlspaces/datagen/se3.h"
 
 namespace mlspaces::datagen {
 
@@ -133,6 +137,8 @@ class PickPlanner {
     Mat4 start, end;
     double duration = 0;
     PolicyPhase phase = PolicyPhase::kUnknown;
+    /// Joint-space travel (linear in the joints) when set; else a Cartesian line + slerp.
+    std::vector<double> q_start, q_end;
   };
   struct Primitive {
     bool move = false;
@@ -144,6 +150,9 @@ class PickPlanner {
     bool holding = false;                       // moves
   };
 
+  /// A Cartesian segment timed by `timing`.
+  static Segment Line(const Mat4& start, const Mat4& end, const SegmentTiming& timing,
+                      PolicyPhase phase);
   PlanFailure Plan(const mjData* d);
   void Fail(PlanFailure failure, std::string message);
   bool SolveIk(const Mat4& target, std::vector<double>& q, bool allow_restarts);

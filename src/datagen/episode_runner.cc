@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <string_view>
 #include <utility>
 
 #include "mlspaces/core/error.h"
@@ -64,7 +65,6 @@ Outcome OutcomeOfFailure(PlanFailure f) {
     case PlanFailure::kIkFail: return Outcome::kIkFail;
     case PlanFailure::kCollision: return Outcome::kCollision;
     case PlanFailure::kEmptyGrasp: return Outcome::kGraspSlip;
-    case PlanFailure::kPhaseTimeout: return Outcome::kTimeout;
     case PlanFailure::kNone: break;
   }
   return Outcome::kGraspSlip;
@@ -188,6 +188,16 @@ EpisodeResult EpisodeRunner::Run(int64_t episode) {
   const size_t n_grip = robot_.num_gripper();
   const std::string& artic = env_.robot().articulation_name;
   const size_t artic_width = env_.robot().articulation_width;
+  // The scene's free objects (env_states/actors, always empty in the original).
+  std::vector<std::pair<std::string, int>> actors;
+  for (int b = 1; b < m->nbody; ++b) {
+    const char* name = mj_id2name(m, mjOBJ_BODY, b);
+    if (name == nullptr || m->body_parentid[b] != 0 || m->body_jntnum[b] != 1) continue;
+    const int j = m->body_jntadr[b];
+    if (m->jnt_type[j] != mjJNT_FREE) continue;
+    if (std::string_view(name).rfind(env_.robot().prefix, 0) == 0) continue;
+    actors.emplace_back(name, j);
+  }
   if (record) {
     rec.extra["robot_base_pose"] = Series(DType::kFloat32, {7});
     rec.extra["obj_start"] = Series(DType::kFloat32, {7});
@@ -199,6 +209,9 @@ EpisodeResult EpisodeRunner::Run(int64_t episode) {
     rec.extra_json["task_info"].max_len = 4000;
     rec.extra_json["grasp_state_pickup_obj"].max_len = 2000;
     rec.env_states["articulations/" + artic] = Series(DType::kFloat32, {artic_width});
+    for (const auto& [name, joint] : actors) {
+      rec.env_states["actors/" + name] = Series(DType::kFloat32, {13});
+    }
   }
 
   // FK of the TCP with the arm at `q` (other joints as now), in the world frame.
@@ -245,6 +258,13 @@ EpisodeResult EpisodeRunner::Run(int64_t episode) {
     for (double v : arm_v) if (k < artic_width) panda[k++] = v;
     for (double v : grip_v) if (k < artic_width) panda[k++] = v;
     rec.env_states["articulations/" + artic].Append(panda);
+    for (const auto& [name, joint] : actors) {
+      // Free-joint pose (xyz, quat wxyz) and velocity (linear, angular): 13 values.
+      std::vector<double> row(13);
+      std::copy_n(d->qpos + m->jnt_qposadr[joint], 7, row.begin());
+      std::copy_n(d->qvel + m->jnt_dofadr[joint], 6, row.begin() + 7);
+      rec.env_states["actors/" + name].Append(row);
+    }
 
     const Mat4 obj = Pose7ToMat4({d->xpos[3 * object], d->xpos[3 * object + 1],
                                   d->xpos[3 * object + 2], d->xquat[4 * object],

@@ -44,7 +44,6 @@ const char* PlanFailureName(PlanFailure failure) {
     case PlanFailure::kIkFail: return "ik_fail";
     case PlanFailure::kCollision: return "collision";
     case PlanFailure::kEmptyGrasp: return "empty_grasp";
-    case PlanFailure::kPhaseTimeout: return "phase_timeout";
   }
   return "unknown";
 }
@@ -304,9 +303,6 @@ PlannerAction PickPlanner::Act(const mjData* d) {
       ++current_;
       started_at_.reset();
       continue;
-    }
-    if (elapsed > total + p.settle + config_.phase_timeout) {
-      return fail(PlanFailure::kPhaseTimeout, "phase timed out");
     }
     // The segment at time `at`, its target pose and, for joint-space travel, its joints.
     ik_->SyncState(d);

@@ -76,6 +76,12 @@ TEST(EpisodeRunnerTest, TutorialEpisodesSucceedAndRecordEveryStep) {
     EXPECT_EQ(rec.extra_json.at("grasp_state_pickup_obj").steps.back(),
               (Json{{"gripper", Json{{"touching", true}, {"held", true}}}}));
     EXPECT_EQ(rec.extra.at("policy_phase").steps(), t);
+    // The block is an actor: its pose and velocity per step, lifted at the end.
+    const Series& block = rec.env_states.at("actors/red_block");
+    ASSERT_EQ(block.steps(), t);
+    ASSERT_EQ(block.row_size(), 13u);
+    const float* rows = reinterpret_cast<const float*>(block.bytes().data());
+    EXPECT_GT(rows[13 * (t - 1) + 2] - rows[2], 0.06f);
     EXPECT_EQ(rec.meta.assets.at(0).uid, "red_block");
     EXPECT_EQ(rec.meta.assets.at(0).library, "custom_assets");
     EXPECT_EQ(rec.meta.task_description, "Pick up the block");

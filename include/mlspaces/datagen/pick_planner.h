@@ -26,8 +26,8 @@
 //   - a move fails when the TCP is more than tcp_pos_err_threshold / tcp_rot_err_threshold
 //     from the target of the current time (something blocks the arm), when the gripper closes
 //     on nothing while holding (gap < gripper_empty_threshold), or after
-//     max_sequential_ik_failures IK failures in a row; a phase that runs phase_timeout past its
-//     nominal duration fails too;
+//     max_sequential_ik_failures IK failures in a row (phases are timed on the simulation
+//     clock and always end, so the original's phase_timeout has nothing to catch);
 //   - a failure replans from the current state (after re-opening the gripper), at most
 //     max_retries times; then the planner gives up (done, with the failure's reason).
 #pragma once
@@ -77,7 +77,6 @@ enum class PlanFailure {
   kIkFail,     ///< pregrasp, grasp or lift has no IK solution; or IK failed step after step
   kCollision,  ///< the TCP fell too far behind its target: the arm is blocked
   kEmptyGrasp, ///< the gripper closed on nothing, or let go while lifting
-  kPhaseTimeout,
 };
 const char* PlanFailureName(PlanFailure failure);
 

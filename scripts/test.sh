@@ -1,15 +1,16 @@
 #!/usr/bin/env bash
 # README command 2: install what is missing, build, and run every test.
 #   1. the full build and all ctest suites;
-#   2. the core (parser) suites again under AddressSanitizer + UndefinedBehaviorSanitizer.
+#   2. the core (parser) and datagen (planner, runner, recorder) suites again under
+#      AddressSanitizer + UndefinedBehaviorSanitizer.
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 "$ROOT/scripts/install-deps.sh"
 "$ROOT/scripts/build.sh"
 ctest --test-dir "$ROOT/build" --output-on-failure -j "$(nproc)"
 
-echo "== core suites under ASan + UBSan =="
+echo "== core and datagen suites under ASan + UBSan =="
 MLSPACES_BUILD_DIR="$ROOT/build-asan" "$ROOT/scripts/build.sh" -DMLSPACES_SANITIZE=ON \
-  -DMLSPACES_BUILD_BENCH=OFF -DMLSPACES_BUILD_SIM=OFF
+  -DMLSPACES_BUILD_BENCH=OFF -DMLSPACES_BUILD_SIM=ON
 ASAN_OPTIONS=detect_leaks=1:abort_on_error=0 UBSAN_OPTIONS=print_stacktrace=1 \
-  ctest --test-dir "$ROOT/build-asan" --output-on-failure -j "$(nproc)" -L core
+  ctest --test-dir "$ROOT/build-asan" --output-on-failure -j "$(nproc)" -L 'core|datagen'

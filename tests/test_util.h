@@ -110,11 +110,12 @@ struct CliResult {
   std::string err;
 };
 
-/// Runs the mlspaces binary with `args`; `prefix` (shell words, e.g. "env -u X") goes before
-/// it. stdout and stderr go to files in a temp folder of their own.
-inline CliResult RunCli(const std::vector<std::string>& args, const std::string& prefix = "") {
+/// Runs `program` with `args`; `prefix` (shell words, e.g. "env -u X") goes before it.
+/// stdout and stderr go to files in a temp folder of their own.
+inline CliResult RunProgram(const std::string& program, const std::vector<std::string>& args,
+                            const std::string& prefix = "") {
   TempDir io;
-  std::string cmd = prefix + ShellQuote(MLSPACES_CLI_PATH);
+  std::string cmd = prefix + ShellQuote(program);
   for (const std::string& a : args) cmd += " " + ShellQuote(a);
   cmd += " >" + ShellQuote((io / "out").string()) + " 2>" + ShellQuote((io / "err").string());
   const int status = std::system(cmd.c_str());
@@ -123,6 +124,11 @@ inline CliResult RunCli(const std::vector<std::string>& args, const std::string&
   r.out = Slurp(io / "out");
   r.err = Slurp(io / "err");
   return r;
+}
+
+/// Runs the mlspaces binary (see RunProgram).
+inline CliResult RunCli(const std::vector<std::string>& args, const std::string& prefix = "") {
+  return RunProgram(MLSPACES_CLI_PATH, args, prefix);
 }
 
 /// The what() of the mlspaces::Error `f` throws, or "<no error>".

@@ -22,18 +22,9 @@ using ::testing::StartsWith;
 
 const fs::path kConfig = fs::path(MLSPACES_EXAMPLES_DIR) / "custom_assets" / "datagen.yaml";
 
-// Runs the example with `args`; stdout and stderr go to files of a temp folder.
+// Runs the example with `args`.
 CliResult RunExample(const std::vector<std::string>& args) {
-  TempDir io;
-  std::string cmd = ShellQuote(MLSPACES_EXAMPLE_SAMPLER_PATH);
-  for (const std::string& a : args) cmd += " " + ShellQuote(a);
-  cmd += " >" + ShellQuote((io / "out").string()) + " 2>" + ShellQuote((io / "err").string());
-  const int status = std::system(cmd.c_str());
-  CliResult r;
-  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  r.out = Slurp(io / "out");
-  r.err = Slurp(io / "err");
-  return r;
+  return RunProgram(MLSPACES_EXAMPLE_SAMPLER_PATH, args);
 }
 
 std::vector<std::string> Lines(const std::string& text) {

@@ -5,7 +5,7 @@
 // they are taken over wall time (UseRealTime).
 //
 // Datagen's physics per policy step: policy_dt / sim_dt (33) x {mj_step1, arm gravity
-// compensation, mj_step2} and one mj_forward, plus the planner (IK), the action noise and the
+// compensation, mj_step2} and one mj_fwdPosition, plus the planner (IK), the action noise and the
 // observation (success check, and recording when on). "steps" below are physics steps
 // (EpisodeResult::physics_steps), the same unit as one bare mj_step. overhead_pct compares
 // with bare steps from the reset pose; the episode's states (gripper closing on and lifting
@@ -182,10 +182,10 @@ BENCHMARK(BM_DatagenEpisode)
 // The overhead ratio in one run, on one model and one mjData. Per iteration (episode i):
 //   1. reset, kBareSteps bare mj_steps                      -> bare_steps_per_s
 //   2. reset, the same number of steps as datagen's physics loop, no policy (33 x {mj_step1,
-//      gravity compensation, mj_step2} + mj_forward per policy step) -> loop_steps_per_s
+//      gravity compensation, mj_step2} + mj_fwdPosition per policy step) -> loop_steps_per_s
 //   3. one datagen episode, record = range(0)               -> datagen_steps_per_s
 //      (physics steps / episode wall time), and physics_stage_steps_per_s (the same steps
-//      over the episode's own "physics" timing: its stepping and mj_forward only)
+//      over the episode's own "physics" timing: its stepping and mj_fwdPosition only)
 //   4. kBareSteps bare mj_steps from the episode's final state (object grasped and lifted,
 //      more contacts than the reset pose)                   -> bare_grasp_steps_per_s
 //   5. the episode's own states: at every policy step of step 3 the state (qpos, qvel, act,
@@ -237,7 +237,7 @@ void BM_DatagenOverhead(benchmark::State& state) {
       t0 = Clock::now();
       for (int64_t i = 0; i < loop_policy_steps; ++i) {
         robot.Step(d, substeps, gravcomp);
-        mj_forward(m, d);
+        mj_fwdPosition(m, d);
       }
       loop_s += Since(t0);
       loop_steps += loop_policy_steps * substeps;

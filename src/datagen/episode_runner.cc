@@ -370,7 +370,9 @@ EpisodeResult EpisodeRunner::Run(int64_t episode) {
     robot_.SetGripperCtrl(d, action.gripper);
     if (options_.on_step) options_.on_step(m, d, step);
     robot_.Step(d, substeps_, gravcomp);
-    mj_forward(m, d);  // positions, contacts and Jacobians of the new state
+    // Positions, contacts and Jacobians of the new state (what the success check, the
+    // recorder and the next action read); the next mj_step1 recomputes the rest.
+    mj_fwdPosition(m, d);
     t_physics += Since(ts);
     result.physics_steps += substeps_;
     ++step;

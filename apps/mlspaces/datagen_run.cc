@@ -1,5 +1,7 @@
-// mlspaces datagen CONFIG [--set KEY=VALUE]... [--seed S] [--episodes N] [--output DIR]:
-// generates pick demonstrations (datagen/run.h) and prints the run's summary.
+// mlspaces datagen CONFIG [--set KEY=VALUE]... [--seed S] [--episodes N] [--output DIR]
+//   [--resume] [--workers N] [--shard I/N] [-q]: generates pick demonstrations
+// (datagen/run.h) and prints the run's summary.
+// mlspaces merge OUTPUT RUN_DIR... [--partial]: combines the folders of a sharded run.
 #include <unistd.h>
 
 #include <cstdio>
@@ -12,12 +14,23 @@
 namespace mlspaces::cli {
 namespace {
 
-int Run(const DatagenConfigFlags& flags, bool quiet) {
+struct RunFlags {
+  bool quiet = false;
+  bool resume = false;
+  int workers = 0;
+  std::string shard;
+};
+
+int Run(const DatagenConfigFlags& flags, const RunFlags& run) {
+  const bool quiet = run.quiet;
   const datagen::ConfigRegistry configs = datagen::ConfigRegistry::WithBuiltins();
   const datagen::ExperimentConfig config = flags.Resolve(configs);
   const bool tty = isatty(STDERR_FILENO) != 0;
   datagen::RunOptions options;
   options.progress = !quiet;
+  options.resume = run.resume;
+  options.workers = run.workers;
+  if (!run.shard.empty()) options.shard = datagen::ParseShard(run.shard);
   options.log = [&](datagen::LogLevel level, const std::string& line) {
     if (quiet && level < datagen::LogLevel::kWarning) return;
     // On a terminal the progress bar shows the per-episode progress.
@@ -41,16 +54,46 @@ int Run(const DatagenConfigFlags& flags, bool quiet) {
   return 0;
 }
 
+int Merge(const std::string& output, const std::vector<std::string>& inputs, bool partial) {
+  std::vector<std::filesystem::path> dirs(inputs.begin(), inputs.end());
+  const datagen::MergeReport r = datagen::MergeRuns(dirs, output, partial);
+  std::printf("merged %zu folders into %s: %lld batch files, %lld episodes, %lld attempts\n",
+              dirs.size(), output.c_str(), static_cast<long long>(r.batch_files),
+              static_cast<long long>(r.episodes), static_cast<long long>(r.attempts));
+  for (const std::string& m : r.missing) Warn("not finished in any input: " + m);
+  return 0;
+}
+
 }  // namespace
 
 void AddDatagen(CLI::App& app, Action& action) {
   auto flags = std::make_shared<DatagenConfigFlags>();
-  auto quiet = std::make_shared<bool>(false);
+  auto run = std::make_shared<RunFlags>();
   CLI::App* sub = app.add_subcommand(
       "datagen", "Generate pick demonstrations: trajectories, attempt journal and summary");
   flags->AddTo(*sub);
-  sub->add_flag("-q,--quiet", *quiet, "Only warnings and errors on stderr, no progress bar");
-  sub->callback([&action, flags, quiet] { action = [flags, quiet] { return Run(*flags, *quiet); }; });
+  sub->add_flag("-q,--quiet", run->quiet, "Only warnings and errors on stderr, no progress bar");
+  sub->add_flag("--resume", run->resume,
+                "Continue the run in the output folder (after a kill or a crash)");
+  sub->add_option("--workers", run->workers, "Worker processes (default: num_workers)")
+      ->type_name("N")
+      ->check(PositiveInteger());
+  sub->add_option("--shard", run->shard,
+                  "Run only shard I of N (work item k belongs to shard k % N); needs a seed")
+      ->type_name("I/N");
+  sub->callback([&action, flags, run] { action = [flags, run] { return Run(*flags, *run); }; });
+
+  auto output = std::make_shared<std::string>();
+  auto inputs = std::make_shared<std::vector<std::string>>();
+  auto partial = std::make_shared<bool>(false);
+  CLI::App* merge = app.add_subcommand(
+      "merge", "Combine the run folders of a sharded datagen run into one dataset");
+  merge->add_option("OUTPUT", *output, "The merged run folder (must not hold a run)")->required();
+  merge->add_option("RUN_DIR", *inputs, "Shard run folders")->required();
+  merge->add_flag("--partial", *partial, "Merge even when some batches are not finished");
+  merge->callback([&action, output, inputs, partial] {
+    action = [output, inputs, partial] { return Merge(*output, *inputs, *partial); };
+  });
 }
 
 }  // namespace mlspaces::cli

@@ -15,9 +15,11 @@ ProgressBar::ProgressBar(std::string label, size_t total, bool enabled)
 
 ProgressBar::~ProgressBar() { Finish(); }
 
-void ProgressBar::Update(size_t done) {
+void ProgressBar::Update(size_t done, std::string note) {
   if (!enabled_) return;
   std::lock_guard<std::mutex> lock(mu_);
+  done_ = done;
+  note_ = std::move(note);
   auto now = std::chrono::steady_clock::now();
   if (finished_ || (now - last_draw_ < std::chrono::milliseconds(100) && done < total_)) return;
   last_draw_ = now;
@@ -29,7 +31,7 @@ void ProgressBar::Finish() {
   std::lock_guard<std::mutex> lock(mu_);
   if (finished_) return;
   finished_ = true;
-  Draw(total_);
+  Draw(done_);
   std::fputc('\n', stderr);
 }
 
@@ -42,8 +44,13 @@ void ProgressBar::Draw(size_t done) {
   double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
   double rate = secs > 0 ? done / secs : 0;
   // "\x1b[K" clears what a longer previous draw left behind.
-  std::fprintf(stderr, "\r%s [%s] %zu/%zu (%.0f/s)\x1b[K", label_.c_str(), bar.c_str(), done,
-               total_, rate);
+  if (note_.empty()) {
+    std::fprintf(stderr, "\r%s [%s] %zu/%zu (%.0f/s)\x1b[K", label_.c_str(), bar.c_str(), done,
+                 total_, rate);
+  } else {
+    std::fprintf(stderr, "\r%s [%s] %zu/%zu %s\x1b[K", label_.c_str(), bar.c_str(), done,
+                 total_, note_.c_str());
+  }
   std::fflush(stderr);
 }
 

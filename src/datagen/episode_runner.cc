@@ -147,13 +147,13 @@ EpisodeResult EpisodeRunner::Run(int64_t episode) {
   std::string uid;
   std::shared_ptr<const Annotation> annotation;
   GraspSet grasps;
+  const std::vector<std::string> filter = config_.policy_config.grasp_libraries
+                                              ? *config_.policy_config.grasp_libraries
+                                              : std::vector<std::string>{};
   try {
     const std::optional<Json> metadata =
         env_.metadata().is_null() ? std::nullopt : std::optional<Json>(env_.metadata());
     uid = SceneObjectAssetId(metadata, task.pickup_obj_name);
-    const std::vector<std::string> filter = config_.policy_config.grasp_libraries
-                                                ? *config_.policy_config.grasp_libraries
-                                                : std::vector<std::string>{};
     grasps = registry_.LoadPickupGrasps(uid, filter, std::numeric_limits<size_t>::max());
     annotation = registry_.GetAnnotation(uid);
   } catch (const Error& e) {
@@ -433,9 +433,22 @@ EpisodeResult EpisodeRunner::Run(int64_t episode) {
                            "pickup_obj"});
     meta.mujoco_version = mj_versionString();
     meta.mlspaces_version = std::string(Version());
+    // Only what is the same on every machine: the grasp file relative to its library.
+    std::string grasp_library, grasp_file = grasps.source.filename().string();
+    if (const auto found = registry_.FindPickupGraspFile(uid, filter)) {
+      grasp_library = found->library;
+      if (const GraspLibraryInfo* lib = registry_.FindGraspLibrary(found->library)) {
+        grasp_file = found->path.lexically_relative(lib->dir).generic_string();
+      }
+    }
+    // The attempt as journaled, minus its timings (which differ run to run): a resumed run
+    // restores a journal line lost in a crash from it.
+    Json attempt_json = attempt.ToJson();
+    attempt_json["timings"] = Json::object();
     meta.extra = Json{{"scene_key", env_.scene_key()},
-                      {"grasp_file", grasps.source.string()},
-                      {"outcome", std::string(OutcomeName(attempt.outcome))}};
+                      {"grasp_library", grasp_library},
+                      {"grasp_file", grasp_file},
+                      {"attempt", attempt_json}};
     rec.obs_scene = Json{{"task_type", "pick"},
                          {"task_description", meta.task_description},
                          {"policy_dt_ms", config_.policy_dt_ms},

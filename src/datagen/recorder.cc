@@ -475,6 +475,11 @@ Recorder::Recorder(RecorderOptions options) : options_(std::move(options)) {
   std::error_code ec;
   fs::create_directories(options_.dir, ec);
   if (ec) throw Error("cannot create folder: " + ec.message(), options_.dir.string());
+  // A batch file a crash left half-written under its temp name (never under its own name).
+  for (const auto& e : fs::directory_iterator(options_.dir, ec)) {
+    const std::string name = e.path().filename().string();
+    if (name.rfind(stem_ + ".h5.tmp.", 0) == 0) fs::remove(e.path(), ec);
+  }
   // Parts left by a crashed run: keep the complete ones (they were renamed into place only once
   // durable), drop temp files.
   const fs::path parts = parts_dir();
@@ -499,6 +504,45 @@ Recorder::Recorder(RecorderOptions options) : options_(std::move(options)) {
     }
     parts_.push_back(parts / PartName(k));
   }
+}
+
+Json Recorder::PartProvenance(int k) const {
+  if (k < 0 || k >= next_index()) throw UsageError("no part " + std::to_string(k));
+  const std::string path = parts_[k].string();
+  const std::string group = "traj_" + std::to_string(k);
+  h5::QuietErrors quiet;
+  h5::Handle file(h5::Check(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), "H5Fopen", path, ""),
+                  H5Fclose);
+  h5::Handle attr(h5::Check(H5Aopen_by_name(file.get(), group.c_str(), "provenance", H5P_DEFAULT,
+                                            H5P_DEFAULT),
+                            "H5Aopen_by_name", path, group + "@provenance"),
+                  H5Aclose);
+  h5::Handle type(h5::Check(H5Aget_type(attr.get()), "H5Aget_type", path, group), H5Tclose);
+  char* text = nullptr;
+  h5::Check(H5Aread(attr.get(), type.get(), &text), "H5Aread", path, group + "@provenance");
+  std::string json = text != nullptr ? text : "";
+  h5::Handle space(h5::Check(H5Aget_space(attr.get()), "H5Aget_space", path, group), H5Sclose);
+  H5Dvlen_reclaim(type.get(), space.get(), H5P_DEFAULT, &text);
+  return ParseJson(json, path);
+}
+
+int64_t CountEpisodes(const fs::path& file) {
+  const std::string path = file.string();
+  h5::QuietErrors quiet;
+  h5::Handle f(h5::Check(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), "H5Fopen", path, ""),
+               H5Fclose);
+  H5G_info_t info;
+  h5::Check(H5Gget_info(f.get(), &info), "H5Gget_info", path, "/");
+  int64_t n = 0;
+  for (hsize_t i = 0; i < info.nlinks; ++i) {
+    char name[64] = {0};
+    if (H5Lget_name_by_idx(f.get(), ".", H5_INDEX_NAME, H5_ITER_INC, i, name, sizeof name,
+                           H5P_DEFAULT) > 0 &&
+        std::strncmp(name, "traj_", 5) == 0) {
+      ++n;
+    }
+  }
+  return n;
 }
 
 fs::path Recorder::batch_file() const { return options_.dir / (stem_ + ".h5"); }

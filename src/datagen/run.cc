@@ -1,12 +1,23 @@
 #include "mlspaces/datagen/run.h"
 
+#include <fcntl.h>
+#include <poll.h>
+#include <signal.h>
+#include <sys/prctl.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <cerrno>
+#include <charconv>
 #include <chrono>
 #include <cmath>
+#include <cstring>
+#include <map>
 #include <memory>
 #include <optional>
 #include <random>
+#include <set>
 
 #include "mlspaces/core/error.h"
 #include "mlspaces/core/files.h"
@@ -21,6 +32,10 @@ namespace fs = std::filesystem;
 namespace {
 
 using Clock = std::chrono::steady_clock;
+
+double Since(Clock::time_point t0) {
+  return std::chrono::duration<double>(Clock::now() - t0).count();
+}
 
 // Python's round(): halves to even.
 int64_t RoundHalfEven(double x) {
@@ -37,9 +52,15 @@ uint64_t DrawSeed() {
   return (static_cast<uint64_t>(device()) << 32) ^ device();
 }
 
-// The config to run: the stored one's seed when ours is null, checked against a stored run.
-ExperimentConfig SettleRunConfig(const ExperimentConfig& config, const fs::path& file) {
+// The config to run, checked against a run already in the folder: a null seed takes the
+// stored one. Without `resume`, a folder whose run (this shard's journal) exists is refused.
+ExperimentConfig SettleRunConfig(const ExperimentConfig& config, const fs::path& file,
+                                 const fs::path& journal, const RunOptions& options) {
   ExperimentConfig run = config;
+  if (options.shard.count > 1 && !run.seed) {
+    throw UsageError("a sharded run needs a seed (set `seed` or --seed), so that every shard "
+                     "draws the same episodes");
+  }
   if (!fs::exists(file)) {
     if (!run.seed) run.seed = DrawSeed();
     return run;
@@ -52,10 +73,209 @@ ExperimentConfig SettleRunConfig(const ExperimentConfig& config, const fs::path&
                     "): choose another output folder, or remove this one to start over",
                 file.string());
   }
+  std::error_code ec;
+  if (!options.resume && fs::file_size(journal, ec) > 0 && !ec) {
+    throw Error("the folder already holds this run: pass --resume to continue it, or choose "
+                "another output folder",
+                file.string());
+  }
   return run;
 }
 
+std::string Duration(double seconds) {
+  char buf[32];
+  const auto s = static_cast<int64_t>(std::max(0.0, seconds));
+  if (s >= 3600) {
+    std::snprintf(buf, sizeof buf, "%lldh%02lldm", static_cast<long long>(s / 3600),
+                  static_cast<long long>(s % 3600 / 60));
+  } else {
+    std::snprintf(buf, sizeof buf, "%lldm%02llds", static_cast<long long>(s / 60),
+                  static_cast<long long>(s % 60));
+  }
+  return buf;
+}
+
+// Runs work items in this process: env per scene (kept while consecutive items share it),
+// recorder per item, resume bookkeeping. Reports through `emit` (JSON messages):
+//   {"item": k, "attempt": {...}, "kept": bool}   one attempt, after its episode is written
+//   {"item": k, "finished": true, "kept": n, "batch_file": "..."}
+class ItemRunner {
+ public:
+  using Emit = std::function<void(const Json&)>;
+
+  ItemRunner(const ExperimentConfig& config, const TaskSamplerRegistry& samplers,
+             const fs::path& folder, const std::vector<AttemptRecord>& earlier, Emit emit)
+      : config_(config), folder_(folder), earlier_(earlier), emit_(std::move(emit)) {
+    registry_ = std::make_unique<Registry>(Registry::Options{config.libraries.assets_dir});
+    config.libraries.ApplyTo(*registry_);
+    sampler_ = samplers.Create(config, *config.seed);
+  }
+
+  void Run(size_t index, const WorkItem& item) {
+    const std::string scene = item.scene_name();
+    RecorderOptions rec_options;
+    rec_options.dir = folder_ / scene;
+    rec_options.batch = item.batch;
+    rec_options.num_batches = item.num_batches;
+    Recorder recorder(rec_options);
+    // Where the item stopped: after its last journaled attempt, or after its last written
+    // episode when the kill came between writing it and journaling it (that attempt's line
+    // is restored from the episode's provenance).
+    std::set<int64_t> journaled;
+    int64_t next = 0;
+    for (const AttemptRecord& r : earlier_) {
+      if (r.scene == scene && r.episode >= item.first_episode &&
+          r.episode < item.first_episode + item.max_attempts) {
+        journaled.insert(r.episode);
+        next = std::max(next, r.episode - item.first_episode + 1);
+      }
+    }
+    for (int k = 0; k < recorder.next_index(); ++k) {
+      const Json prov = recorder.PartProvenance(k);
+      const int64_t episode = prov.value("source_episode", int64_t{-1});
+      if (episode < item.first_episode || episode >= item.first_episode + item.max_attempts) {
+        throw Error("episode part " + std::to_string(k) + " belongs to episode " +
+                        std::to_string(episode) + ", outside this batch",
+                    recorder.parts_dir().string());
+      }
+      next = std::max(next, episode - item.first_episode + 1);
+      if (journaled.count(episode) == 0) {
+        const Json* attempt = prov.contains("extra") && prov["extra"].contains("attempt")
+                                  ? &prov["extra"]["attempt"]
+                                  : nullptr;
+        if (attempt == nullptr) {
+          throw Error("episode part " + std::to_string(k) + " has no attempt record",
+                      recorder.parts_dir().string());
+        }
+        emit_(Json{{"item", index}, {"attempt", *attempt}, {"kept", true}, {"restored", true}});
+      }
+    }
+    int64_t kept = recorder.next_index();
+    if (env_house_ != item.house) {
+      runner_.reset();
+      env_.reset();
+      env_.emplace(Env::Create(sim::Scene::Load(item.scene_xml),
+                               RobotSpecFromConfig(config_.robot_config), scene));
+      EpisodeRunnerOptions runner_options;
+      runner_options.scene_name = scene;
+      runner_ = std::make_unique<EpisodeRunner>(*env_, *sampler_, *registry_, config_,
+                                                runner_options);
+      env_house_ = item.house;
+    }
+    int64_t sequential_rejects = 0;
+    for (int64_t a = next; kept < item.episodes && a < item.max_attempts; ++a) {
+      EpisodeResult result = runner_->Run(item.first_episode + a);
+      const bool keep = result.record.has_value() &&
+                        (result.success || !config_.filter_for_successful_trajectories);
+      if (keep) {
+        recorder.Write(*result.record);
+        ++kept;
+      }
+      Json message{{"item", index}, {"attempt", result.attempt.ToJson()}, {"kept", keep},
+                   {"policy_steps", result.policy_steps},
+                   {"physics_steps", result.physics_steps}};
+      emit_(message);
+      if (result.attempt.outcome == Outcome::kSamplerReject) {
+        if (++sequential_rejects >=
+            config_.task_sampler_config.max_allowed_sequential_task_sampler_failures) {
+          emit_(Json{{"warning", scene + ": the task sampler rejected " +
+                                     std::to_string(sequential_rejects) +
+                                     " tasks in a row; giving up on this batch"}});
+          break;
+        }
+      } else {
+        sequential_rejects = 0;
+      }
+    }
+    const bool wrote = recorder.Finish();
+    emit_(Json{{"item", index},
+               {"finished", true},
+               {"kept", kept},
+               {"batch_file", wrote ? recorder.batch_file().string() : std::string()}});
+  }
+
+ private:
+  const ExperimentConfig& config_;
+  fs::path folder_;
+  const std::vector<AttemptRecord>& earlier_;
+  Emit emit_;
+  std::unique_ptr<Registry> registry_;
+  std::unique_ptr<TaskSampler> sampler_;
+  std::optional<Env> env_;
+  std::unique_ptr<EpisodeRunner> runner_;
+  int64_t env_house_ = -1;
+};
+
+// Writes all of `text` to fd. Returns false on failure (the parent is gone).
+bool WriteAll(int fd, const std::string& text) {
+  size_t done = 0;
+  while (done < text.size()) {
+    const ssize_t n = ::write(fd, text.data() + done, text.size() - done);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) return false;
+    done += static_cast<size_t>(n);
+  }
+  return true;
+}
+
+// A forked worker: runs its items, reports through `fd`, never returns.
+[[noreturn]] void WorkerMain(int fd, pid_t parent, const ExperimentConfig& config,
+                             const TaskSamplerRegistry& samplers, const fs::path& folder,
+                             const std::vector<AttemptRecord>& earlier,
+                             const std::vector<std::pair<size_t, WorkItem>>& items) {
+  ::prctl(PR_SET_PDEATHSIG, SIGKILL);  // a killed parent takes its workers along
+  if (::getppid() != parent) ::_exit(3);
+  ::signal(SIGPIPE, SIG_IGN);
+  int code = 0;
+  auto emit = [fd](const Json& message) {
+    if (!WriteAll(fd, message.dump() + "\n")) ::_exit(4);
+  };
+  try {
+    ItemRunner runner(config, samplers, folder, earlier, emit);
+    for (const auto& [index, item] : items) runner.Run(index, item);
+  } catch (const std::exception& e) {
+    emit(Json{{"error", e.what()}});
+    code = 1;
+  }
+  ::close(fd);
+  ::_exit(code);
+}
+
 }  // namespace
+
+std::string Shard::Name() const {
+  if (count <= 1) return "";
+  return "shard_" + std::to_string(index) + "_of_" + std::to_string(count);
+}
+
+Shard ParseShard(std::string_view text) {
+  Shard s;
+  const size_t slash = text.find('/');
+  auto parse = [](std::string_view part, int& out) {
+    const auto [ptr, ec] = std::from_chars(part.data(), part.data() + part.size(), out);
+    return !part.empty() && ec == std::errc() && ptr == part.data() + part.size();
+  };
+  if (slash == std::string_view::npos || !parse(text.substr(0, slash), s.index) ||
+      !parse(text.substr(slash + 1), s.count) || s.count < 1 || s.index < 0 ||
+      s.index >= s.count) {
+    throw UsageError("--shard: expected I/N with 0 <= I < N, got '" + std::string(text) + "'");
+  }
+  return s;
+}
+
+std::vector<WorkItem> ShardItems(const std::vector<WorkItem>& items, const Shard& shard) {
+  std::vector<WorkItem> out;
+  for (size_t k = 0; k < items.size(); ++k) {
+    if (static_cast<int>(k % static_cast<size_t>(shard.count)) == shard.index) {
+      out.push_back(items[k]);
+    }
+  }
+  return out;
+}
+
+fs::path JournalPath(const fs::path& folder, const Shard& shard) {
+  return folder / (shard.count <= 1 ? "journal.jsonl" : "journal." + shard.Name() + ".jsonl");
+}
 
 std::vector<WorkItem> PlanWorkItems(const ExperimentConfig& config) {
   const TaskSamplerConfig& s = config.task_sampler_config;
@@ -109,133 +329,216 @@ RunReport RunDatagen(const ExperimentConfig& input, const TaskSamplerRegistry& s
   fs::create_directories(report.folder, ec);
   if (ec) throw Error("cannot create the run folder: " + ec.message(), report.folder.string());
   const fs::path config_file = report.folder / "config.yaml";
-  const ExperimentConfig config = SettleRunConfig(input, config_file);
+  const fs::path journal_file = JournalPath(report.folder, options.shard);
+  const ExperimentConfig config = SettleRunConfig(input, config_file, journal_file, options);
   report.seed = *config.seed;
   const std::string hash = DataConfigHashHex(config);
   if (!fs::exists(config_file)) {
     WriteFileAtomic(config_file, "# mlspaces datagen run; data hash " + hash + "\n" +
                                      DumpConfig(config));
   }
-  const std::vector<WorkItem> items = PlanWorkItems(config);
+  const std::vector<WorkItem> items = ShardItems(PlanWorkItems(config), options.shard);
+  // Fail early on a bad sampler name or library, before any worker starts.
+  {
+    Registry check(Registry::Options{config.libraries.assets_dir});
+    config.libraries.ApplyTo(check);
+    samplers.Create(config, report.seed);
+  }
 
-  Registry registry(Registry::Options{config.libraries.assets_dir});
-  config.libraries.ApplyTo(registry);
-  std::unique_ptr<TaskSampler> sampler = samplers.Create(config, report.seed);
-
-  const fs::path journal_file = report.folder / "journal.jsonl";
   Journal journal(journal_file);
   const std::vector<AttemptRecord> earlier = ReadJournal(journal_file).records;
 
-  int64_t total_episodes = 0;
-  for (const WorkItem& item : items) total_episodes += item.episodes;
-  ProgressBar bar("datagen", static_cast<size_t>(total_episodes),
-                  options.progress && isatty(STDERR_FILENO) != 0);
-  int64_t done_episodes = 0;
-  std::vector<AttemptRecord> attempts;
-
-  // One env per scene, kept while consecutive items use it.
-  std::optional<Env> env;
-  std::unique_ptr<EpisodeRunner> runner;
-  int64_t env_house = -1;
-
-  for (const WorkItem& item : items) {
-    const std::string scene = item.scene_name();
-    RecorderOptions rec_options;
-    rec_options.dir = report.folder / scene;
-    rec_options.batch = item.batch;
-    rec_options.num_batches = item.num_batches;
-    Recorder recorder(rec_options);
-    if (fs::exists(recorder.batch_file())) {
+  // What is left to do.
+  std::vector<std::pair<size_t, WorkItem>> todo;
+  int64_t total_episodes = 0, done_episodes = 0;
+  for (size_t k = 0; k < items.size(); ++k) {
+    const WorkItem& item = items[k];
+    total_episodes += item.episodes;
+    const fs::path dir = report.folder / item.scene_name();
+    const std::string stem =
+        "trajectories_batch_" + std::to_string(item.batch) + "_of_" + std::to_string(item.num_batches);
+    if (fs::exists(dir / (stem + ".h5"))) {
+      fs::remove_all(dir / (stem + ".parts"), ec);  // left by a kill after the merge
       ++report.items_skipped;
       done_episodes += item.episodes;
-      bar.Update(static_cast<size_t>(done_episodes));
-      log(LogLevel::kInfo, scene + " batch " + std::to_string(item.batch) + "/" +
+      log(LogLevel::kInfo, item.scene_name() + " batch " + std::to_string(item.batch) + "/" +
                                std::to_string(item.num_batches) + ": already done, skipped");
       continue;
     }
-    // Resume after the last journaled attempt of this item.
-    int64_t next = 0;
-    for (const AttemptRecord& r : earlier) {
-      if (r.scene == scene && r.episode >= item.first_episode &&
-          r.episode < item.first_episode + item.max_attempts) {
-        next = std::max(next, r.episode - item.first_episode + 1);
-      }
-    }
-    int64_t kept = recorder.next_index();
-    done_episodes += std::min(kept, item.episodes);
-    if (next > 0 || kept > 0) {
-      log(LogLevel::kInfo, scene + " batch " + std::to_string(item.batch) + ": resuming at attempt " +
-                               std::to_string(next) + " with " + std::to_string(kept) +
-                               " episodes kept");
-    }
-    if (env_house != item.house) {
-      runner.reset();
-      env.reset();
-      env.emplace(Env::Create(sim::Scene::Load(item.scene_xml),
-                              RobotSpecFromConfig(config.robot_config), scene));
-      EpisodeRunnerOptions runner_options;
-      runner_options.scene_name = scene;
-      runner = std::make_unique<EpisodeRunner>(*env, *sampler, registry, config, runner_options);
-      env_house = item.house;
-    }
-    int64_t sequential_rejects = 0;
-    for (int64_t a = next; kept < item.episodes && a < item.max_attempts; ++a) {
-      const auto t0 = Clock::now();
-      EpisodeResult result = runner->Run(item.first_episode + a);
-      report.policy_steps += result.policy_steps;
-      report.physics_steps += result.physics_steps;
-      journal.Append(result.attempt);
-      attempts.push_back(result.attempt);
-      const bool keep = result.success || !config.filter_for_successful_trajectories;
-      if (keep && result.record) {
-        recorder.Write(*result.record);
-        ++kept;
-        ++done_episodes;
-        bar.Update(static_cast<size_t>(done_episodes));
-      }
-      if (options.on_attempt) options.on_attempt(item, result.attempt);
-      const double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
-      std::string line = scene + " batch " + std::to_string(item.batch) + "/" +
-                         std::to_string(item.num_batches) + " episode " +
-                         std::to_string(item.first_episode + a) + ": " +
-                         std::string(OutcomeName(result.attempt.outcome));
-      if (!result.attempt.message.empty()) line += " (" + result.attempt.message + ")";
-      char buf[64];
-      std::snprintf(buf, sizeof buf, " in %.2f s, kept %lld/%lld", seconds,
-                    static_cast<long long>(kept), static_cast<long long>(item.episodes));
-      log(LogLevel::kDebug, line + buf);
-      if (result.attempt.outcome == Outcome::kSamplerReject) {
-        if (++sequential_rejects >=
-            config.task_sampler_config.max_allowed_sequential_task_sampler_failures) {
-          log(LogLevel::kWarning, scene + ": the task sampler rejected " +
-                                      std::to_string(sequential_rejects) +
-                                      " tasks in a row; giving up on this batch");
-          break;
-        }
-      } else {
-        sequential_rejects = 0;
-      }
-    }
-    if (kept < item.episodes) {
-      log(LogLevel::kWarning, scene + " batch " + std::to_string(item.batch) + ": kept " +
-                                  std::to_string(kept) + " of " + std::to_string(item.episodes) +
-                                  " episodes within " + std::to_string(item.max_attempts) +
-                                  " attempts");
-    }
-    if (recorder.Finish()) {
-      report.batch_files.push_back(recorder.batch_file());
-      log(LogLevel::kInfo, "wrote " + recorder.batch_file().string() + " (" +
-                               std::to_string(kept) + " episodes)");
-    }
-    report.episodes_kept += kept;
+    todo.emplace_back(k, item);
   }
+
+  ProgressBar bar(options.shard.count > 1 ? "datagen " + options.shard.Name() : "datagen",
+                  static_cast<size_t>(total_episodes), options.progress);
+  std::vector<AttemptRecord> attempts;
+  int64_t successes = 0, kept_now = 0;
+  std::map<size_t, int64_t> kept_messages;  // per item: kept episodes reported so far
+  const auto t_work = Clock::now();
+  auto progress_note = [&] {
+    const double secs = Since(t_work);
+    const double per_hour = secs > 0 ? kept_now / secs * 3600.0 : 0;
+    const int64_t left = total_episodes - done_episodes;
+    char buf[160];
+    std::snprintf(buf, sizeof buf, "success %.1f%%, %.0f ep/h, ETA %s",
+                  attempts.empty() ? 0.0 : 100.0 * successes / attempts.size(), per_hour,
+                  per_hour > 0 ? Duration(left / per_hour * 3600.0).c_str() : "?");
+    return std::string(buf);
+  };
+  // Every message of every worker comes through here: the journal's only writer.
+  auto handle = [&](const Json& m) {
+    if (m.contains("warning")) {
+      log(LogLevel::kWarning, m["warning"].get<std::string>());
+      return;
+    }
+    const WorkItem& item = items.at(m["item"].get<size_t>());
+    if (m.contains("attempt")) {
+      AttemptRecord r = AttemptRecord::FromJson(m["attempt"], "worker message", "attempt");
+      journal.Append(r);
+      attempts.push_back(r);
+      if (r.outcome == Outcome::kSuccess) ++successes;
+      if (m.value("kept", false)) {
+        ++kept_now;
+        ++done_episodes;
+        ++kept_messages[m["item"].get<size_t>()];
+      }
+      report.policy_steps += m.value("policy_steps", int64_t{0});
+      report.physics_steps += m.value("physics_steps", int64_t{0});
+      std::string line = item.scene_name() + " batch " + std::to_string(item.batch) + "/" +
+                         std::to_string(item.num_batches) + " episode " +
+                         std::to_string(r.episode) + ": " + std::string(OutcomeName(r.outcome));
+      if (!r.message.empty()) line += " (" + r.message + ")";
+      if (m.value("restored", false)) line += " [journal line restored from the episode file]";
+      log(LogLevel::kDebug, line);
+      bar.Update(static_cast<size_t>(done_episodes), progress_note());
+      if (options.on_attempt) options.on_attempt(item, r);
+      return;
+    }
+    if (m.contains("finished")) {
+      const int64_t kept = m["kept"].get<int64_t>();
+      report.episodes_kept += kept;
+      // The item is done: count what it kept before this invocation and what it fell short by.
+      done_episodes += item.episodes - kept_messages[m["item"].get<size_t>()];
+      const std::string file = m["batch_file"].get<std::string>();
+      if (kept < item.episodes) {
+        log(LogLevel::kWarning, item.scene_name() + " batch " + std::to_string(item.batch) +
+                                    ": kept " + std::to_string(kept) + " of " +
+                                    std::to_string(item.episodes) + " episodes within " +
+                                    std::to_string(item.max_attempts) + " attempts");
+      }
+      if (!file.empty()) {
+        report.batch_files.push_back(file);
+        log(LogLevel::kInfo, "wrote " + file + " (" + std::to_string(kept) + " episodes)");
+      }
+      bar.Update(static_cast<size_t>(done_episodes), progress_note());
+    }
+  };
+
+  const int workers = std::max<int>(
+      1, std::min<int64_t>(options.workers > 0 ? options.workers : config.num_workers,
+                           static_cast<int64_t>(todo.size())));
+  if (workers <= 1) {
+    ItemRunner runner(config, samplers, report.folder, earlier, handle);
+    for (const auto& [index, item] : todo) runner.Run(index, item);
+  } else {
+    struct Worker {
+      pid_t pid = -1;
+      int fd = -1;
+      std::string buffer;
+    };
+    std::vector<Worker> pool(workers);
+    const pid_t self = ::getpid();
+    std::fflush(nullptr);
+    for (int w = 0; w < workers; ++w) {
+      std::vector<std::pair<size_t, WorkItem>> mine;
+      for (size_t k = w; k < todo.size(); k += workers) mine.push_back(todo[k]);
+      int fds[2];
+      if (::pipe2(fds, O_CLOEXEC) != 0) {
+        throw Error(std::string("cannot create a pipe: ") + std::strerror(errno));
+      }
+      const pid_t pid = ::fork();
+      if (pid < 0) throw Error(std::string("cannot start a worker: ") + std::strerror(errno));
+      if (pid == 0) {
+        ::close(fds[0]);
+        for (int v = 0; v < w; ++v) ::close(pool[v].fd);
+        WorkerMain(fds[1], self, config, samplers, report.folder, earlier, mine);
+      }
+      ::close(fds[1]);
+      pool[w].pid = pid;
+      pool[w].fd = fds[0];
+    }
+    std::string first_error;
+    auto stop_all = [&] {
+      for (Worker& w : pool) {
+        if (w.pid > 0) ::kill(w.pid, SIGKILL);
+      }
+    };
+    try {
+      size_t open = pool.size();
+      while (open > 0) {
+        std::vector<pollfd> fds;
+        std::vector<size_t> which;
+        for (size_t i = 0; i < pool.size(); ++i) {
+          if (pool[i].fd >= 0) {
+            fds.push_back({pool[i].fd, POLLIN, 0});
+            which.push_back(i);
+          }
+        }
+        if (::poll(fds.data(), fds.size(), -1) < 0) {
+          if (errno == EINTR) continue;
+          throw Error(std::string("poll failed: ") + std::strerror(errno));
+        }
+        for (size_t j = 0; j < fds.size(); ++j) {
+          if (fds[j].revents == 0) continue;
+          Worker& w = pool[which[j]];
+          char chunk[65536];
+          const ssize_t n = ::read(w.fd, chunk, sizeof chunk);
+          if (n < 0 && errno == EINTR) continue;
+          if (n <= 0) {
+            ::close(w.fd);
+            w.fd = -1;
+            --open;
+            continue;
+          }
+          w.buffer.append(chunk, static_cast<size_t>(n));
+          for (size_t nl; (nl = w.buffer.find('\n')) != std::string::npos;) {
+            const Json m = ParseJson(std::string_view(w.buffer).substr(0, nl), "worker message");
+            w.buffer.erase(0, nl + 1);
+            if (m.contains("error")) {
+              if (first_error.empty()) first_error = m["error"].get<std::string>();
+              stop_all();
+              continue;
+            }
+            handle(m);
+          }
+        }
+      }
+    } catch (...) {
+      stop_all();
+      for (Worker& w : pool) ::waitpid(w.pid, nullptr, 0);
+      throw;
+    }
+    for (size_t i = 0; i < pool.size(); ++i) {
+      int status = 0;
+      ::waitpid(pool[i].pid, &status, 0);
+      if (first_error.empty() && !(WIFEXITED(status) && WEXITSTATUS(status) == 0)) {
+        first_error = "worker " + std::to_string(i) + " ended abnormally (" +
+                      (WIFSIGNALED(status) ? "signal " + std::to_string(WTERMSIG(status))
+                                           : "exit " + std::to_string(WEXITSTATUS(status))) +
+                      ")";
+      }
+    }
+    if (!first_error.empty()) throw Error(first_error);
+  }
+  bar.Update(static_cast<size_t>(done_episodes), progress_note());
   bar.Finish();
   report.summary = Summarize(attempts);
-  // summary.txt covers the whole run, earlier invocations included.
-  WriteFileAtomic(report.folder / "summary.txt",
-                  "data hash " + hash + ", seed " + std::to_string(report.seed) + "\n" +
+  // The summary covers the whole run (this shard), earlier invocations included.
+  const std::string shard = options.shard.Name();
+  WriteFileAtomic(report.folder / (shard.empty() ? "summary.txt" : "summary." + shard + ".txt"),
+                  "data hash " + hash + ", seed " + std::to_string(report.seed) +
+                      (shard.empty() ? "" : ", " + shard) + "\n" +
                       FormatSummary(Summarize(ReadJournal(journal_file).records)));
-  report.seconds = std::chrono::duration<double>(Clock::now() - t_start).count();
+  report.seconds = Since(t_start);
   return report;
 }
 

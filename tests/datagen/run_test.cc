@@ -1,12 +1,20 @@
 #include "mlspaces/datagen/run.h"
 
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
 #include <filesystem>
+#include <map>
 #include <stdexcept>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include "mlspaces/core/error.h"
+#include "mlspaces/core/rng.h"
 #include "test_util.h"
 
 namespace mlspaces::datagen {
@@ -91,8 +99,14 @@ for k in f:
     assert f[k]["obs/agent/qpos"].shape[0] == f[k]["actions/joint_pos"].shape[0]
 )",
                      testing::ShellQuote(report.batch_files[0].string()));
-  // A second invocation finds the work done.
-  const RunReport again = RunDatagen(Tutorial(dir / "run", 3), TaskSamplerRegistry::WithBuiltins());
+  // Running into the folder again needs --resume, and then finds the work done.
+  testing::ExpectError(
+      [&] { RunDatagen(Tutorial(dir / "run", 3), TaskSamplerRegistry::WithBuiltins()); },
+      {"config.yaml", "--resume"});
+  RunOptions resume;
+  resume.resume = true;
+  const RunReport again =
+      RunDatagen(Tutorial(dir / "run", 3), TaskSamplerRegistry::WithBuiltins(), resume);
   EXPECT_EQ(again.items_skipped, 1);
   EXPECT_EQ(again.summary.attempts, 0);
 }
@@ -119,8 +133,20 @@ TEST(RunDatagenTest, InterruptedRunResumesToTheSameBytes) {
   EXPECT_THROW(RunDatagen(Tutorial(dir / "cut", 4), TaskSamplerRegistry::WithBuiltins(), stop),
                std::runtime_error);
   EXPECT_FALSE(fs::exists(dir / "cut/house_0/trajectories_batch_1_of_1.h5"));
-  const RunReport resumed = RunDatagen(Tutorial(dir / "cut", 4), TaskSamplerRegistry::WithBuiltins());
-  EXPECT_EQ(resumed.summary.attempts, 2);  // only the missing ones ran
+  // As if the kill came after the second episode was written but before it was journaled.
+  {
+    const std::string journal = testing::Slurp(dir / "cut/journal.jsonl");
+    const size_t second = journal.find('\n') + 1;
+    ASSERT_EQ(journal.find('\n', second) + 1, journal.size());  // exactly two lines
+    testing::WriteText(dir / "cut/journal.jsonl", journal.substr(0, second));
+  }
+  RunOptions resume;
+  resume.resume = true;
+  const RunReport resumed =
+      RunDatagen(Tutorial(dir / "cut", 4), TaskSamplerRegistry::WithBuiltins(), resume);
+  // The second attempt's line is restored from its episode; only the missing ones ran.
+  EXPECT_EQ(resumed.summary.attempts, 3);
+  EXPECT_EQ(resumed.summary.count(Outcome::kSuccess), 3);
   EXPECT_TRUE(testing::Slurp(dir / "cut/house_0/trajectories_batch_1_of_1.h5") ==
               testing::Slurp(dir / "whole/house_0/trajectories_batch_1_of_1.h5"));
   EXPECT_EQ(ReadJournal(dir / "cut/journal.jsonl").records.size(), 4u);
@@ -131,12 +157,14 @@ TEST(RunDatagenTest, FolderOfAnotherConfigIsRefusedAndNullSeedIsReused) {
   ExperimentConfig first = Tutorial(dir / "run", 1);
   first.seed.reset();
   const RunReport a = RunDatagen(first, TaskSamplerRegistry::WithBuiltins());
-  // A null seed was drawn and stored; running the same config again reuses it.
-  const RunReport b = RunDatagen(first, TaskSamplerRegistry::WithBuiltins());
+  // A null seed was drawn and stored; resuming the same config reuses it.
+  RunOptions resume;
+  resume.resume = true;
+  const RunReport b = RunDatagen(first, TaskSamplerRegistry::WithBuiltins(), resume);
   EXPECT_EQ(a.seed, b.seed);
   EXPECT_EQ(b.items_skipped, 1);
   ExperimentConfig other = Tutorial(dir / "run", 2);
-  testing::ExpectError([&] { RunDatagen(other, TaskSamplerRegistry::WithBuiltins()); },
+  testing::ExpectError([&] { RunDatagen(other, TaskSamplerRegistry::WithBuiltins(), resume); },
                        {"config.yaml", "another config", "another output folder"});
 }
 
@@ -181,6 +209,190 @@ TEST(DatagenCliTest, BadInputGetsOneLineAndAnExitCode) {
     EXPECT_THAT(r.err, HasSubstr(c.says));
     EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
   }
+}
+
+}  // namespace
+}  // namespace mlspaces::datagen
+
+namespace mlspaces::datagen {
+namespace {
+
+// Every batch file of a run folder, by relative path, with its bytes.
+std::map<std::string, std::string> BatchFiles(const fs::path& run) {
+  std::map<std::string, std::string> out;
+  for (const auto& e : fs::recursive_directory_iterator(run)) {
+    if (e.path().extension() == ".h5") {
+      out[e.path().lexically_relative(run).string()] = testing::Slurp(e.path());
+    }
+  }
+  return out;
+}
+
+// The journal lines without their timings, sorted.
+std::vector<std::string> JournalWithoutTimings(const fs::path& file) {
+  std::vector<std::string> out;
+  for (AttemptRecord r : ReadJournal(file).records) {
+    r.timings.clear();
+    out.push_back(r.ToJson().dump());
+  }
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+ExperimentConfig FourBatches(const fs::path& output) {
+  ExperimentConfig c = Tutorial(output, 8, 21);
+  c.task_sampler_config.episodes_per_batch = 2;
+  return c;
+}
+
+TEST(RunDatagenTest, WorkersAndShardsGiveTheSameBytes) {
+  testing::TempDir dir;
+  RunDatagen(FourBatches(dir / "one"), TaskSamplerRegistry::WithBuiltins());
+  const std::map<std::string, std::string> one = BatchFiles(dir / "one");
+  ASSERT_EQ(one.size(), 4u);
+
+  RunOptions two_workers;
+  two_workers.workers = 2;
+  const RunReport r2 =
+      RunDatagen(FourBatches(dir / "two"), TaskSamplerRegistry::WithBuiltins(), two_workers);
+  EXPECT_EQ(r2.episodes_kept, 8);
+  EXPECT_EQ(r2.summary.attempts, 8);
+  EXPECT_TRUE(BatchFiles(dir / "two") == one);
+  EXPECT_EQ(JournalWithoutTimings(dir / "two/journal.jsonl"),
+            JournalWithoutTimings(dir / "one/journal.jsonl"));
+
+  // Three shards in their own folders, merged.
+  for (int i = 0; i < 3; ++i) {
+    RunOptions shard;
+    shard.shard = Shard{i, 3};
+    RunDatagen(FourBatches(dir / ("s" + std::to_string(i))), TaskSamplerRegistry::WithBuiltins(),
+               shard);
+  }
+  EXPECT_EQ(BatchFiles(dir / "s0").size(), 2u);  // items 0 and 3
+  testing::ExpectError([&] { MergeRuns({dir / "s0", dir / "s1"}, dir / "partial"); },
+                       {"1 of 4 batches", "--partial"});
+  const MergeReport merged = MergeRuns({dir / "s0", dir / "s1", dir / "s2"}, dir / "merged");
+  EXPECT_EQ(merged.batch_files, 4);
+  EXPECT_EQ(merged.episodes, 8);
+  EXPECT_TRUE(merged.missing.empty());
+  EXPECT_TRUE(BatchFiles(dir / "merged") == one);
+  EXPECT_EQ(JournalWithoutTimings(dir / "merged/journal.jsonl"),
+            JournalWithoutTimings(dir / "one/journal.jsonl"));
+  testing::ExpectError([&] { MergeRuns({dir / "s0", dir / "s1", dir / "s2"}, dir / "merged"); },
+                       {"already holds a run"});
+  testing::ExpectError([&] { MergeRuns({dir / "s0", dir / "s0"}, dir / "twice", true); },
+                       {"two inputs hold"});
+  testing::ExpectError([&] { MergeRuns({dir / "s0", dir / "one"}, dir / "mixed", true); },
+                       {"two inputs hold"});
+
+  // Two shards sharing one folder: each keeps its own journal.
+  for (int i = 0; i < 2; ++i) {
+    RunOptions shard;
+    shard.shard = Shard{i, 2};
+    RunDatagen(FourBatches(dir / "shared"), TaskSamplerRegistry::WithBuiltins(), shard);
+  }
+  EXPECT_TRUE(BatchFiles(dir / "shared") == one);
+  EXPECT_TRUE(fs::exists(dir / "shared/journal.shard_0_of_2.jsonl"));
+  EXPECT_TRUE(fs::exists(dir / "shared/journal.shard_1_of_2.jsonl"));
+}
+
+TEST(RunDatagenTest, ShardFlagsAndSeeds) {
+  EXPECT_EQ(ParseShard("2/5").index, 2);
+  EXPECT_EQ(ParseShard("2/5").count, 5);
+  EXPECT_EQ(ParseShard("0/1").Name(), "");
+  EXPECT_EQ(ParseShard("1/3").Name(), "shard_1_of_3");
+  for (const char* bad : {"5/5", "-1/2", "1", "a/b", "1/0", "1/2/3", ""}) {
+    EXPECT_THROW(ParseShard(bad), UsageError) << bad;
+  }
+  testing::TempDir dir;
+  ExperimentConfig c = FourBatches(dir / "x");
+  c.seed.reset();
+  RunOptions shard;
+  shard.shard = Shard{0, 2};
+  testing::ExpectError([&] { RunDatagen(c, TaskSamplerRegistry::WithBuiltins(), shard); },
+                       {"sharded run needs a seed"});
+}
+
+// SIGKILL at random moments (the parent and, with --workers 2, its workers), then --resume:
+// the finished dataset equals an uninterrupted run's, episode for episode.
+TEST(DatagenCliTest, KilledAtRandomMomentsAndResumedGivesTheSameDataset) {
+  testing::TempDir dir;
+  const std::string yaml = (kExample / "datagen.yaml").string();
+  auto args = [&](const std::string& out, const std::string& workers) {
+    return std::vector<std::string>{"datagen", yaml, "-q", "--seed", "13", "--episodes", "6",
+                                    "--set", "task_sampler_config.episodes_per_batch=2",
+                                    "--output", (dir / out).string(), "--resume", "--workers",
+                                    workers};
+  };
+  const testing::CliResult whole = testing::RunCli(args("whole", "1"));
+  ASSERT_EQ(whole.exit_code, 0) << whole.err;
+  const std::map<std::string, std::string> expected = BatchFiles(dir / "whole");
+  ASSERT_EQ(expected.size(), 3u);
+
+  Rng rng(2024);
+  int kills = 0;
+  for (int round = 0; round < 8; ++round) {
+    const std::vector<std::string> a = args("cut", round % 2 == 0 ? "1" : "2");
+    std::vector<char*> argv;
+    std::string cli = MLSPACES_CLI_PATH;
+    argv.push_back(cli.data());
+    std::vector<std::string> copy = a;
+    for (std::string& s : copy) argv.push_back(s.data());
+    argv.push_back(nullptr);
+    const pid_t pid = ::fork();
+    ASSERT_GE(pid, 0);
+    if (pid == 0) {
+      const int null = ::open("/dev/null", O_WRONLY);
+      ::dup2(null, 1);
+      ::dup2(null, 2);
+      ::execv(argv[0], argv.data());
+      ::_exit(127);
+    }
+    ::usleep(static_cast<useconds_t>(rng.Uniform(0.05, 0.9) * 1e6));
+    int status = 0;
+    if (::waitpid(pid, &status, WNOHANG) == 0) {
+      ::kill(pid, SIGKILL);
+      ::waitpid(pid, &status, 0);
+      ++kills;
+    } else {
+      ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << "round " << round;
+    }
+  }
+  EXPECT_GE(kills, 3);
+  // Let orphaned workers (killed with their parent) disappear before the final run.
+  ::usleep(200000);
+  const testing::CliResult last = testing::RunCli(args("cut", "2"));
+  ASSERT_EQ(last.exit_code, 0) << last.err;
+  EXPECT_TRUE(BatchFiles(dir / "cut") == expected);
+  EXPECT_EQ(JournalWithoutTimings(dir / "cut/journal.jsonl"),
+            JournalWithoutTimings(dir / "whole/journal.jsonl"));
+  // Nothing half-written is left.
+  for (const auto& e : fs::recursive_directory_iterator(dir / "cut")) {
+    EXPECT_EQ(e.path().string().find(".tmp."), std::string::npos) << e.path();
+    EXPECT_NE(e.path().extension(), ".parts") << e.path();
+  }
+}
+
+TEST(DatagenCliTest, ShardAndMergeFlags) {
+  testing::TempDir dir;
+  const std::string yaml = (kExample / "datagen.yaml").string();
+  testing::CliResult r = testing::RunCli({"datagen", yaml, "--shard", "3/2"});
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_THAT(r.err, HasSubstr("--shard"));
+  r = testing::RunCli({"datagen", yaml, "--workers", "0"});
+  EXPECT_EQ(r.exit_code, 2);
+  r = testing::RunCli({"merge", (dir / "out").string(), (dir / "nothing").string()});
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(r.err, HasSubstr("not a run folder"));
+  for (const char* shard : {"0/2", "1/2"}) {
+    r = testing::RunCli({"datagen", yaml, "-q", "--seed", "4", "--episodes", "2", "--set",
+                         "task_sampler_config.episodes_per_batch=1", "--shard", shard, "--output",
+                         (dir / (std::string("s") + shard[0])).string()});
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+  }
+  r = testing::RunCli({"merge", (dir / "m").string(), (dir / "s0").string(), (dir / "s1").string()});
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("2 batch files, 2 episodes"));
 }
 
 }  // namespace

@@ -17,13 +17,16 @@ class ProgressBar {
   ProgressBar(const ProgressBar&) = delete;
   ProgressBar& operator=(const ProgressBar&) = delete;
 
-  /// Sets the number of finished items; redraws at most ~10 times a second.
-  void Update(size_t done);
+  /// Sets the number of finished items; redraws at most ~10 times a second. A non-empty
+  /// `note` (e.g. "success 96%, 4,100/h, ETA 2m") replaces the default "(N/s)" rate.
+  void Update(size_t done, std::string note = {});
   /// Draws the final state and ends the line (idempotent).
   void Finish();
 
  private:
   void Draw(size_t done);
+  size_t done_ = 0;
+  std::string note_;
 
   std::string label_;
   size_t total_;

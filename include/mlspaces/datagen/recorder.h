@@ -59,6 +59,10 @@ class Recorder {
   /// or the file on I/O failure; nothing is left on disk then and next_index() is unchanged.
   int Write(const EpisodeRecord& record);
 
+  /// The provenance JSON (traj_k attribute) of part k < next_index(): what a resumed run reads
+  /// to learn which attempt produced each surviving episode. @throws Error naming the part.
+  Json PartProvenance(int k) const;
+
   /// Merges every part into batch_file() (replacing it atomically) and removes the parts.
   /// With no episode, writes nothing and returns false. Afterwards Write() and Finish() throw.
   /// @throws Error on I/O failure; the parts are then kept, and Finish() may be called again.
@@ -70,6 +74,9 @@ class Recorder {
   std::vector<std::filesystem::path> parts_;  // parts_[k] holds traj_k
   bool finished_ = false;
 };
+
+/// Number of traj_<k> groups in a trajectories file. @throws Error naming the file.
+int64_t CountEpisodes(const std::filesystem::path& file);
 
 /// Checks a record without writing it (what Write() checks first, except video existence
 /// when `video_dir` is empty). @throws Error naming the field (an HDF5 path).

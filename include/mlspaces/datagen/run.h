@@ -1,16 +1,27 @@
 // A datagen run: the config's scenes split into work items (scene x batch), each run to its
 // quota of kept episodes within its attempt budget; every attempt journaled, every kept
-// episode written as it ends, a summary at the end (spec 2, 11).
+// episode written as it ends, a summary at the end (spec 2, 11). docs/datagen.md.
 //
 // Run folder (RunFolder(config)):
-//   config.yaml                    the resolved config, seed filled in (its hash names the run)
-//   journal.jsonl                  one line per attempt (journal.h)
-//   summary.txt                    outcome counts, success rates, stage times
+//   config.yaml                    the resolved config, seed filled in
+//   journal.jsonl                  one line per attempt (journal.h); journal.shard_<i>_of_<n>.jsonl
+//                                  for shard i of n
+//   summary.txt                    outcome counts, success rates, stage times (per shard too)
 //   house_<h>/trajectories_batch_<b>_of_<n>.h5
 //
-// Re-running into a folder holding the same config continues it: finished work items (their
-// batch file exists) are skipped; an interrupted one resumes after its last journaled attempt,
-// keeping the episodes already written. A folder holding another config is an error.
+// Workers: num_workers processes (fork) take the work items round-robin; each builds its own
+// env, planner and recorder and reports every attempt through a pipe to the parent, the only
+// writer of the journal. Episodes are written by the workers as they end (recorder parts).
+//
+// Resume (RunOptions::resume): finished work items (batch file present) are skipped; an
+// interrupted one continues after its last attempt, known from the journal and from the
+// episodes already written (a kill between writing an episode and journaling it is repaired
+// from the episode's provenance). Episodes depend only on their own seed, so the resumed
+// dataset equals an uninterrupted run's.
+//
+// Sharding (RunOptions::shard = i/n): work item k (in PlanWorkItems order) belongs to shard
+// k % n. Shards may share one folder (each has its own journal) or use their own folders
+// (MergeRuns combines them).
 #pragma once
 
 #include <cstdint>
@@ -48,12 +59,34 @@ std::vector<WorkItem> PlanWorkItems(const ExperimentConfig& config);
 /// The run folder: output_dir, or ./experiment_output/<tag> when output_dir is null.
 std::filesystem::path RunFolder(const ExperimentConfig& config);
 
+/// Shard `index` of `count` (0 <= index < count).
+struct Shard {
+  int index = 0;
+  int count = 1;
+  /// "" for the whole run, else "shard_<i>_of_<n>".
+  std::string Name() const;
+};
+/// Parses "i/N". @throws UsageError naming the flag for anything else.
+Shard ParseShard(std::string_view text);
+/// The items of `shard`: item k of `items` when k % count == index.
+std::vector<WorkItem> ShardItems(const std::vector<WorkItem>& items, const Shard& shard);
+/// The journal of a shard in `folder`: journal.jsonl, or journal.<shard name>.jsonl.
+std::filesystem::path JournalPath(const std::filesystem::path& folder, const Shard& shard);
+
 struct RunOptions {
-  /// Draw a progress bar (only on a terminal).
+  /// Continue the run found in the folder. Without it a folder that already holds a run is
+  /// an error (so a typo in --output never mixes two runs).
+  bool resume = false;
+  Shard shard;
+  /// Worker processes; 0 = config.num_workers. 1 runs in this process.
+  int workers = 0;
+  /// Draw a progress bar (only on a terminal): episodes kept / target, success rate,
+  /// episodes per hour, ETA.
   bool progress = true;
-  /// Receives log lines (without newline): one per attempt at info level and per work item.
+  /// Receives log lines (without newline): one per attempt at debug level, one per work item
+  /// at info level, warnings.
   std::function<void(LogLevel, const std::string&)> log;
-  /// Called after every attempt (e.g. for custom progress).
+  /// Called in this process after every attempt is journaled (e.g. for custom progress).
   std::function<void(const WorkItem&, const AttemptRecord&)> on_attempt;
 };
 
@@ -70,10 +103,27 @@ struct RunReport {
 };
 
 /// Runs `config` (validated) with the samplers of `samplers`. A null seed is drawn once and
-/// stored in config.yaml (a resumed run reuses it).
-/// @throws Error for a bad config, scene or library, or a folder holding another run; attempt
-/// failures are journaled, not thrown.
+/// stored in config.yaml (a resumed run reuses it); a sharded run needs an explicit seed.
+/// @throws Error for a bad config, scene or library, or a folder holding a run (another
+/// config's, or any without `resume`); attempt failures are journaled, not thrown.
 RunReport RunDatagen(const ExperimentConfig& config, const TaskSamplerRegistry& samplers,
                      const RunOptions& options = {});
+
+struct MergeReport {
+  int64_t batch_files = 0;
+  int64_t episodes = 0;
+  int64_t attempts = 0;
+  /// Work items of the config that no input has finished (MergeRuns fails on any unless
+  /// allow_partial).
+  std::vector<std::string> missing;
+};
+
+/// Combines run folders (shards) of one config into `output`: every finished batch file and
+/// the videos next to it (hard links where possible, else copies), the journals as one
+/// journal.jsonl sorted by scene and episode, config.yaml and summary.txt.
+/// @throws Error when the inputs hold different configs (data hash), two inputs hold the
+/// same batch, `output` already holds a run, or (without allow_partial) a work item is missing.
+MergeReport MergeRuns(const std::vector<std::filesystem::path>& inputs,
+                      const std::filesystem::path& output, bool allow_partial = false);
 
 }  // namespace mlspaces::datagen

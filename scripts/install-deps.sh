@@ -14,6 +14,8 @@ PACKAGES=(
   libmujoco-dev libqhull-dev libgl-dev libopengl-dev libpugixml-dev
   # datagen: HDF5 trajectories (h5py reads them back in tests)
   libhdf5-dev python3-h5py
+  # rendering: headless GL (OSMesa, EGL surfaceless) and video encoding (FFmpeg)
+  libosmesa6-dev libegl-dev libavcodec-dev libavformat-dev libswscale-dev libavutil-dev
 )
 
 missing=()

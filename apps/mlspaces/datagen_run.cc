@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include <cstdio>
+#include <cstdlib>
 #include <memory>
 #include <string>
 
@@ -19,6 +20,7 @@ struct RunFlags {
   bool resume = false;
   int workers = 0;
   std::string shard;
+  std::string gl;
 };
 
 int Run(const DatagenConfigFlags& flags, const RunFlags& run) {
@@ -31,6 +33,12 @@ int Run(const DatagenConfigFlags& flags, const RunFlags& run) {
   options.resume = run.resume;
   options.workers = run.workers;
   if (!run.shard.empty()) options.shard = datagen::ParseShard(run.shard);
+  std::string gl = run.gl;
+  if (gl.empty()) {
+    const char* env = std::getenv("MLSPACES_GL");
+    gl = env != nullptr && *env != 0 ? env : "osmesa";
+  }
+  options.gl_backend = sim::ParseGlBackend(gl);
   options.log = [&](datagen::LogLevel level, const std::string& line) {
     if (quiet && level < datagen::LogLevel::kWarning) return;
     // On a terminal the progress bar shows the per-episode progress.
@@ -81,6 +89,9 @@ void AddDatagen(CLI::App& app, Action& action) {
   sub->add_option("--shard", run->shard,
                   "Run only shard I of N (work item k belongs to shard k % N); needs a seed")
       ->type_name("I/N");
+  sub->add_option("--gl", run->gl,
+                  "Headless GL for the cameras: osmesa (default) or egl; default from MLSPACES_GL")
+      ->type_name("osmesa|egl");
   sub->callback([&action, flags, run] { action = [flags, run] { return Run(*flags, *run); }; });
 
   auto output = std::make_shared<std::string>();

@@ -919,8 +919,17 @@ void Validate(const ExperimentConfig& c, const fs::path& origin) {
   k.NonNegative(n.max_tcp_rotation_noise, np + "max_tcp_rotation_noise");
 
   const CameraSystemConfig& cam = c.camera_config;
-  k.Check(cam.img_resolution[0] >= 1 && cam.img_resolution[1] >= 1,
-          "camera_config.img_resolution", "width and height must be >= 1");
+  k.Check(cam.img_resolution[0] >= 16 && cam.img_resolution[1] >= 16 &&
+              cam.img_resolution[0] <= 8192 && cam.img_resolution[1] <= 8192,
+          "camera_config.img_resolution", "width and height must be in 16..8192");
+  k.Check(cam.depth_max_m > 0, "camera_config.depth_max_m", "must be > 0");
+  k.Check(cam.video_crf >= 0 && cam.video_crf <= 51, "camera_config.video_crf",
+          "must be in 0..51");
+  static const std::set<std::string> kPresets = {"ultrafast", "superfast", "veryfast", "faster",
+                                                 "fast",      "medium",    "slow",     "slower",
+                                                 "veryslow",  "placebo"};
+  k.Check(kPresets.count(cam.video_preset) != 0, "camera_config.video_preset",
+          "must be an x264 preset (ultrafast ... placebo)");
   std::set<std::string> camera_names;
   for (size_t i = 0; i < cam.cameras.size(); ++i) {
     const CameraConfig& cc = cam.cameras[i];

@@ -113,6 +113,12 @@ EpisodeRunner::EpisodeRunner(Env& env, TaskSampler& sampler, const Registry& reg
                 env.scene_key(), "sim_dt_ms");
   }
   impl_->scratch = sim::MakeData(env.model());
+  const TaskConfig& task = config.task_config;
+  if (options_.record && !options_.video_dir.empty() && task.enable_rendering && task.use_sensors &&
+      !config.camera_config.cameras.empty()) {
+    cameras_ = std::make_unique<CameraRecorder>(env.model(), config.camera_config, config.fps(),
+                                                options_.gl_backend);
+  }
 }
 
 EpisodeRunner::~EpisodeRunner() = default;
@@ -350,9 +356,21 @@ EpisodeResult EpisodeRunner::Run(int64_t episode) {
     prev_grip_qpos = grip_q;
   };
 
+  // Cameras: one frame per observation; an exception drops the episode's videos.
+  struct AbortVideos {
+    CameraRecorder* c;
+    ~AbortVideos() {
+      if (c != nullptr) c->Abort();
+    }
+  } abort_videos{cameras_.get()};
+  const double render0 = cameras_ ? cameras_->render_seconds() : 0;
+  const double encode0 = cameras_ ? cameras_->encode_seconds() : 0;
+  if (cameras_) cameras_->Begin(options_.video_dir, episode);
+
   double t_policy = 0, t_physics = 0, t_observe = 0;
   auto t_obs = Clock::now();
   observe(nullptr);
+  if (cameras_) cameras_->Capture(d);
   t_observe += Since(t_obs);
   const bool gravcomp = config_.robot_config.gravcomp;
   const ActionNoiseConfig& noise = config_.robot_config.action_noise_config;
@@ -380,6 +398,7 @@ EpisodeResult EpisodeRunner::Run(int64_t episode) {
     truncated = step >= config_.task_horizon;
     t_obs = Clock::now();
     observe(&action);
+    if (cameras_) cameras_->Capture(d);
     t_observe += Since(t_obs);
     if (config_.end_on_success && verdict.success && !terminated) {
       terminated = true;
@@ -389,7 +408,16 @@ EpisodeResult EpisodeRunner::Run(int64_t episode) {
   result.policy_steps = step;
   attempt.AddTiming("policy", t_policy);
   attempt.AddTiming("physics", t_physics);
-  attempt.AddTiming("observe", t_observe);
+  if (cameras_) {
+    rec.cameras = cameras_->End();
+    const double render = cameras_->render_seconds() - render0;
+    const double encode = cameras_->encode_seconds() - encode0;
+    attempt.AddTiming("observe", std::max(0.0, t_observe - render - encode));
+    attempt.AddTiming("render", render);
+    attempt.AddTiming("encode", encode);
+  } else {
+    attempt.AddTiming("observe", t_observe);
+  }
   attempt.extra["policy_steps"] = step;
   attempt.extra["retries"] = planner_.retries();
   attempt.extra["lift"] = verdict.lift;

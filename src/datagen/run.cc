@@ -3,6 +3,7 @@
 #include <fcntl.h>
 #include <poll.h>
 #include <signal.h>
+#include <sys/file.h>
 #include <sys/prctl.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -104,8 +105,9 @@ class ItemRunner {
   using Emit = std::function<void(const Json&)>;
 
   ItemRunner(const ExperimentConfig& config, const TaskSamplerRegistry& samplers,
-             const fs::path& folder, const std::vector<AttemptRecord>& earlier, Emit emit)
-      : config_(config), folder_(folder), earlier_(earlier), emit_(std::move(emit)) {
+             const fs::path& folder, const std::vector<AttemptRecord>& earlier,
+             sim::GlBackend gl, Emit emit)
+      : config_(config), folder_(folder), earlier_(earlier), gl_(gl), emit_(std::move(emit)) {
     registry_ = std::make_unique<Registry>(Registry::Options{config.libraries.assets_dir});
     config.libraries.ApplyTo(*registry_);
     sampler_ = samplers.Create(config, *config.seed);
@@ -151,6 +153,16 @@ class ItemRunner {
       }
     }
     int64_t kept = recorder.next_index();
+    // Videos of this item's episodes that were never kept (a kill mid-episode).
+    std::error_code ec;
+    for (const auto& e : fs::directory_iterator(rec_options.dir, ec)) {
+      const std::string name = e.path().filename().string();
+      long long episode = -1;
+      if (std::sscanf(name.c_str(), ".episode_%lld_", &episode) == 1 &&
+          episode >= item.first_episode && episode < item.first_episode + item.max_attempts) {
+        fs::remove(e.path(), ec);
+      }
+    }
     if (env_house_ != item.house) {
       runner_.reset();
       env_.reset();
@@ -158,6 +170,8 @@ class ItemRunner {
                                RobotSpecFromConfig(config_.robot_config), scene));
       EpisodeRunnerOptions runner_options;
       runner_options.scene_name = scene;
+      runner_options.video_dir = rec_options.dir;
+      runner_options.gl_backend = gl_;
       runner_ = std::make_unique<EpisodeRunner>(*env_, *sampler_, *registry_, config_,
                                                 runner_options);
       env_house_ = item.house;
@@ -168,8 +182,24 @@ class ItemRunner {
       const bool keep = result.record.has_value() &&
                         (result.success || !config_.filter_for_successful_trajectories);
       if (keep) {
+        // The videos take their final names (episode index in the batch), then the episode.
+        for (CameraRecord& cam : result.record->cameras) {
+          for (auto [file, camera] : {std::pair{&cam.video_file, cam.name},
+                                      std::pair{&cam.depth_video_file, cam.name + "_depth"}}) {
+            if (file->empty()) continue;
+            const std::string final_name = recorder.VideoFileName(recorder.next_index(), camera);
+            fs::rename(rec_options.dir / *file, rec_options.dir / final_name);
+            *file = final_name;
+          }
+        }
         recorder.Write(*result.record);
         ++kept;
+      } else if (result.record) {
+        for (const CameraRecord& cam : result.record->cameras) {
+          for (const std::string& file : {cam.video_file, cam.depth_video_file}) {
+            if (!file.empty()) fs::remove(rec_options.dir / file, ec);
+          }
+        }
       }
       Json message{{"item", index}, {"attempt", result.attempt.ToJson()}, {"kept", keep},
                    {"policy_steps", result.policy_steps},
@@ -198,6 +228,7 @@ class ItemRunner {
   const ExperimentConfig& config_;
   fs::path folder_;
   const std::vector<AttemptRecord>& earlier_;
+  sim::GlBackend gl_;
   Emit emit_;
   std::unique_ptr<Registry> registry_;
   std::unique_ptr<TaskSampler> sampler_;
@@ -221,6 +252,7 @@ bool WriteAll(int fd, const std::string& text) {
 // A forked worker: runs its items, reports through `fd`, never returns.
 [[noreturn]] void WorkerMain(int fd, pid_t parent, const ExperimentConfig& config,
                              const TaskSamplerRegistry& samplers, const fs::path& folder,
+                             sim::GlBackend gl,
                              const std::vector<AttemptRecord>& earlier,
                              const std::vector<std::pair<size_t, WorkItem>>& items) {
   ::prctl(PR_SET_PDEATHSIG, SIGKILL);  // a killed parent takes its workers along
@@ -231,7 +263,7 @@ bool WriteAll(int fd, const std::string& text) {
     if (!WriteAll(fd, message.dump() + "\n")) ::_exit(4);
   };
   try {
-    ItemRunner runner(config, samplers, folder, earlier, emit);
+    ItemRunner runner(config, samplers, folder, earlier, gl, emit);
     for (const auto& [index, item] : items) runner.Run(index, item);
   } catch (const std::exception& e) {
     emit(Json{{"error", e.what()}});
@@ -240,6 +272,36 @@ bool WriteAll(int fd, const std::string& text) {
   ::close(fd);
   ::_exit(code);
 }
+
+// An exclusive lock on the run folder (per shard), held by the run and inherited by its
+// workers: the lock lives until every process holding it is gone, so a resumed run never
+// overlaps a killed run's last workers. Waits up to `wait_seconds` for a previous run to end.
+class FolderLock {
+ public:
+  FolderLock(const fs::path& file, double wait_seconds) {
+    fd_ = ::open(file.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+    if (fd_ < 0) throw Error(std::string("cannot open the lock file: ") + std::strerror(errno), file.string());
+    const auto t0 = Clock::now();
+    while (::flock(fd_, LOCK_EX | LOCK_NB) != 0) {
+      if (errno != EWOULDBLOCK && errno != EINTR) {
+        ::close(fd_);
+        throw Error(std::string("cannot lock: ") + std::strerror(errno), file.string());
+      }
+      if (Since(t0) > wait_seconds) {
+        ::close(fd_);
+        throw Error("another datagen run is working in this folder (its lock is held)",
+                    file.string());
+      }
+      ::usleep(20000);
+    }
+  }
+  ~FolderLock() { ::close(fd_); }
+  FolderLock(const FolderLock&) = delete;
+  FolderLock& operator=(const FolderLock&) = delete;
+
+ private:
+  int fd_ = -1;
+};
 
 }  // namespace
 
@@ -328,6 +390,8 @@ RunReport RunDatagen(const ExperimentConfig& input, const TaskSamplerRegistry& s
   std::error_code ec;
   fs::create_directories(report.folder, ec);
   if (ec) throw Error("cannot create the run folder: " + ec.message(), report.folder.string());
+  const std::string shard_name = options.shard.Name();
+  FolderLock lock(report.folder / (shard_name.empty() ? ".lock" : ".lock." + shard_name), 30.0);
   const fs::path config_file = report.folder / "config.yaml";
   const fs::path journal_file = JournalPath(report.folder, options.shard);
   const ExperimentConfig config = SettleRunConfig(input, config_file, journal_file, options);
@@ -437,7 +501,7 @@ RunReport RunDatagen(const ExperimentConfig& input, const TaskSamplerRegistry& s
       1, std::min<int64_t>(options.workers > 0 ? options.workers : config.num_workers,
                            static_cast<int64_t>(todo.size())));
   if (workers <= 1) {
-    ItemRunner runner(config, samplers, report.folder, earlier, handle);
+    ItemRunner runner(config, samplers, report.folder, earlier, options.gl_backend, handle);
     for (const auto& [index, item] : todo) runner.Run(index, item);
   } else {
     struct Worker {
@@ -460,7 +524,8 @@ RunReport RunDatagen(const ExperimentConfig& input, const TaskSamplerRegistry& s
       if (pid == 0) {
         ::close(fds[0]);
         for (int v = 0; v < w; ++v) ::close(pool[v].fd);
-        WorkerMain(fds[1], self, config, samplers, report.folder, earlier, mine);
+        WorkerMain(fds[1], self, config, samplers, report.folder, options.gl_backend, earlier,
+                   mine);
       }
       ::close(fds[1]);
       pool[w].pid = pid;

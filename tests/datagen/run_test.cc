@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <filesystem>
 #include <map>
+#include <sstream>
 #include <stdexcept>
 
 #include <gmock/gmock.h>
@@ -15,6 +16,7 @@
 
 #include "mlspaces/core/error.h"
 #include "mlspaces/core/rng.h"
+#include "mlspaces/datagen/video.h"
 #include "test_util.h"
 
 namespace mlspaces::datagen {
@@ -30,6 +32,7 @@ ExperimentConfig Tutorial(const fs::path& output, int64_t episodes, uint64_t see
   c.output_dir = output;
   c.seed = seed;
   c.task_sampler_config.samples_per_house = episodes;
+  c.task_config.enable_rendering = false;  // cameras: see the tests that turn them on
   return c;
 }
 
@@ -172,16 +175,47 @@ TEST(DatagenCliTest, GeneratesTheTutorialData) {
   testing::TempDir dir;
   const testing::CliResult r = testing::RunCli(
       {"datagen", (kExample / "datagen.yaml").string(), "--output", (dir / "out").string(),
-       "--episodes", "2", "--seed", "3"});
+       "--episodes", "2", "--seed", "3", "--set", "camera_config.img_resolution=[128, 80]"});
   EXPECT_EQ(r.exit_code, 0) << r.err;
   EXPECT_THAT(r.out, HasSubstr("episodes kept: 2"));
   EXPECT_THAT(r.out, HasSubstr("success rate: 100.0%"));
   EXPECT_THAT(r.err, HasSubstr("wrote "));
-  EXPECT_TRUE(fs::is_regular_file(dir / "out/house_0/trajectories_batch_1_of_1.h5"));
+  const fs::path h5 = dir / "out/house_0/trajectories_batch_1_of_1.h5";
+  EXPECT_TRUE(fs::is_regular_file(h5));
+  // Cameras: per step parameters, the video names in obs/sensor_data, one frame per
+  // observation in each video.
+  std::string listing;
+  testing::RunPython(dir.path(), R"(
+import h5py, sys
+f = h5py.File(sys.argv[1], "r")
+for k in sorted(f):
+    t = f[k]
+    n = t["success"].shape[0]
+    for cam in ("wrist_camera", "exo_camera_1"):
+        assert t["obs/sensor_param/%s/cam2world_gl" % cam].shape == (n, 4, 4)
+        assert t["obs/sensor_param/%s/extrinsic_cv" % cam].shape == (n, 3, 4)
+        assert t["obs/sensor_param/%s/intrinsic_cv" % cam].shape == (n, 3, 3)
+        name = bytes(t["obs/sensor_data/%s" % cam][:]).rstrip(b"\0").decode()
+        print(n, name)
+)",
+                     testing::ShellQuote(h5.string()), &listing);
+  std::istringstream lines(listing);
+  int videos = 0;
+  for (int64_t n; lines >> n;) {
+    std::string name;
+    lines >> name;
+    EXPECT_THAT(name, ::testing::MatchesRegex("episode_0000000[01]_(wrist|exo)_camera(_1)?_batch_1_of_1\\.mp4"));
+    const VideoInfo info = ProbeVideo(dir / "out/house_0" / name);
+    EXPECT_EQ(info.frames, n) << name;
+    EXPECT_EQ(info.width, 128);
+    EXPECT_EQ(info.height, 80);
+    ++videos;
+  }
+  EXPECT_EQ(videos, 4);
   // -q: nothing on stderr.
   const testing::CliResult quiet = testing::RunCli(
       {"datagen", (kExample / "datagen.yaml").string(), "--output", (dir / "q").string(),
-       "--episodes", "1", "--seed", "3", "-q"});
+       "--episodes", "1", "--seed", "3", "-q", "--set", "task_config.enable_rendering=false"});
   EXPECT_EQ(quiet.exit_code, 0);
   EXPECT_EQ(quiet.err, "");
 }
@@ -217,11 +251,11 @@ TEST(DatagenCliTest, BadInputGetsOneLineAndAnExitCode) {
 namespace mlspaces::datagen {
 namespace {
 
-// Every batch file of a run folder, by relative path, with its bytes.
+// Every batch file and video of a run folder, by relative path, with its bytes.
 std::map<std::string, std::string> BatchFiles(const fs::path& run) {
   std::map<std::string, std::string> out;
   for (const auto& e : fs::recursive_directory_iterator(run)) {
-    if (e.path().extension() == ".h5") {
+    if (e.path().extension() == ".h5" || e.path().extension() == ".mp4") {
       out[e.path().lexically_relative(run).string()] = testing::Slurp(e.path());
     }
   }
@@ -319,15 +353,19 @@ TEST(DatagenCliTest, KilledAtRandomMomentsAndResumedGivesTheSameDataset) {
   testing::TempDir dir;
   const std::string yaml = (kExample / "datagen.yaml").string();
   auto args = [&](const std::string& out, const std::string& workers) {
+    // Small cameras (videos are part of the dataset, and a kill may hit them too).
     return std::vector<std::string>{"datagen", yaml, "-q", "--seed", "13", "--episodes", "6",
                                     "--set", "task_sampler_config.episodes_per_batch=2",
+                                    "--set", "camera_config.img_resolution=[96, 64]",
+                                    "--set", "camera_config.shadows=false",
+                                    "--set", "camera_config.reflections=false",
                                     "--output", (dir / out).string(), "--resume", "--workers",
                                     workers};
   };
   const testing::CliResult whole = testing::RunCli(args("whole", "1"));
   ASSERT_EQ(whole.exit_code, 0) << whole.err;
   const std::map<std::string, std::string> expected = BatchFiles(dir / "whole");
-  ASSERT_EQ(expected.size(), 3u);
+  ASSERT_EQ(expected.size(), 3u + 6 * 2);  // 3 batch files, 2 videos per episode
 
   Rng rng(2024);
   int kills = 0;
@@ -359,11 +397,18 @@ TEST(DatagenCliTest, KilledAtRandomMomentsAndResumedGivesTheSameDataset) {
     }
   }
   EXPECT_GE(kills, 3);
-  // Let orphaned workers (killed with their parent) disappear before the final run.
-  ::usleep(200000);
+  // No pause: the folder lock makes a run wait until a killed run's workers are gone.
   const testing::CliResult last = testing::RunCli(args("cut", "2"));
   ASSERT_EQ(last.exit_code, 0) << last.err;
-  EXPECT_TRUE(BatchFiles(dir / "cut") == expected);
+  const std::map<std::string, std::string> got = BatchFiles(dir / "cut");
+  EXPECT_TRUE(got == expected);
+  for (const auto& [name, bytes] : got) {
+    const auto it = expected.find(name);
+    EXPECT_TRUE(it != expected.end() && it->second == bytes)
+        << "differs or extra: " << name << " " << bytes.size() << " vs "
+        << (it == expected.end() ? -1 : static_cast<long>(it->second.size()));
+  }
+  for (const auto& [name, bytes] : expected) EXPECT_EQ(got.count(name), 1u) << "missing: " << name;
   EXPECT_EQ(JournalWithoutTimings(dir / "cut/journal.jsonl"),
             JournalWithoutTimings(dir / "whole/journal.jsonl"));
   // Nothing half-written is left.
@@ -386,7 +431,8 @@ TEST(DatagenCliTest, ShardAndMergeFlags) {
   EXPECT_THAT(r.err, HasSubstr("not a run folder"));
   for (const char* shard : {"0/2", "1/2"}) {
     r = testing::RunCli({"datagen", yaml, "-q", "--seed", "4", "--episodes", "2", "--set",
-                         "task_sampler_config.episodes_per_batch=1", "--shard", shard, "--output",
+                         "task_sampler_config.episodes_per_batch=1", "--set",
+                         "camera_config.img_resolution=[64, 48]", "--shard", shard, "--output",
                          (dir / (std::string("s") + shard[0])).string()});
     ASSERT_EQ(r.exit_code, 0) << r.err;
   }

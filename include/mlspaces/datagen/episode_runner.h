@@ -16,6 +16,7 @@
 #include <string>
 
 #include "mlspaces/core/registry.h"
+#include "mlspaces/datagen/camera_recorder.h"
 #include "mlspaces/datagen/config.h"
 #include "mlspaces/datagen/env.h"
 #include "mlspaces/datagen/episode_record.h"
@@ -44,6 +45,12 @@ struct EpisodeRunnerOptions {
   std::string scene_name = "house_0";
   /// Record observations (off: only the outcome, for benchmarks of the bare loop).
   bool record = true;
+  /// Where camera videos go (the work item's folder). Cameras are rendered when this is set,
+  /// recording is on, task_config.enable_rendering and use_sensors are true and the camera
+  /// config has cameras; the videos keep CameraRecorder::TempVideoName names until the
+  /// episode is kept (see RunDatagen).
+  std::filesystem::path video_dir;
+  sim::GlBackend gl_backend = sim::GlBackend::kOsMesa;
   /// Called once per policy step after the controller wrote ctrl, right before the physics
   /// steps (for custom logging, or replaying the exact states in a benchmark). Must not
   /// modify the data.
@@ -66,6 +73,8 @@ class EpisodeRunner {
   const RobotView& robot() const { return robot_; }
   /// Physics steps per policy step (policy_dt_ms / sim_dt_ms).
   int substeps() const { return substeps_; }
+  /// The camera recorder, or null when cameras are off.
+  const CameraRecorder* cameras() const { return cameras_.get(); }
 
  private:
   struct Impl;
@@ -78,6 +87,7 @@ class EpisodeRunner {
   PickPlanner planner_;
   int substeps_ = 1;
   std::unique_ptr<Impl> impl_;
+  std::unique_ptr<CameraRecorder> cameras_;
 };
 
 }  // namespace mlspaces::datagen

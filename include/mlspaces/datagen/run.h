@@ -33,6 +33,7 @@
 #include "mlspaces/datagen/config.h"
 #include "mlspaces/datagen/journal.h"
 #include "mlspaces/datagen/task_sampler.h"
+#include "mlspaces/sim/renderer.h"
 
 namespace mlspaces::datagen {
 
@@ -80,6 +81,8 @@ struct RunOptions {
   Shard shard;
   /// Worker processes; 0 = config.num_workers. 1 runs in this process.
   int workers = 0;
+  /// Headless GL for the cameras (one context per worker).
+  sim::GlBackend gl_backend = sim::GlBackend::kOsMesa;
   /// Draw a progress bar (only on a terminal): episodes kept / target, success rate,
   /// episodes per hour, ETA.
   bool progress = true;

@@ -1,0 +1,105 @@
+// The camera system of an episode (spec 7, 7.1): where each configured camera is at a state,
+// its per-step parameters (obs/sensor_param/<camera>), and its RGB (and optional depth) video,
+// rendered headless (sim::Renderer) and encoded as H.264 MP4 (VideoWriter).
+//
+// Cameras:
+//   - mjcf: the model camera <robot_namespace><mjcf_name> (e.g. robot_0/gripper/wrist_camera),
+//     at its compiled pose on its body; vertical field of view = the config's fov;
+//   - robot_mounted: fixed to the first of reference_body_names: world position
+//     R_body * camera_offset + p_body, rotation R_body * R(camera_quaternion) in MuJoCo's camera
+//     convention (looks along -z, +y up).
+// Per step and camera (float64): cam2world_gl (4x4, columns right, -up, forward, position:
+// OpenCV-style axes as the original), extrinsic_cv = inverse(cam2world_gl)[:3] (3x4, world to
+// camera), intrinsic_cv = [[f, 0, W/2], [0, f, H/2], [0, 0, 1]] with f = (H/2) / tan(fovy/2).
+// visibility_constraints only steer the original's randomised camera placement; the
+// cameras here are fixed, so they are not used.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <mujoco/mujoco.h>
+
+#include "mlspaces/datagen/config.h"
+#include "mlspaces/datagen/episode_record.h"
+#include "mlspaces/datagen/video.h"
+#include "mlspaces/sim/renderer.h"
+
+namespace mlspaces::datagen {
+
+/// Resolves the cameras of a config in a model and computes their views.
+class CameraSystem {
+ public:
+  /// @throws Error naming camera_config.cameras[i] for a camera or body missing in `m`.
+  CameraSystem(const mjModel* m, const CameraSystemConfig& config);
+
+  size_t size() const { return cameras_.size(); }
+  const std::string& name(size_t i) const { return cameras_[i].name; }
+  /// Camera i's view at the state in `d` (kinematics must be current).
+  sim::CameraView View(size_t i, const mjData* d) const;
+  int width() const { return width_; }
+  int height() const { return height_; }
+
+  /// Appends one step of cam2world_gl, extrinsic_cv and intrinsic_cv of `view` to
+  /// `params` (creating the series on first use).
+  static void AppendParams(const sim::CameraView& view, int width, int height,
+                           std::map<std::string, Series>& params);
+
+ private:
+  struct Camera {
+    std::string name;
+    int camera_id = -1;  // mjcf cameras
+    int body_id = -1;    // robot-mounted cameras
+    std::array<double, 3> offset{};
+    std::array<double, 9> rot{};  // R(camera_quaternion), row-major
+    double fovy_deg = 45;
+  };
+  std::vector<Camera> cameras_;
+  int width_ = 0, height_ = 0;
+};
+
+/// Renders and encodes the cameras of one env, episode after episode. One per worker
+/// (it owns a GL context).
+class CameraRecorder {
+ public:
+  /// @throws Error when a camera cannot be resolved or no GL context can be made.
+  CameraRecorder(const mjModel* m, const CameraSystemConfig& config, double fps,
+                 sim::GlBackend backend);
+  ~CameraRecorder();
+
+  /// Starts episode `episode`: its videos are written in `dir` under TempVideoName().
+  void Begin(const std::filesystem::path& dir, int64_t episode);
+  /// Renders every camera at the state in `d` and appends a frame and the parameters.
+  void Capture(const mjData* d);
+  /// Finishes the videos: one CameraRecord per camera whose video_file (and
+  /// depth_video_file) name the finished files in the episode's dir (temp names: the
+  /// trajectory writer renames them to their final names).
+  std::vector<CameraRecord> End();
+  /// Drops the episode's videos (no files left).
+  void Abort();
+
+  /// The name an episode's video has until it is kept: .episode_<episode>_<camera>.mp4.
+  static std::string TempVideoName(int64_t episode, const std::string& camera);
+
+  const CameraSystem& cameras() const { return system_; }
+  double render_seconds() const { return render_seconds_; }
+  double encode_seconds() const { return encode_seconds_; }
+
+ private:
+  CameraSystem system_;
+  CameraSystemConfig config_;
+  VideoOptions video_;
+  std::unique_ptr<sim::Renderer> renderer_;
+  std::filesystem::path dir_;
+  int64_t episode_ = -1;
+  std::vector<std::unique_ptr<VideoWriter>> rgb_, depth_;
+  std::vector<CameraRecord> records_;
+  std::vector<unsigned char> rgb_buf_, grey_buf_;
+  std::vector<float> depth_buf_;
+  double render_seconds_ = 0, encode_seconds_ = 0;
+};
+
+}  // namespace mlspaces::datagen

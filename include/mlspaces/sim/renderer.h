@@ -1,0 +1,106 @@
+// Headless offscreen rendering of a MuJoCo 2.2.2 model: RGB and metric depth from any camera
+// pose, through OSMesa or EGL (surfaceless Mesa), with no X server.
+//
+// GL libraries are loaded at run time (dlopen, RTLD_LOCAL) rather than linked: MuJoCo 2.2.2
+// picks its GL function loader by looking for eglGetProcAddress, then OSMesaGetProcAddress, in
+// the process's global symbols, so linking libEGL would make it resolve every GL function
+// through EGL's dispatcher, which draws nothing into an OSMesa context. MuJoCo also loads its
+// GL functions once per process, so one process renders with one backend: the first Renderer
+// fixes it, and a Renderer of the other backend in the same process throws Error.
+#pragma once
+
+#include <array>
+#include <memory>
+#include <optional>
+#include <string_view>
+
+#include <mujoco/mujoco.h>
+
+namespace mlspaces::sim {
+
+enum class GlBackend { kOsMesa, kEgl };
+
+/// "osmesa" -> kOsMesa, "egl" -> kEgl. @throws mlspaces::UsageError for any other name.
+GlBackend ParseGlBackend(std::string_view name);
+/// "osmesa" or "egl".
+std::string_view GlBackendName(GlBackend backend);
+
+/// The backend this process renders with: the one of the first Renderer that got as far as
+/// MuJoCo's render context; nullopt before that.
+std::optional<GlBackend> ProcessGlBackend();
+
+struct RenderOptions {
+  int width = 640;
+  int height = 368;
+  GlBackend backend = GlBackend::kOsMesa;
+  /// Capacity of the abstract scene (mjv_makeScene); geoms beyond it are not drawn.
+  int max_geom = 10000;
+};
+
+/// A camera in the world. `xmat` is MuJoCo's camera frame (as in mjData::cam_xmat): a
+/// row-major 3x3 rotation whose columns are the camera's x (right), y (up) and z (backward)
+/// axes in world coordinates; the camera looks along -z. `fovy_deg` is the vertical field of
+/// view; the horizontal one follows from the image's aspect ratio.
+struct CameraView {
+  std::array<double, 3> pos{0, 0, 0};
+  std::array<double, 9> xmat{1, 0, 0, 0, 1, 0, 0, 0, 1};
+  double fovy_deg = 45;
+};
+
+/// A camera at `eye` looking at `target`, world +z up in the image (when the view is
+/// vertical, world +y is up in the image). @throws UsageError when eye == target.
+CameraView LookAt(const std::array<double, 3>& eye, const std::array<double, 3>& target,
+                  double fovy_deg = 45);
+
+/// One GL context + mjrContext + mjvScene for one model. Not thread-safe: use a Renderer from
+/// one thread at a time (one per worker). Several Renderers may live in one thread; Render()
+/// makes its own context current.
+class Renderer {
+ public:
+  /// Renders `m` (shared, never modified: the Renderer keeps a private copy whose offscreen
+  /// buffer is raised to width x height; an mjData of `m` works with it).
+  /// @throws UsageError for a non-positive size or max_geom; Error (one line) when the GL
+  /// library is missing, no GL context can be made, MuJoCo cannot make its render context, or
+  /// this process already renders with the other backend. Nothing leaks on failure.
+  Renderer(const mjModel* m, RenderOptions options);
+  ~Renderer();
+  Renderer(const Renderer&) = delete;
+  Renderer& operator=(const Renderer&) = delete;
+
+  /// Renders the state in `d` (an mjData of the model given to the constructor, positions
+  /// current, e.g. after mj_forward/mj_step) seen from `view`.
+  /// `rgb`: height*width*3 bytes, rows top to bottom, written. `depth_m`: when not null,
+  /// height*width floats, rows top to bottom: distance along the view axis (not along the
+  /// ray) in metres; the far plane (m->vis.map.zfar * m->stat.extent) where nothing is hit.
+  /// `d` is not changed, but MuJoCo uses its scratch stack while building the scene: do not
+  /// render one mjData from two threads at once.
+  /// @throws UsageError for a null d or rgb, or fovy_deg outside (0, 180).
+  void Render(const mjData* d, const CameraView& view, unsigned char* rgb,
+              float* depth_m = nullptr);
+
+  /// Renders camera `camera_id` of the model through MuJoCo's own fixed-camera path
+  /// (mjCAMERA_FIXED); same outputs as Render(). Equals Render(d, ModelCamera(m, d, id), ...)
+  /// up to float rounding. @throws UsageError for an id out of range.
+  void RenderCamera(const mjData* d, int camera_id, unsigned char* rgb, float* depth_m = nullptr);
+
+  /// The view of camera `camera_id` of the model: d->cam_xpos, d->cam_xmat, m->cam_fovy.
+  /// @throws UsageError for an id out of range.
+  static CameraView ModelCamera(const mjModel* m, const mjData* d, int camera_id);
+
+  int width() const;
+  int height() const;
+  GlBackend backend() const;
+  /// The abstract scene: its flags (scene().flags[mjRND_SHADOW], mjRND_REFLECTION,
+  /// mjRND_SKYBOX, ...) may be changed between renders.
+  mjvScene& scene();
+  /// The visualisation options (geom groups, frames, ...) used by Render().
+  mjvOption& vis_option();
+
+  struct Impl;
+
+ private:
+  void Draw(unsigned char* rgb, float* depth_m);
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace mlspaces::sim

@@ -1,0 +1,210 @@
+#include "mlspaces/datagen/camera_recorder.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <utility>
+
+#include "mlspaces/core/error.h"
+
+namespace mlspaces::datagen {
+namespace fs = std::filesystem;
+namespace {
+
+using Clock = std::chrono::steady_clock;
+constexpr double kPi = 3.14159265358979323846;
+
+double Since(Clock::time_point t0) {
+  return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+// Row-major rotation of a unit quaternion (w, x, y, z).
+std::array<double, 9> QuatToMat(const std::array<double, 4>& q) {
+  const double n = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+  const double w = q[0] / n, x = q[1] / n, y = q[2] / n, z = q[3] / n;
+  return {1 - 2 * (y * y + z * z), 2 * (x * y - w * z),     2 * (x * z + w * y),
+          2 * (x * y + w * z),     1 - 2 * (x * x + z * z), 2 * (y * z - w * x),
+          2 * (x * z - w * y),     2 * (y * z + w * x),     1 - 2 * (x * x + y * y)};
+}
+
+}  // namespace
+
+CameraSystem::CameraSystem(const mjModel* m, const CameraSystemConfig& config)
+    : width_(static_cast<int>(config.img_resolution[0])),
+      height_(static_cast<int>(config.img_resolution[1])) {
+  for (size_t i = 0; i < config.cameras.size(); ++i) {
+    const CameraConfig& c = config.cameras[i];
+    const std::string field = "camera_config.cameras[" + std::to_string(i) + "]";
+    Camera cam;
+    cam.name = c.name;
+    cam.fovy_deg = c.fov;
+    if (c.type == CameraType::kMjcf) {
+      const std::string name = c.robot_namespace + c.mjcf_name;
+      cam.camera_id = mj_name2id(m, mjOBJ_CAMERA, name.c_str());
+      if (cam.camera_id < 0) {
+        throw Error("camera '" + name + "' is not in the model", "", field + ".mjcf_name");
+      }
+    } else {
+      const std::string& body = c.reference_body_names.at(0);
+      cam.body_id = mj_name2id(m, mjOBJ_BODY, body.c_str());
+      if (cam.body_id < 0) {
+        throw Error("body '" + body + "' is not in the model", "",
+                    field + ".reference_body_names");
+      }
+      cam.offset = c.camera_offset;
+      cam.rot = QuatToMat(c.camera_quaternion);
+    }
+    cameras_.push_back(std::move(cam));
+  }
+}
+
+sim::CameraView CameraSystem::View(size_t i, const mjData* d) const {
+  const Camera& c = cameras_.at(i);
+  sim::CameraView v;
+  v.fovy_deg = c.fovy_deg;
+  if (c.camera_id >= 0) {
+    std::copy_n(d->cam_xpos + 3 * c.camera_id, 3, v.pos.begin());
+    std::copy_n(d->cam_xmat + 9 * c.camera_id, 9, v.xmat.begin());
+    return v;
+  }
+  const mjtNum* p = d->xpos + 3 * c.body_id;
+  const mjtNum* r = d->xmat + 9 * c.body_id;
+  for (int a = 0; a < 3; ++a) {
+    v.pos[a] = p[a];
+    for (int k = 0; k < 3; ++k) v.pos[a] += r[3 * a + k] * c.offset[k];
+    for (int b = 0; b < 3; ++b) {
+      double s = 0;
+      for (int k = 0; k < 3; ++k) s += r[3 * a + k] * c.rot[3 * k + b];
+      v.xmat[3 * a + b] = s;
+    }
+  }
+  return v;
+}
+
+void CameraSystem::AppendParams(const sim::CameraView& v, int width, int height,
+                                std::map<std::string, Series>& params) {
+  if (params.empty()) {
+    params["cam2world_gl"] = Series(DType::kFloat64, {4, 4});
+    params["extrinsic_cv"] = Series(DType::kFloat64, {3, 4});
+    params["intrinsic_cv"] = Series(DType::kFloat64, {3, 3});
+  }
+  // Columns: right (x), -up (-y), forward (-z), position.
+  double c2w[16] = {0};
+  for (int a = 0; a < 3; ++a) {
+    c2w[4 * a + 0] = v.xmat[3 * a + 0];
+    c2w[4 * a + 1] = -v.xmat[3 * a + 1];
+    c2w[4 * a + 2] = -v.xmat[3 * a + 2];
+    c2w[4 * a + 3] = v.pos[a];
+  }
+  c2w[15] = 1;
+  // World to camera: R^T, -R^T p.
+  std::vector<double> ext(12);
+  for (int a = 0; a < 3; ++a) {
+    double t = 0;
+    for (int b = 0; b < 3; ++b) {
+      ext[4 * a + b] = c2w[4 * b + a];
+      t -= c2w[4 * b + a] * v.pos[b];
+    }
+    ext[4 * a + 3] = t;
+  }
+  const double f = 0.5 * height / std::tan(v.fovy_deg * kPi / 360.0);
+  params["cam2world_gl"].Append(std::vector<double>(c2w, c2w + 16));
+  params["extrinsic_cv"].Append(ext);
+  params["intrinsic_cv"].Append({f, 0, 0.5 * width, 0, f, 0.5 * height, 0, 0, 1});
+}
+
+CameraRecorder::CameraRecorder(const mjModel* m, const CameraSystemConfig& config, double fps,
+                               sim::GlBackend backend)
+    : system_(m, config), config_(config) {
+  video_.fps = fps;
+  video_.crf = static_cast<int>(config.video_crf);
+  video_.preset = config.video_preset;
+  sim::RenderOptions options;
+  options.width = system_.width();
+  options.height = system_.height();
+  options.backend = backend;
+  renderer_ = std::make_unique<sim::Renderer>(m, options);
+  renderer_->scene().flags[mjRND_SHADOW] = config.shadows ? 1 : 0;
+  renderer_->scene().flags[mjRND_REFLECTION] = config.reflections ? 1 : 0;
+  const size_t pixels = static_cast<size_t>(options.width) * options.height;
+  rgb_buf_.resize(3 * pixels);
+  if (config.record_depth) {
+    depth_buf_.resize(pixels);
+    grey_buf_.resize(3 * pixels);
+  }
+}
+
+CameraRecorder::~CameraRecorder() = default;
+
+std::string CameraRecorder::TempVideoName(int64_t episode, const std::string& camera) {
+  return ".episode_" + std::to_string(episode) + "_" + camera + ".mp4";
+}
+
+void CameraRecorder::Begin(const fs::path& dir, int64_t episode) {
+  Abort();
+  dir_ = dir;
+  episode_ = episode;
+  records_.clear();
+  for (size_t i = 0; i < system_.size(); ++i) {
+    const std::string& name = system_.name(i);
+    rgb_.push_back(std::make_unique<VideoWriter>(dir / TempVideoName(episode, name),
+                                                 system_.width(), system_.height(), video_));
+    if (config_.record_depth) {
+      depth_.push_back(std::make_unique<VideoWriter>(dir / TempVideoName(episode, name + "_depth"),
+                                                     system_.width(), system_.height(), video_));
+    }
+    CameraRecord rec;
+    rec.name = name;
+    records_.push_back(std::move(rec));
+  }
+}
+
+void CameraRecorder::Capture(const mjData* d) {
+  for (size_t i = 0; i < system_.size(); ++i) {
+    const sim::CameraView view = system_.View(i, d);
+    CameraSystem::AppendParams(view, system_.width(), system_.height(), records_[i].params);
+    auto t0 = Clock::now();
+    renderer_->Render(d, view, rgb_buf_.data(),
+                      config_.record_depth ? depth_buf_.data() : nullptr);
+    render_seconds_ += Since(t0);
+    t0 = Clock::now();
+    rgb_[i]->AddFrame(rgb_buf_.data());
+    if (config_.record_depth) {
+      const double scale = 255.0 / config_.depth_max_m;
+      for (size_t p = 0; p < depth_buf_.size(); ++p) {
+        const auto g = static_cast<unsigned char>(
+            std::clamp(std::lround(depth_buf_[p] * scale), 0L, 255L));
+        grey_buf_[3 * p] = grey_buf_[3 * p + 1] = grey_buf_[3 * p + 2] = g;
+      }
+      depth_[i]->AddFrame(grey_buf_.data());
+    }
+    encode_seconds_ += Since(t0);
+  }
+}
+
+std::vector<CameraRecord> CameraRecorder::End() {
+  const auto t0 = Clock::now();
+  for (size_t i = 0; i < records_.size(); ++i) {
+    rgb_[i]->Finish();
+    records_[i].video_file = TempVideoName(episode_, records_[i].name);
+    if (config_.record_depth) {
+      depth_[i]->Finish();
+      records_[i].depth_video_file = TempVideoName(episode_, records_[i].name + "_depth");
+    }
+  }
+  encode_seconds_ += Since(t0);
+  rgb_.clear();
+  depth_.clear();
+  std::vector<CameraRecord> out = std::move(records_);
+  records_.clear();
+  return out;
+}
+
+void CameraRecorder::Abort() {
+  // Writers destroyed without Finish() remove their temp files.
+  rgb_.clear();
+  depth_.clear();
+  records_.clear();
+}
+
+}  // namespace mlspaces::datagen

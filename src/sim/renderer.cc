@@ -1,0 +1,522 @@
+#include "mlspaces/sim/renderer.h"
+
+#include <dlfcn.h>
+
+#include <EGL/egl.h>
+#include <EGL/eglext.h>
+#include <GL/osmesa.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <tuple>
+#include <vector>
+
+#include "mlspaces/core/error.h"
+#include "mlspaces/sim/mujoco_handlers.h"
+
+namespace mlspaces::sim {
+namespace {
+
+// ---------------------------------------------------------------------------------------------
+// Run-time loading of the GL platform libraries (see renderer.h for why they are not linked).
+
+std::string OneLine(std::string s) {
+  std::replace(s.begin(), s.end(), '\n', ' ');
+  while (!s.empty() && s.back() == ' ') s.pop_back();
+  return s;
+}
+
+[[noreturn]] void Fail(GlBackend backend, const std::string& message) {
+  throw Error(std::string(GlBackendName(backend)) + " renderer: " + OneLine(message));
+}
+
+// Opens the first of `names` that loads (RTLD_LOCAL: its symbols stay out of the global scope
+// until ClaimProcessBackend promotes it). Returns the handle and the name that loaded.
+std::pair<void*, const char*> OpenLibrary(GlBackend backend,
+                                          std::initializer_list<const char*> names,
+                                          const char* package) {
+  std::string errors;
+  for (const char* name : names) {
+    if (void* h = ::dlopen(name, RTLD_NOW | RTLD_LOCAL)) return {h, name};
+    const char* e = ::dlerror();
+    if (!errors.empty()) errors += "; ";
+    errors += e ? e : name;
+  }
+  Fail(backend, "cannot load the GL library (install " + std::string(package) + "): " + errors);
+}
+
+template <class F>
+F Symbol(GlBackend backend, void* lib, const char* name) {
+  void* p = ::dlsym(lib, name);
+  if (p == nullptr) Fail(backend, std::string("the GL library has no ") + name);
+  return reinterpret_cast<F>(p);
+}
+
+struct OsMesaApi {
+  void* lib = nullptr;
+  const char* lib_name = nullptr;
+  decltype(&::OSMesaCreateContextExt) create_context_ext = nullptr;
+  decltype(&::OSMesaMakeCurrent) make_current = nullptr;
+  decltype(&::OSMesaGetCurrentContext) get_current_context = nullptr;
+  decltype(&::OSMesaDestroyContext) destroy_context = nullptr;
+};
+
+struct EglApi {
+  void* lib = nullptr;
+  const char* lib_name = nullptr;
+  decltype(&::eglGetProcAddress) get_proc_address = nullptr;
+  decltype(&::eglQueryString) query_string = nullptr;
+  decltype(&::eglGetError) get_error = nullptr;
+  decltype(&::eglInitialize) initialize = nullptr;
+  decltype(&::eglTerminate) terminate = nullptr;
+  decltype(&::eglChooseConfig) choose_config = nullptr;
+  decltype(&::eglBindAPI) bind_api = nullptr;
+  decltype(&::eglCreateContext) create_context = nullptr;
+  decltype(&::eglDestroyContext) destroy_context = nullptr;
+  decltype(&::eglMakeCurrent) make_current = nullptr;
+  decltype(&::eglGetCurrentContext) get_current_context = nullptr;
+  PFNEGLGETPLATFORMDISPLAYEXTPROC get_platform_display = nullptr;
+};
+
+// Loaded once per process; a failed load is retried by the next call.
+const OsMesaApi& LoadOsMesa() {
+  static const OsMesaApi api = [] {
+    constexpr GlBackend b = GlBackend::kOsMesa;
+    OsMesaApi a;
+    std::tie(a.lib, a.lib_name) =
+        OpenLibrary(b, {"libOSMesa.so.8", "libOSMesa.so.6", "libOSMesa.so"}, "libosmesa6");
+    a.create_context_ext =
+        Symbol<decltype(a.create_context_ext)>(b, a.lib, "OSMesaCreateContextExt");
+    a.make_current = Symbol<decltype(a.make_current)>(b, a.lib, "OSMesaMakeCurrent");
+    a.get_current_context =
+        Symbol<decltype(a.get_current_context)>(b, a.lib, "OSMesaGetCurrentContext");
+    a.destroy_context = Symbol<decltype(a.destroy_context)>(b, a.lib, "OSMesaDestroyContext");
+    return a;
+  }();
+  return api;
+}
+
+const EglApi& LoadEgl() {
+  static const EglApi api = [] {
+    constexpr GlBackend b = GlBackend::kEgl;
+    EglApi a;
+    std::tie(a.lib, a.lib_name) =
+        OpenLibrary(b, {"libEGL.so.1", "libEGL.so"}, "libegl1 and libegl-mesa0");
+    a.get_proc_address = Symbol<decltype(a.get_proc_address)>(b, a.lib, "eglGetProcAddress");
+    a.query_string = Symbol<decltype(a.query_string)>(b, a.lib, "eglQueryString");
+    a.get_error = Symbol<decltype(a.get_error)>(b, a.lib, "eglGetError");
+    a.initialize = Symbol<decltype(a.initialize)>(b, a.lib, "eglInitialize");
+    a.terminate = Symbol<decltype(a.terminate)>(b, a.lib, "eglTerminate");
+    a.choose_config = Symbol<decltype(a.choose_config)>(b, a.lib, "eglChooseConfig");
+    a.bind_api = Symbol<decltype(a.bind_api)>(b, a.lib, "eglBindAPI");
+    a.create_context = Symbol<decltype(a.create_context)>(b, a.lib, "eglCreateContext");
+    a.destroy_context = Symbol<decltype(a.destroy_context)>(b, a.lib, "eglDestroyContext");
+    a.make_current = Symbol<decltype(a.make_current)>(b, a.lib, "eglMakeCurrent");
+    a.get_current_context =
+        Symbol<decltype(a.get_current_context)>(b, a.lib, "eglGetCurrentContext");
+    const char* ext = a.query_string(EGL_NO_DISPLAY, EGL_EXTENSIONS);
+    if (ext == nullptr ||
+        std::string_view(ext).find("EGL_MESA_platform_surfaceless") == std::string_view::npos) {
+      Fail(b, "EGL has no EGL_MESA_platform_surfaceless (install libegl-mesa0)");
+    }
+    a.get_platform_display = reinterpret_cast<PFNEGLGETPLATFORMDISPLAYEXTPROC>(
+        a.get_proc_address("eglGetPlatformDisplayEXT"));
+    if (a.get_platform_display == nullptr) Fail(b, "EGL has no eglGetPlatformDisplayEXT");
+    return a;
+  }();
+  return api;
+}
+
+std::string EglErrorText(const EglApi& egl) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "EGL error 0x%04X", static_cast<unsigned>(egl.get_error()));
+  return buf;
+}
+
+// The surfaceless display, initialised while any EGL Renderer lives (eglInitialize and
+// eglTerminate act on the display as a whole, so they are reference-counted).
+std::mutex g_egl_mutex;
+EGLDisplay g_egl_display = EGL_NO_DISPLAY;
+int g_egl_users = 0;
+
+EGLDisplay AcquireEglDisplay(const EglApi& egl) {
+  std::lock_guard lock(g_egl_mutex);
+  if (g_egl_users == 0) {
+    EGLDisplay dpy =
+        egl.get_platform_display(EGL_PLATFORM_SURFACELESS_MESA, EGL_DEFAULT_DISPLAY, nullptr);
+    if (dpy == EGL_NO_DISPLAY) {
+      Fail(GlBackend::kEgl, "no surfaceless EGL display (" + EglErrorText(egl) + ")");
+    }
+    EGLint major = 0, minor = 0;
+    if (!egl.initialize(dpy, &major, &minor)) {
+      Fail(GlBackend::kEgl,
+           "cannot initialise the surfaceless EGL display (" + EglErrorText(egl) + ")");
+    }
+    g_egl_display = dpy;
+  }
+  ++g_egl_users;
+  return g_egl_display;
+}
+
+void ReleaseEglDisplay(const EglApi& egl) {
+  std::lock_guard lock(g_egl_mutex);
+  if (--g_egl_users == 0) {
+    egl.terminate(g_egl_display);
+    g_egl_display = EGL_NO_DISPLAY;
+  }
+}
+
+// MuJoCo 2.2.2 resolves its GL functions once per process, through the first of
+// eglGetProcAddress / OSMesaGetProcAddress it finds in the global scope: the first Renderer
+// puts its library there and fixes the backend of the process.
+std::mutex g_backend_mutex;
+std::optional<GlBackend> g_process_backend;
+
+// Throws when the process is already fixed to the other backend. Caller holds the mutex.
+void CheckProcessBackendLocked(GlBackend backend) {
+  if (g_process_backend && *g_process_backend != backend) {
+    Fail(backend, "this process already renders with " +
+                      std::string(GlBackendName(*g_process_backend)) +
+                      " (MuJoCo 2.2.2 loads its GL functions once per process: use one backend "
+                      "per process)");
+  }
+}
+
+void CheckProcessBackend(GlBackend backend) {
+  std::lock_guard lock(g_backend_mutex);
+  CheckProcessBackendLocked(backend);
+}
+
+void ClaimProcessBackend(GlBackend backend, const char* lib_name) {
+  std::lock_guard lock(g_backend_mutex);
+  CheckProcessBackendLocked(backend);  // another thread may have claimed it meanwhile
+  if (g_process_backend) return;
+  // Promote the already loaded library to RTLD_GLOBAL so MuJoCo's loader finds its
+  // *GetProcAddress before any other GL library the process may hold.
+  if (::dlopen(lib_name, RTLD_NOW | RTLD_NOLOAD | RTLD_GLOBAL) == nullptr) {
+    const char* e = ::dlerror();
+    Fail(backend, std::string("cannot make ") + lib_name + " global: " + (e ? e : "?"));
+  }
+  g_process_backend = backend;
+}
+
+// ---------------------------------------------------------------------------------------------
+// A GL context of either backend; owns it and destroys it.
+
+class GlContext {
+ public:
+  GlContext(GlBackend backend, int width, int height) : backend_(backend) {
+    if (backend == GlBackend::kOsMesa) {
+      const OsMesaApi& api = LoadOsMesa();
+      osmesa_ = api.create_context_ext(OSMESA_RGBA, 24, 8, 8, nullptr);
+      if (osmesa_ == nullptr) Fail(backend, "OSMesaCreateContextExt failed");
+      osmesa_buffer_.resize(static_cast<size_t>(width) * height * 4);
+      width_ = width;
+      height_ = height;
+      if (!api.make_current(osmesa_, osmesa_buffer_.data(), GL_UNSIGNED_BYTE, width, height)) {
+        api.destroy_context(osmesa_);
+        Fail(backend, "OSMesaMakeCurrent failed");
+      }
+      lib_name_ = api.lib_name;
+    } else {
+      const EglApi& egl = LoadEgl();
+      display_ = AcquireEglDisplay(egl);
+      const EGLint attribs[] = {EGL_RED_SIZE,          8,
+                                EGL_GREEN_SIZE,        8,
+                                EGL_BLUE_SIZE,         8,
+                                EGL_ALPHA_SIZE,        8,
+                                EGL_DEPTH_SIZE,        24,
+                                EGL_STENCIL_SIZE,      8,
+                                EGL_COLOR_BUFFER_TYPE, EGL_RGB_BUFFER,
+                                EGL_SURFACE_TYPE,      EGL_PBUFFER_BIT,
+                                EGL_RENDERABLE_TYPE,   EGL_OPENGL_BIT,
+                                EGL_NONE};
+      EGLConfig config = nullptr;
+      EGLint n = 0;
+      std::string problem;
+      if (!egl.choose_config(display_, attribs, &config, 1, &n) || n < 1) {
+        problem = "no EGL config with RGBA8, depth 24, stencil 8 and desktop OpenGL";
+      } else if (!egl.bind_api(EGL_OPENGL_API)) {
+        problem = "eglBindAPI(EGL_OPENGL_API) failed (" + EglErrorText(egl) + ")";
+      } else if ((egl_ = egl.create_context(display_, config, EGL_NO_CONTEXT, nullptr)) ==
+                 EGL_NO_CONTEXT) {
+        problem = "eglCreateContext failed (" + EglErrorText(egl) + ")";
+      } else if (!egl.make_current(display_, EGL_NO_SURFACE, EGL_NO_SURFACE, egl_)) {
+        problem = "surfaceless eglMakeCurrent failed (" + EglErrorText(egl) + ")";
+        egl.destroy_context(display_, egl_);
+      }
+      if (!problem.empty()) {
+        ReleaseEglDisplay(egl);
+        Fail(backend, problem);
+      }
+      lib_name_ = egl.lib_name;
+    }
+  }
+
+  ~GlContext() {
+    if (backend_ == GlBackend::kOsMesa) {
+      const OsMesaApi& api = LoadOsMesa();
+      if (api.get_current_context() == osmesa_) api.make_current(nullptr, nullptr, 0, 0, 0);
+      api.destroy_context(osmesa_);
+    } else {
+      const EglApi& egl = LoadEgl();
+      if (egl.get_current_context() == egl_) {
+        egl.make_current(display_, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
+      }
+      egl.destroy_context(display_, egl_);
+      ReleaseEglDisplay(egl);
+    }
+  }
+
+  GlContext(const GlContext&) = delete;
+  GlContext& operator=(const GlContext&) = delete;
+
+  void MakeCurrent() {
+    if (backend_ == GlBackend::kOsMesa) {
+      const OsMesaApi& api = LoadOsMesa();
+      if (api.get_current_context() == osmesa_) return;
+      if (!api.make_current(osmesa_, osmesa_buffer_.data(), GL_UNSIGNED_BYTE, width_,
+                            height_)) {
+        Fail(backend_, "OSMesaMakeCurrent failed");
+      }
+    } else {
+      const EglApi& egl = LoadEgl();
+      if (egl.get_current_context() == egl_) return;
+      egl.bind_api(EGL_OPENGL_API);  // per-thread state: this thread may never have set it
+      if (!egl.make_current(display_, EGL_NO_SURFACE, EGL_NO_SURFACE, egl_)) {
+        Fail(backend_, "eglMakeCurrent failed (" + EglErrorText(egl) +
+                           "; is this Renderer current in another thread?)");
+      }
+    }
+  }
+
+  const char* lib_name() const { return lib_name_; }
+
+ private:
+  GlBackend backend_;
+  const char* lib_name_ = nullptr;
+  OSMesaContext osmesa_ = nullptr;
+  std::vector<unsigned char> osmesa_buffer_;
+  int width_ = 0, height_ = 0;
+  EGLDisplay display_ = EGL_NO_DISPLAY;
+  EGLContext egl_ = EGL_NO_CONTEXT;
+};
+
+template <class T>
+void FlipRows(T* pixels, int width, int height, int channels) {
+  const size_t row = static_cast<size_t>(width) * channels;
+  for (int top = 0, bottom = height - 1; top < bottom; ++top, --bottom) {
+    std::swap_ranges(pixels + top * row, pixels + (top + 1) * row, pixels + bottom * row);
+  }
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+
+GlBackend ParseGlBackend(std::string_view name) {
+  if (name == "osmesa") return GlBackend::kOsMesa;
+  if (name == "egl") return GlBackend::kEgl;
+  throw UsageError("unknown GL backend '" + std::string(name) + "' (expected osmesa or egl)");
+}
+
+std::string_view GlBackendName(GlBackend backend) {
+  return backend == GlBackend::kEgl ? "egl" : "osmesa";
+}
+
+std::optional<GlBackend> ProcessGlBackend() {
+  std::lock_guard lock(g_backend_mutex);
+  return g_process_backend;
+}
+
+struct Renderer::Impl {
+  RenderOptions options;
+  // Declared first, destroyed last: the MuJoCo objects below are freed with it current.
+  std::optional<GlContext> gl;
+  ModelPtr model;  // private copy with a big enough offscreen buffer
+  mjvOption opt{};
+  mjvCamera cam{};
+  mjvScene scn{};
+  mjrContext con{};
+  bool scene_made = false;
+  bool context_made = false;
+  float znear = 0, zfar = 0;
+
+  ~Impl() {
+    if (context_made && gl) {
+      try {
+        gl->MakeCurrent();
+        mjr_freeContext(&con);
+      } catch (...) {  // cannot make it current: leave the GL objects to the context's end
+      }
+    }
+    if (scene_made) mjv_freeScene(&scn);
+  }
+};
+
+Renderer::Renderer(const mjModel* m, RenderOptions options) : impl_(std::make_unique<Impl>()) {
+  InstallMujocoHandlers();
+  if (m == nullptr) throw UsageError("Renderer: null model");
+  if (options.width <= 0 || options.height <= 0) {
+    throw UsageError("Renderer: image size must be positive, got " +
+                     std::to_string(options.width) + "x" + std::to_string(options.height));
+  }
+  if (options.max_geom <= 0) throw UsageError("Renderer: max_geom must be positive");
+  const GlBackend backend = options.backend;
+  CheckProcessBackend(backend);
+  Impl& s = *impl_;
+  s.options = options;
+  s.gl.emplace(backend, options.width, options.height);
+  try {
+    s.model.reset(mj_copyModel(nullptr, m));
+    if (!s.model) Fail(backend, "mj_copyModel failed");
+    mjModel* mc = s.model.get();
+    mc->vis.global.offwidth = std::max(mc->vis.global.offwidth, options.width);
+    mc->vis.global.offheight = std::max(mc->vis.global.offheight, options.height);
+    s.znear = static_cast<float>(mc->vis.map.znear * mc->stat.extent);
+    s.zfar = static_cast<float>(mc->vis.map.zfar * mc->stat.extent);
+
+    mjv_defaultOption(&s.opt);
+    mjv_defaultCamera(&s.cam);
+    s.cam.type = mjCAMERA_FREE;
+    mjv_defaultScene(&s.scn);
+    s.scene_made = true;  // mjv_freeScene is safe on a default or partly made scene
+    mjv_makeScene(mc, &s.scn, options.max_geom);
+
+    mjr_defaultContext(&s.con);
+    ClaimProcessBackend(backend, s.gl->lib_name());
+    s.context_made = true;  // mjr_freeContext frees whatever a failed make left
+    mjr_makeContext(mc, &s.con, mjFONTSCALE_100);
+    mjr_setBuffer(mjFB_OFFSCREEN, &s.con);
+    if (s.con.currentBuffer != mjFB_OFFSCREEN || s.con.offWidth < options.width ||
+        s.con.offHeight < options.height) {
+      Fail(backend, "MuJoCo has no " + std::to_string(options.width) + "x" +
+                        std::to_string(options.height) + " offscreen buffer (got " +
+                        std::to_string(s.con.offWidth) + "x" + std::to_string(s.con.offHeight) +
+                        ")");
+    }
+  } catch (const MujocoError& e) {
+    Fail(backend, std::string("MuJoCo cannot make its render context: ") + e.what());
+  }
+}
+
+Renderer::~Renderer() = default;
+
+void Renderer::Render(const mjData* d, const CameraView& view, unsigned char* rgb,
+                      float* depth_m) {
+  Impl& s = *impl_;
+  if (d == nullptr || rgb == nullptr) throw UsageError("Renderer::Render: null data or rgb");
+  if (!(view.fovy_deg > 0 && view.fovy_deg < 180)) {
+    throw UsageError("Renderer::Render: fovy_deg must be in (0, 180), got " +
+                     std::to_string(view.fovy_deg));
+  }
+  s.gl->MakeCurrent();
+  s.cam.type = mjCAMERA_FREE;
+  // mjv_updateScene only uses d's scratch stack (restored before it returns).
+  mjv_updateScene(s.model.get(), const_cast<mjData*>(d), &s.opt, nullptr, &s.cam, mjCAT_ALL,
+                  &s.scn);
+  // Replace the free camera by `view`, as mjv_updateCamera builds a fixed camera: both eyes
+  // at the same place (mono rendering averages them).
+  const double top = s.znear * std::tan(view.fovy_deg * mjPI / 360.0);
+  for (mjvGLCamera& c : s.scn.camera) {
+    for (int i = 0; i < 3; ++i) {
+      c.pos[i] = static_cast<float>(view.pos[i]);
+      c.forward[i] = static_cast<float>(-view.xmat[3 * i + 2]);
+      c.up[i] = static_cast<float>(view.xmat[3 * i + 1]);
+    }
+    c.frustum_center = 0;
+    c.frustum_top = static_cast<float>(top);
+    c.frustum_bottom = static_cast<float>(-top);
+    c.frustum_near = s.znear;
+    c.frustum_far = s.zfar;
+  }
+  Draw(rgb, depth_m);
+}
+
+void Renderer::RenderCamera(const mjData* d, int camera_id, unsigned char* rgb,
+                            float* depth_m) {
+  Impl& s = *impl_;
+  if (d == nullptr || rgb == nullptr) {
+    throw UsageError("Renderer::RenderCamera: null data or rgb");
+  }
+  if (camera_id < 0 || camera_id >= s.model->ncam) {
+    throw UsageError("Renderer::RenderCamera: camera id " + std::to_string(camera_id) +
+                     " out of range (the model has " + std::to_string(s.model->ncam) +
+                     " cameras)");
+  }
+  s.gl->MakeCurrent();
+  s.cam.type = mjCAMERA_FIXED;
+  s.cam.fixedcamid = camera_id;
+  mjv_updateScene(s.model.get(), const_cast<mjData*>(d), &s.opt, nullptr, &s.cam, mjCAT_ALL,
+                  &s.scn);
+  Draw(rgb, depth_m);
+}
+
+void Renderer::Draw(unsigned char* rgb, float* depth_m) {
+  Impl& s = *impl_;
+  const int w = s.options.width, h = s.options.height;
+  const mjrRect viewport{0, 0, w, h};
+  mjr_setBuffer(mjFB_OFFSCREEN, &s.con);
+  mjr_render(viewport, &s.scn, &s.con);
+  mjr_readPixels(rgb, depth_m, viewport, &s.con);
+  FlipRows(rgb, w, h, 3);
+  if (depth_m != nullptr) {
+    // Nonlinear [0,1] depth buffer -> distance along the view axis (platform.md, "Depth").
+    const double n = s.znear, ratio = 1.0 - static_cast<double>(s.znear) / s.zfar;
+    const size_t count = static_cast<size_t>(w) * h;
+    for (size_t i = 0; i < count; ++i) {
+      depth_m[i] = static_cast<float>(n / (1.0 - depth_m[i] * ratio));
+    }
+    FlipRows(depth_m, w, h, 1);
+  }
+}
+
+CameraView LookAt(const std::array<double, 3>& eye, const std::array<double, 3>& target,
+                  double fovy_deg) {
+  // z (backward) = eye - target; x (right) = world up x z; y (up) = z x x.
+  mjtNum z[3] = {eye[0] - target[0], eye[1] - target[1], eye[2] - target[2]};
+  if (mju_normalize3(z) < mjMINVAL) throw UsageError("LookAt: eye and target coincide");
+  mjtNum up[3] = {0, 0, 1};
+  if (std::abs(z[2]) > 1 - 1e-9) {  // vertical view: world +y up in the image
+    up[1] = 1;
+    up[2] = 0;
+  }
+  mjtNum x[3], y[3];
+  mju_cross(x, up, z);
+  mju_normalize3(x);
+  mju_cross(y, z, x);
+  CameraView v;
+  v.pos = eye;
+  for (int i = 0; i < 3; ++i) {
+    v.xmat[3 * i + 0] = x[i];
+    v.xmat[3 * i + 1] = y[i];
+    v.xmat[3 * i + 2] = z[i];
+  }
+  v.fovy_deg = fovy_deg;
+  return v;
+}
+
+CameraView Renderer::ModelCamera(const mjModel* m, const mjData* d, int camera_id) {
+  if (m == nullptr || d == nullptr) throw UsageError("Renderer::ModelCamera: null model or data");
+  if (camera_id < 0 || camera_id >= m->ncam) {
+    throw UsageError("Renderer::ModelCamera: camera id " + std::to_string(camera_id) +
+                     " out of range (the model has " + std::to_string(m->ncam) + " cameras)");
+  }
+  CameraView v;
+  std::copy_n(d->cam_xpos + 3 * camera_id, 3, v.pos.begin());
+  std::copy_n(d->cam_xmat + 9 * camera_id, 9, v.xmat.begin());
+  v.fovy_deg = m->cam_fovy[camera_id];
+  return v;
+}
+
+int Renderer::width() const { return impl_->options.width; }
+int Renderer::height() const { return impl_->options.height; }
+GlBackend Renderer::backend() const { return impl_->options.backend; }
+mjvScene& Renderer::scene() { return impl_->scn; }
+mjvOption& Renderer::vis_option() { return impl_->opt; }
+
+}  // namespace mlspaces::sim

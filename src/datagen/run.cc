@@ -13,6 +13,7 @@
 #include <charconv>
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <map>
 #include <memory>
@@ -252,12 +253,18 @@ bool WriteAll(int fd, const std::string& text) {
 // A forked worker: runs its items, reports through `fd`, never returns.
 [[noreturn]] void WorkerMain(int fd, pid_t parent, const ExperimentConfig& config,
                              const TaskSamplerRegistry& samplers, const fs::path& folder,
-                             sim::GlBackend gl,
+                             sim::GlBackend gl, int workers,
                              const std::vector<AttemptRecord>& earlier,
                              const std::vector<std::pair<size_t, WorkItem>>& items) {
   ::prctl(PR_SET_PDEATHSIG, SIGKILL);  // a killed parent takes its workers along
   if (::getppid() != parent) ::_exit(3);
   ::signal(SIGPIPE, SIG_IGN);
+  // Mesa's software rasteriser starts one thread per core in every process; with several
+  // workers that oversubscribes the cores. Share them out unless the user chose.
+  if (std::getenv("LP_NUM_THREADS") == nullptr) {
+    const long cores = std::max(1L, ::sysconf(_SC_NPROCESSORS_ONLN));
+    ::setenv("LP_NUM_THREADS", std::to_string(std::max(1L, cores / workers)).c_str(), 1);
+  }
   int code = 0;
   auto emit = [fd](const Json& message) {
     if (!WriteAll(fd, message.dump() + "\n")) ::_exit(4);
@@ -524,8 +531,8 @@ RunReport RunDatagen(const ExperimentConfig& input, const TaskSamplerRegistry& s
       if (pid == 0) {
         ::close(fds[0]);
         for (int v = 0; v < w; ++v) ::close(pool[v].fd);
-        WorkerMain(fds[1], self, config, samplers, report.folder, options.gl_backend, earlier,
-                   mine);
+        WorkerMain(fds[1], self, config, samplers, report.folder, options.gl_backend, workers,
+                   earlier, mine);
       }
       ::close(fds[1]);
       pool[w].pid = pid;

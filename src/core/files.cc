@@ -55,7 +55,6 @@ bool IsFile(const fs::path& path) {
 }
 
 void WriteFileAtomic(const fs::path& path, std::string_view data, bool sync) {
-  static std::atomic<unsigned> counter{0};
   std::error_code ec;
   fs::path parent = path.parent_path();
   if (!parent.empty()) {
@@ -63,7 +62,7 @@ void WriteFileAtomic(const fs::path& path, std::string_view data, bool sync) {
     if (ec) throw Error("cannot create folder: " + ec.message(), parent.string());
   }
   fs::path tmp = path;
-  tmp += ".tmp." + std::to_string(::getpid()) + "." + std::to_string(counter++);
+  tmp += TempSuffix();
   int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
   if (fd < 0) {
     throw Error(std::string("cannot write: ") + std::strerror(errno), path.string());
@@ -98,6 +97,21 @@ void WriteFileAtomic(const fs::path& path, std::string_view data, bool sync) {
 
 std::string RelativeGenericPath(const fs::path& path, const fs::path& base) {
   return path.lexically_relative(base).generic_string();
+}
+
+std::string TempSuffix() {
+  static std::atomic<unsigned> counter{0};
+  return ".tmp." + std::to_string(::getpid()) + "." + std::to_string(counter++);
+}
+
+void FsyncPath(const fs::path& path, bool directory, const std::string& error_path) {
+  const int fd = ::open(path.c_str(), (directory ? O_DIRECTORY : 0) | O_RDONLY | O_CLOEXEC);
+  if (fd < 0 || ::fsync(fd) != 0) {
+    const int err = errno;
+    if (fd >= 0) ::close(fd);
+    throw Error(std::string("fsync failed: ") + std::strerror(err), error_path);
+  }
+  ::close(fd);
 }
 
 }  // namespace mlspaces

@@ -12,6 +12,7 @@
 
 #include "hdf5_util.h"
 #include "mlspaces/core/error.h"
+#include "mlspaces/core/files.h"
 
 namespace mlspaces::datagen {
 namespace fs = std::filesystem;
@@ -419,21 +420,6 @@ void WriteTraj(Writer& w, const EpisodeRecord& r, int k) {
   w.Bools(root + "/truncated", r.truncated);
   w.ScalarString(root + "/obs_scene", r.obs_scene.dump());
   w.StringAttribute(root, "provenance", ProvenanceJson(r, k).dump());
-}
-
-void FsyncPath(const fs::path& p, bool directory, const std::string& error_path) {
-  const int fd = ::open(p.c_str(), (directory ? O_DIRECTORY : 0) | O_RDONLY | O_CLOEXEC);
-  if (fd < 0 || ::fsync(fd) != 0) {
-    const int err = errno;
-    if (fd >= 0) ::close(fd);
-    throw Error(std::string("fsync failed: ") + std::strerror(err), error_path);
-  }
-  ::close(fd);
-}
-
-std::string TempSuffix() {
-  static std::atomic<unsigned> counter{0};
-  return ".tmp." + std::to_string(::getpid()) + "." + std::to_string(counter++);
 }
 
 /// Runs `fill` on a fresh HDF5 file beside `target`, then makes it durable and renames it over

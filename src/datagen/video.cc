@@ -26,6 +26,7 @@ extern "C" {
 }
 
 #include "mlspaces/core/error.h"
+#include "mlspaces/core/files.h"
 
 namespace mlspaces::datagen {
 namespace fs = std::filesystem;
@@ -75,21 +76,6 @@ std::string AvMessage(const std::string& what, int err) {
 }
 
 int RoundUp16(int v) { return (v + 15) / 16 * 16; }
-
-std::string TempSuffix() {
-  static std::atomic<unsigned> counter{0};
-  return ".tmp." + std::to_string(::getpid()) + "." + std::to_string(counter++);
-}
-
-void FsyncPath(const fs::path& p, bool directory, const std::string& error_path) {
-  const int fd = ::open(p.c_str(), (directory ? O_DIRECTORY : 0) | O_RDONLY | O_CLOEXEC);
-  if (fd < 0 || ::fsync(fd) != 0) {
-    const int err = errno;
-    if (fd >= 0) ::close(fd);
-    throw Error(std::string("fsync failed: ") + std::strerror(err), error_path);
-  }
-  ::close(fd);
-}
 
 struct PacketDeleter {
   void operator()(AVPacket* p) const { av_packet_free(&p); }

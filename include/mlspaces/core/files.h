@@ -30,4 +30,12 @@ void WriteFileAtomic(const std::filesystem::path& path, std::string_view data, b
 std::string RelativeGenericPath(const std::filesystem::path& path,
                                 const std::filesystem::path& base);
 
+/// A suffix unique to this process and call, for temp files renamed into place:
+/// ".tmp.<pid>.<n>" (what WriteFileAtomic uses; crash leftovers match "*.tmp.*").
+std::string TempSuffix();
+
+/// fsync of a file, or of a folder (`directory`) after a rename into it.
+/// @throws Error naming `error_path` on failure.
+void FsyncPath(const std::filesystem::path& path, bool directory, const std::string& error_path);
+
 }  // namespace mlspaces

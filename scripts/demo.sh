@@ -2,7 +2,8 @@
 # README command 1: install what is missing, build, and run the main job on the bundled
 # example (examples/custom_assets, the seed tutorial): index the asset and grasp libraries,
 # validate them, look the red block's asset, metadata and grasps up, then generate pick
-# demonstrations with the tutorial's datagen config and load them with h5py.
+# demonstrations with camera videos from the tutorial's datagen config, validate the dataset
+# and load it with h5py.
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 "$ROOT/scripts/install-deps.sh"
@@ -23,14 +24,20 @@ set -x
 /usr/bin/python3 -c "import numpy as np; print(np.load('red_block_grasps.npz')['transforms'])"
 "$ML" config datagen.yaml > resolved_datagen_config.yaml
 head -5 resolved_datagen_config.yaml
-# The tutorial's last step: pick demonstrations of the Franka DROID robot.
-"$ML" datagen datagen.yaml --output experiment_output --seed 0
+# The tutorial's last step: pick demonstrations of the Franka DROID robot, with the wrist and
+# exo camera videos, then a full check of the dataset (schema, videos, metadata).
+"$ML" datagen datagen.yaml --output experiment_output --seed 0 --episodes 3
+"$ML" validate-dataset experiment_output
 /usr/bin/python3 - <<'PY'
 import h5py, json
 f = h5py.File("experiment_output/house_0/trajectories_batch_1_of_1.h5", "r")
 for k in sorted(f):
     t = f[k]
-    info = json.loads(bytes(t["obs/extra/task_info"][-1]).rstrip(b"\0"))
+    videos = [bytes(t["obs/sensor_data"][c][:]).rstrip(b"\0").decode() for c in t["obs/sensor_data"]]
     print(k, "steps", t["success"].shape[0], "success", bool(t["success"][-1]),
-          "lift %.3f m" % t["rewards"][-1], "phases", sorted(set(t["obs/extra/policy_phase"][:])))
+          "lift %.3f m" % t["rewards"][-1], "videos", videos)
 PY
+set +x
+echo
+echo "Pick demonstrations: $OUT/experiment_output"
+echo "  house_0/trajectories_batch_1_of_1.h5 (h5py), house_0/episode_*.mp4, journal.jsonl, summary.txt"

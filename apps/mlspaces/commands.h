@@ -63,6 +63,7 @@ struct DatagenConfigFlags {
 
 void AddConfig(CLI::App& app, Action& action);
 void AddDatagen(CLI::App& app, Action& action);
+void AddValidateDataset(CLI::App& app, Action& action);
 #endif
 
 /// Checks a flag value is a whole number >= 1, with a short message ("expected a whole

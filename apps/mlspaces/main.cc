@@ -44,6 +44,7 @@ int main(int argc, char** argv) {
 #ifdef MLSPACES_HAVE_DATAGEN
   cli::AddConfig(app, action);
   cli::AddDatagen(app, action);
+  cli::AddValidateDataset(app, action);
 #endif
   if (argc >= 2 && argv[1][0] != '-') {
     std::string names;

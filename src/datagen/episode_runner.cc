@@ -233,7 +233,6 @@ EpisodeResult EpisodeRunner::Run(int64_t episode) {
 
   Mat4 prev_tcp = robot_.TcpPose(d);
   std::vector<double> prev_arm_qpos = robot_.ArmQpos(d);
-  std::vector<double> prev_grip_qpos = robot_.GripperQpos(d);
   PickSuccess verdict;
   int64_t step = 0;
   bool terminated = false, truncated = false;
@@ -353,7 +352,6 @@ EpisodeResult EpisodeRunner::Run(int64_t episode) {
     rec.truncated.push_back(truncated);
     prev_tcp = robot_.TcpPose(d);
     prev_arm_qpos = arm_q;
-    prev_grip_qpos = grip_q;
   };
 
   // Cameras: one frame per observation; an exception drops the episode's videos.

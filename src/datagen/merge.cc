@@ -27,11 +27,6 @@ void LinkOrCopy(const fs::path& from, const fs::path& to) {
   if (ec) throw Error("cannot rename into place: " + ec.message(), to.string());
 }
 
-std::string BatchStem(const WorkItem& item) {
-  return "trajectories_batch_" + std::to_string(item.batch) + "_of_" +
-         std::to_string(item.num_batches);
-}
-
 }  // namespace
 
 MergeReport MergeRuns(const std::vector<fs::path>& inputs, const fs::path& output,
@@ -62,7 +57,7 @@ MergeReport MergeRuns(const std::vector<fs::path>& inputs, const fs::path& outpu
   std::vector<std::pair<const WorkItem*, fs::path>> found;
   const std::vector<WorkItem> items = PlanWorkItems(*config);
   for (const WorkItem& item : items) {
-    const fs::path rel = fs::path(item.scene_name()) / (BatchStem(item) + ".h5");
+    const fs::path rel = fs::path(item.scene_name()) / (BatchFileStem(item.batch, item.num_batches) + ".h5");
     std::optional<fs::path> where;
     for (const fs::path& in : inputs) {
       if (!fs::is_regular_file(in / rel)) continue;
@@ -91,7 +86,7 @@ MergeReport MergeRuns(const std::vector<fs::path>& inputs, const fs::path& outpu
   for (const auto& [item, in] : found) {
     const fs::path dir = output / item->scene_name();
     fs::create_directories(dir, ec);
-    const std::string stem = BatchStem(*item);
+    const std::string stem = BatchFileStem(item->batch, item->num_batches);
     const fs::path h5 = in / item->scene_name() / (stem + ".h5");
     LinkOrCopy(h5, dir / h5.filename());
     report.episodes += CountEpisodes(h5);

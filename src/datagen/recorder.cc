@@ -456,8 +456,7 @@ Recorder::Recorder(RecorderOptions options) : options_(std::move(options)) {
   if (options_.compression_level < 0 || options_.compression_level > 9) {
     throw UsageError("compression level must be 0-9");
   }
-  stem_ = "trajectories_batch_" + std::to_string(options_.batch) + "_of_" +
-          std::to_string(options_.num_batches);
+  stem_ = BatchFileStem(options_.batch, options_.num_batches);
   std::error_code ec;
   fs::create_directories(options_.dir, ec);
   if (ec) throw Error("cannot create folder: " + ec.message(), options_.dir.string());
@@ -490,6 +489,10 @@ Recorder::Recorder(RecorderOptions options) : options_(std::move(options)) {
     }
     parts_.push_back(parts / PartName(k));
   }
+}
+
+std::string BatchFileStem(int batch, int num_batches) {
+  return "trajectories_batch_" + std::to_string(batch) + "_of_" + std::to_string(num_batches);
 }
 
 Json Recorder::PartProvenance(int k) const {

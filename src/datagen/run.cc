@@ -426,8 +426,7 @@ RunReport RunDatagen(const ExperimentConfig& input, const TaskSamplerRegistry& s
     const WorkItem& item = items[k];
     total_episodes += item.episodes;
     const fs::path dir = report.folder / item.scene_name();
-    const std::string stem =
-        "trajectories_batch_" + std::to_string(item.batch) + "_of_" + std::to_string(item.num_batches);
+    const std::string stem = BatchFileStem(item.batch, item.num_batches);
     if (fs::exists(dir / (stem + ".h5"))) {
       fs::remove_all(dir / (stem + ".parts"), ec);  // left by a kill after the merge
       ++report.items_skipped;

@@ -22,6 +22,10 @@ struct RecorderOptions {
   int compression_level = 4;
 };
 
+/// The name of a batch's files without extension: "trajectories_batch_<batch>_of_<num_batches>"
+/// (.h5 the batch file, .parts the folder of its episode parts until Finish()).
+std::string BatchFileStem(int batch, int num_batches);
+
 /// Writes the episodes of one work item (scene x batch).
 ///
 /// Write() validates an episode completely, then writes it as traj_<k> (k = its position in the

@@ -105,14 +105,17 @@ class ItemRunner {
  public:
   using Emit = std::function<void(const Json&)>;
 
-  ItemRunner(const ExperimentConfig& config, const TaskSamplerRegistry& samplers,
+  // `registry` and `sampler` are the run's (a forked worker uses its own copies of them).
+  ItemRunner(const ExperimentConfig& config, const Registry& registry, TaskSampler& sampler,
              const fs::path& folder, const std::vector<AttemptRecord>& earlier,
              sim::GlBackend gl, Emit emit)
-      : config_(config), folder_(folder), earlier_(earlier), gl_(gl), emit_(std::move(emit)) {
-    registry_ = std::make_unique<Registry>(Registry::Options{config.libraries.assets_dir});
-    config.libraries.ApplyTo(*registry_);
-    sampler_ = samplers.Create(config, *config.seed);
-  }
+      : config_(config),
+        folder_(folder),
+        earlier_(earlier),
+        gl_(gl),
+        emit_(std::move(emit)),
+        registry_(registry),
+        sampler_(sampler) {}
 
   void Run(size_t index, const WorkItem& item) {
     const std::string scene = item.scene_name();
@@ -173,7 +176,7 @@ class ItemRunner {
       runner_options.scene_name = scene;
       runner_options.video_dir = rec_options.dir;
       runner_options.gl_backend = gl_;
-      runner_ = std::make_unique<EpisodeRunner>(*env_, *sampler_, *registry_, config_,
+      runner_ = std::make_unique<EpisodeRunner>(*env_, sampler_, registry_, config_,
                                                 runner_options);
       env_house_ = item.house;
     }
@@ -231,8 +234,8 @@ class ItemRunner {
   const std::vector<AttemptRecord>& earlier_;
   sim::GlBackend gl_;
   Emit emit_;
-  std::unique_ptr<Registry> registry_;
-  std::unique_ptr<TaskSampler> sampler_;
+  const Registry& registry_;
+  TaskSampler& sampler_;
   std::optional<Env> env_;
   std::unique_ptr<EpisodeRunner> runner_;
   int64_t env_house_ = -1;
@@ -252,7 +255,8 @@ bool WriteAll(int fd, const std::string& text) {
 
 // A forked worker: runs its items, reports through `fd`, never returns.
 [[noreturn]] void WorkerMain(int fd, pid_t parent, const ExperimentConfig& config,
-                             const TaskSamplerRegistry& samplers, const fs::path& folder,
+                             const Registry& registry, TaskSampler& sampler,
+                             const fs::path& folder,
                              sim::GlBackend gl, int workers,
                              const std::vector<AttemptRecord>& earlier,
                              const std::vector<std::pair<size_t, WorkItem>>& items) {
@@ -270,7 +274,7 @@ bool WriteAll(int fd, const std::string& text) {
     if (!WriteAll(fd, message.dump() + "\n")) ::_exit(4);
   };
   try {
-    ItemRunner runner(config, samplers, folder, earlier, gl, emit);
+    ItemRunner runner(config, registry, sampler, folder, earlier, gl, emit);
     for (const auto& [index, item] : items) runner.Run(index, item);
   } catch (const std::exception& e) {
     emit(Json{{"error", e.what()}});
@@ -409,12 +413,11 @@ RunReport RunDatagen(const ExperimentConfig& input, const TaskSamplerRegistry& s
                                      DumpConfig(config));
   }
   const std::vector<WorkItem> items = ShardItems(PlanWorkItems(config), options.shard);
-  // Fail early on a bad sampler name or library, before any worker starts.
-  {
-    Registry check(Registry::Options{config.libraries.assets_dir});
-    config.libraries.ApplyTo(check);
-    samplers.Create(config, report.seed);
-  }
+  // The libraries and the sampler, before any worker starts (a bad sampler name or library
+  // fails here, once); forked workers inherit them.
+  Registry registry(Registry::Options{config.libraries.assets_dir});
+  config.libraries.ApplyTo(registry);
+  const std::unique_ptr<TaskSampler> sampler = samplers.Create(config, report.seed);
 
   Journal journal(journal_file);
   const std::vector<AttemptRecord> earlier = ReadJournal(journal_file).records;
@@ -507,7 +510,8 @@ RunReport RunDatagen(const ExperimentConfig& input, const TaskSamplerRegistry& s
       1, std::min<int64_t>(options.workers > 0 ? options.workers : config.num_workers,
                            static_cast<int64_t>(todo.size())));
   if (workers <= 1) {
-    ItemRunner runner(config, samplers, report.folder, earlier, options.gl_backend, handle);
+    ItemRunner runner(config, registry, *sampler, report.folder, earlier, options.gl_backend,
+                      handle);
     for (const auto& [index, item] : todo) runner.Run(index, item);
   } else {
     struct Worker {
@@ -530,8 +534,8 @@ RunReport RunDatagen(const ExperimentConfig& input, const TaskSamplerRegistry& s
       if (pid == 0) {
         ::close(fds[0]);
         for (int v = 0; v < w; ++v) ::close(pool[v].fd);
-        WorkerMain(fds[1], self, config, samplers, report.folder, options.gl_backend, workers,
-                   earlier, mine);
+        WorkerMain(fds[1], self, config, registry, *sampler, report.folder, options.gl_backend,
+                   workers, earlier, mine);
       }
       ::close(fds[1]);
       pool[w].pid = pid;

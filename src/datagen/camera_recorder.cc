@@ -6,6 +6,7 @@
 #include <utility>
 
 #include "mlspaces/core/error.h"
+#include "mlspaces/core/transform.h"
 
 namespace mlspaces::datagen {
 namespace fs = std::filesystem;
@@ -18,13 +19,16 @@ double Since(Clock::time_point t0) {
   return std::chrono::duration<double>(Clock::now() - t0).count();
 }
 
-// Row-major rotation of a unit quaternion (w, x, y, z).
+// Row-major rotation of a quaternion (w, x, y, z), normalised first (configs give 4 digits).
 std::array<double, 9> QuatToMat(const std::array<double, 4>& q) {
   const double n = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
-  const double w = q[0] / n, x = q[1] / n, y = q[2] / n, z = q[3] / n;
-  return {1 - 2 * (y * y + z * z), 2 * (x * y - w * z),     2 * (x * z + w * y),
-          2 * (x * y + w * z),     1 - 2 * (x * x + z * z), 2 * (y * z - w * x),
-          2 * (x * z - w * y),     2 * (y * z + w * x),     1 - 2 * (x * x + y * y)};
+  const std::array<double, 4> unit{q[0] / n, q[1] / n, q[2] / n, q[3] / n};
+  const Mat4 t = PoseToMat4({0, 0, 0}, unit);
+  std::array<double, 9> r;
+  for (int a = 0; a < 3; ++a) {
+    for (int b = 0; b < 3; ++b) r[3 * a + b] = t(a, b);
+  }
+  return r;
 }
 
 }  // namespace

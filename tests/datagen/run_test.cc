@@ -143,10 +143,17 @@ TEST(RunDatagenTest, InterruptedRunResumesToTheSameBytes) {
     ASSERT_EQ(journal.find('\n', second) + 1, journal.size());  // exactly two lines
     testing::WriteText(dir / "cut/journal.jsonl", journal.substr(0, second));
   }
+  // And as if a killed process left config.yaml half-written under its temp name.
+  const pid_t dead = ::fork();
+  if (dead == 0) ::_exit(0);
+  ::waitpid(dead, nullptr, 0);
+  const fs::path stale = dir / ("cut/config.yaml.tmp." + std::to_string(dead) + ".0");
+  testing::WriteText(stale, "seed: 1\n");
   RunOptions resume;
   resume.resume = true;
   const RunReport resumed =
       RunDatagen(Tutorial(dir / "cut", 4), TaskSamplerRegistry::WithBuiltins(), resume);
+  EXPECT_FALSE(fs::exists(stale));
   // The second attempt's line is restored from its episode; only the missing ones ran.
   EXPECT_EQ(resumed.summary.attempts, 3);
   EXPECT_EQ(resumed.summary.count(Outcome::kSuccess), 3);

@@ -16,6 +16,8 @@ PACKAGES=(
   libhdf5-dev python3-h5py
   # rendering: headless GL (OSMesa, EGL surfaceless) and video encoding (FFmpeg)
   libosmesa6-dev libegl-dev libavcodec-dev libavformat-dev libswscale-dev libavutil-dev
+  # resources: packages (.tar.zst via libarchive + zstd), UID index hash, SHA-256, downloads
+  libarchive-dev libzstd-dev libxxhash-dev libssl-dev libcurl4-openssl-dev
 )
 
 missing=()

@@ -1,0 +1,48 @@
+// Downloads over http(s):// and file:// (libcurl), resumable and verified.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <optional>
+#include <string>
+
+namespace mlspaces {
+
+struct FetchOptions {
+  /// Extra attempts after a transient failure (connection refused/reset, timeout, short
+  /// transfer, HTTP 5xx/429). Each retry resumes the partial file with an HTTP Range request.
+  int retries = 3;
+  /// Seconds between attempts (doubles each time).
+  double retry_delay_s = 0.2;
+  /// Abort a transfer that moves fewer than 1 byte/s for this long.
+  long stall_timeout_s = 30;
+  long connect_timeout_s = 10;
+  /// Called with (bytes so far, total or 0 when unknown); may be empty.
+  std::function<void(uint64_t, uint64_t)> progress;
+};
+
+/// What a download is checked against: the manifest's size and SHA-256 (empty = unchecked).
+struct FetchExpect {
+  std::optional<uint64_t> size;
+  std::string sha256;
+};
+
+/// Downloads `url` into `dest`: bytes go to `dest`.part (kept between attempts and runs, so a
+/// later call resumes it with a Range request; a server that ignores Range restarts it), and
+/// when complete the size and SHA-256 are checked and the file is renamed to `dest`. A
+/// mismatch deletes the partial file and throws. HTTP 4xx (other than 429) is not retried.
+/// @throws Error naming the URL (and the HTTP status or curl error) after the last attempt.
+void FetchFile(const std::string& url, const std::filesystem::path& dest,
+               const FetchExpect& expect = {}, const FetchOptions& options = {});
+
+/// Downloads a small file into memory (manifests); same retries. @throws Error naming the URL.
+std::string FetchToString(const std::string& url, const FetchOptions& options = {});
+
+/// Joins a base URL and a relative path with exactly one '/'.
+std::string JoinUrl(const std::string& base, const std::string& relative);
+
+/// file:// URL of a local path (absolute, percent-encoded where needed).
+std::string FileUrl(const std::filesystem::path& path);
+
+}  // namespace mlspaces

@@ -1,0 +1,31 @@
+// An inter-process lock on a file (flock): released by the kernel when its holder dies, so a
+// crashed installer never leaves a lock behind that needs manual clean-up.
+#pragma once
+
+#include <filesystem>
+#include <functional>
+#include <string>
+
+namespace mlspaces {
+
+class FileLock {
+ public:
+  /// Takes an exclusive lock on `path` (created if missing, with its folder), waiting for
+  /// other holders. The holder's pid is written into the file for diagnostics. While waiting,
+  /// `on_wait(holder_pid)` is called once (may be empty), e.g. to print "waiting for pid N".
+  /// `timeout_s` < 0 waits forever. @throws Error naming the path on timeout or I/O failure.
+  explicit FileLock(const std::filesystem::path& path,
+                    std::function<void(long holder_pid)> on_wait = {}, double timeout_s = -1);
+  ~FileLock();
+  FileLock(const FileLock&) = delete;
+  FileLock& operator=(const FileLock&) = delete;
+
+  /// True when another live process holds the lock on `path` (probes without waiting).
+  static bool IsHeld(const std::filesystem::path& path);
+
+ private:
+  int fd_ = -1;
+  std::filesystem::path path_;
+};
+
+}  // namespace mlspaces

@@ -43,6 +43,9 @@ void AddLocate(CLI::App& app, Action& action);
 void AddMeta(CLI::App& app, Action& action);
 void AddGrasps(CLI::App& app, Action& action);
 void AddValidate(CLI::App& app, Action& action);
+void AddPack(CLI::App& app, Action& action);
+/// `install` and `verify`.
+void AddInstall(CLI::App& app, Action& action);
 
 #ifdef MLSPACES_HAVE_DATAGEN
 /// The flags that choose and adjust a datagen config, shared by `config` and `datagen`:

@@ -3,6 +3,7 @@
 
 #include "commands.h"
 #include "mlspaces/core/error.h"
+#include "mlspaces/resources/sources.h"
 
 namespace mlspaces::cli {
 
@@ -33,6 +34,9 @@ Registry LibraryFlags::Build() const {
 
   Registry::Options options;
   options.assets_dir = config.assets_dir ? config.assets_dir : Registry::AssetsDirFromEnv();
+  if (!options.assets_dir && std::filesystem::is_directory(DefaultAssetsDir())) {
+    options.assets_dir = DefaultAssetsDir();  // where `mlspaces install` puts packages
+  }
   Registry registry(options);
   config.ApplyTo(registry);
   for (const AssetLibrarySpec& spec : assets) registry.RegisterAssetLibrary(spec.name, spec.dir);

@@ -24,10 +24,18 @@ int Run(const LocateFlags& flags) {
     out["library"] = loc.library;
     out["mjcf_path"] = loc.mjcf_path.string();
     out["shadowed"] = loc.shadowed;
+    if (!loc.archive.empty()) {
+      out["archive"] = loc.archive;
+      out["installed"] = loc.installed;
+    }
     std::printf("%s\n", DumpJsonIndent4(out).c_str());
     return 0;
   }
   std::printf("library: %s\nmjcf_path: %s\n", loc.library.c_str(), loc.mjcf_path.c_str());
+  if (!loc.archive.empty()) {
+    std::printf("archive: %s%s\n", loc.archive.c_str(),
+                loc.installed ? "" : " (not installed: run `mlspaces install UID`)");
+  }
   for (const std::string& lib : loc.shadowed) std::printf("shadows: %s\n", lib.c_str());
   return 0;
 }

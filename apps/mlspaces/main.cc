@@ -38,6 +38,8 @@ int main(int argc, char** argv) {
   cli::AddMeta(app, action);
   cli::AddGrasps(app, action);
   cli::AddValidate(app, action);
+  cli::AddPack(app, action);
+  cli::AddInstall(app, action);
 #ifdef MLSPACES_HAVE_SIM
   cli::AddInspect(app, action);
 #endif

@@ -1,11 +1,13 @@
 #include "mlspaces/core/files.h"
 
 #include <fcntl.h>
+#include <signal.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
 #include <atomic>
 #include <cerrno>
+#include <cstdio>
 #include <cstring>
 
 #include "mlspaces/core/error.h"
@@ -112,6 +114,22 @@ void FsyncPath(const fs::path& path, bool directory, const std::string& error_pa
     throw Error(std::string("fsync failed: ") + std::strerror(err), error_path);
   }
   ::close(fd);
+}
+
+size_t RemoveDeadTempFiles(const std::filesystem::path& dir) {
+  size_t removed = 0;
+  std::error_code ec;
+  for (const auto& e : std::filesystem::directory_iterator(dir, ec)) {
+    const std::string name = e.path().filename().string();
+    const size_t at = name.find(".tmp.");
+    long pid = 0;
+    if (at != std::string::npos && std::sscanf(name.c_str() + at, ".tmp.%ld.", &pid) == 1 &&
+        pid > 0 && ::kill(static_cast<pid_t>(pid), 0) != 0 && errno == ESRCH) {
+      std::error_code rm;
+      if (std::filesystem::remove_all(e.path(), rm) > 0) ++removed;
+    }
+  }
+  return removed;
 }
 
 }  // namespace mlspaces

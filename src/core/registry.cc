@@ -194,6 +194,7 @@ struct Registry::Impl {
   };
   struct GraspLibrary {
     GraspLibraryInfo info;
+    const PackedLibrary* packed = nullptr;     ///< packed grasp library: its store
     StringMap<fs::path> pickup;                ///< uid -> absolute path
     StringMap<StringMap<fs::path>> joints;     ///< uid -> joint -> absolute path
   };
@@ -207,6 +208,15 @@ struct Registry::Impl {
   uint64_t generation = 0;  ///< bumped by every registration
 
   mutable BuiltinScan thor_scan, objaverse_scan;
+  const BuiltinScan empty_scan;
+  /// Packed libraries (assets dir and RegisterPackedLibrary), by name.
+  StringMap<std::shared_ptr<const PackedLibrary>> packed;
+  /// Built-in and packed sources in lookup order: thor, then alphabetically.
+  struct Source {
+    std::string name;
+    const PackedLibrary* packed = nullptr;  ///< else a scanned built-in
+  };
+  std::vector<Source> sources;
 
   mutable std::mutex duplicates_mutex;
   mutable std::vector<DuplicateUid> all_duplicates;
@@ -228,11 +238,73 @@ struct Registry::Impl {
         grasp_libraries.emplace(std::string(grasp_lib), std::move(lib));
         grasp_lists[std::string(asset_lib)].push_back(std::string(grasp_lib));
       }
+      // Installed packages: <assets>/objects/<name> with a UID index (a handful of links,
+      // not a scan of the assets).
+      std::vector<fs::path> found;
+      std::error_code ec;
+      for (const auto& entry : fs::directory_iterator(*options.assets_dir / "objects", ec)) {
+        if (IsFile(entry.path() / std::string(kUidIndexFile))) found.push_back(entry.path());
+      }
+      std::sort(found.begin(), found.end());
+      for (const fs::path& dir : found) AddPacked(dir.filename().string(), dir);
+    }
+    RebuildSources();
+  }
+
+  /// Opens a package and makes its grasp libraries "<name>/<robot>", ahead of any others
+  /// serving the same name. @throws Error.
+  void AddPacked(const std::string& name, const fs::path& dir) {
+    auto lib = PackedLibrary::Open(dir, name);
+    std::vector<std::string> names;
+    for (const std::string& robot : lib->robots()) {
+      auto g = std::make_unique<GraspLibrary>();
+      g->info = {name + "/" + robot, robot, lib->dir(), name, true};
+      g->packed = lib.get();
+      names.push_back(g->info.name);
+      grasp_libraries.emplace(g->info.name, std::move(g));
+    }
+    std::vector<std::string>& list = grasp_lists[name];
+    list.insert(list.begin(), names.begin(), names.end());
+    packed.emplace(name, std::move(lib));
+  }
+
+  void RebuildSources() {
+    sources.clear();
+    std::vector<std::string> names;
+    if (options.assets_dir) names = {std::string(kThor), std::string(kObjaverse)};
+    for (const auto& [name, lib] : packed) {
+      if (std::find(names.begin(), names.end(), name) == names.end()) names.push_back(name);
+    }
+    std::sort(names.begin(), names.end(), [](const std::string& a, const std::string& b) {
+      return std::make_pair(a != kThor, a) < std::make_pair(b != kThor, b);
+    });
+    for (const std::string& name : names) {
+      auto it = packed.find(name);
+      sources.push_back({name, it == packed.end() ? nullptr : it->second.get()});
     }
   }
 
+  /// A source's hit: MJCF path (and archive for packed ones).
+  struct Hit {
+    fs::path mjcf;
+    std::string archive;
+    std::optional<PackedAsset> asset;
+  };
+  std::optional<Hit> FindIn(const Source& src, std::string_view uid) const {
+    if (src.packed != nullptr) {
+      std::optional<PackedAsset> asset = src.packed->Find(uid);
+      if (!asset) return std::nullopt;
+      return Hit{src.packed->dir() / std::string(asset->mjcf),
+                 src.packed->archives()[asset->archive], asset};
+    }
+    const BuiltinScan* scan = Scan(src.name);
+    auto it = scan->uids.find(uid);
+    if (it == scan->uids.end()) return std::nullopt;
+    return Hit{it->second, {}, std::nullopt};
+  }
+
   const BuiltinScan* Scan(std::string_view library) const {
-    if (!options.assets_dir) return nullptr;
+    if (!options.assets_dir) return &empty_scan;
     BuiltinScan& scan = library == kThor ? thor_scan : objaverse_scan;
     std::call_once(scan.once, [&] {
       ScanMjcfs(*options.assets_dir / "objects" / std::string(library), std::string(library),
@@ -281,10 +353,10 @@ struct Registry::Impl {
 
   /// The library a UID resolves to (empty if none), without building an AssetLocation.
   std::string_view LibraryOf(std::string_view uid) const {
-    if (options.assets_dir) {
-      for (std::string_view lib : {kThor, kObjaverse}) {
-        const BuiltinScan* scan = Scan(lib);
-        if (scan->uids.find(uid) != scan->uids.end()) return lib;
+    for (const Source& src : sources) {
+      if (src.packed != nullptr ? src.packed->Find(uid).has_value()
+                                : Scan(src.name)->uids.count(uid) != 0) {
+        return src.name;
       }
     }
     if (const UidRecord* rec = FindUser(uid)) return user_libraries[rec->library]->name;
@@ -293,15 +365,12 @@ struct Registry::Impl {
 
   /// Every library holding a UID, in priority order, with its MJCF path.
   void Holders(std::string_view uid, std::vector<std::string>& libraries,
-               std::vector<fs::path>& paths) const {
-    if (options.assets_dir) {
-      for (std::string_view lib : {kThor, kObjaverse}) {
-        const BuiltinScan* scan = Scan(lib);
-        auto it = scan->uids.find(uid);
-        if (it != scan->uids.end()) {
-          libraries.emplace_back(lib);
-          paths.push_back(it->second);
-        }
+               std::vector<fs::path>& paths, std::string* first_archive = nullptr) const {
+    for (const Source& src : sources) {
+      if (std::optional<Hit> hit = FindIn(src, uid)) {
+        if (first_archive != nullptr && libraries.empty()) *first_archive = hit->archive;
+        libraries.push_back(src.name);
+        paths.push_back(std::move(hit->mjcf));
       }
     }
     const UidRecord* rec = FindUser(uid);
@@ -317,7 +386,7 @@ struct Registry::Impl {
   }
 
   bool IsAssetLibrary(std::string_view name) const {
-    if (IsBuiltinAssetLibrary(name)) return true;
+    if (IsBuiltinAssetLibrary(name) || packed.count(name) != 0) return true;
     for (const auto& lib : user_libraries) {
       if (lib->name == name) return true;
     }
@@ -338,6 +407,20 @@ struct Registry::Impl {
     }
     return out;
   }
+
+  /// A packed grasp library's set for (uid, joint), when its shard is installed.
+  std::optional<GraspFileLocation> PackedCandidate(const GraspLibrary& lib, std::string_view uid,
+                                                   std::string_view joint) const {
+    std::optional<PackedAsset> asset = lib.packed->Find(uid);
+    if (!asset) return std::nullopt;
+    std::optional<PackedGraspRef> ref = lib.packed->FindGrasps(*asset, lib.info.robot, joint);
+    if (!ref) return std::nullopt;
+    fs::path shard = lib.packed->GraspShardPath(ref->archive);
+    if (!IsFile(shard)) return std::nullopt;  // not installed, as a missing NPZ
+    return GraspFileLocation{lib.info.name, std::move(shard), ref};
+  }
+
+  GraspSet LoadSubsampled(const GraspFileLocation& loc, size_t num_grasps, uint64_t seed) const;
 
   std::optional<fs::path> PickupCandidate(const GraspLibrary& lib, std::string_view uid) const {
     if (lib.info.builtin) {
@@ -387,6 +470,9 @@ void Registry::RegisterAssetLibrary(const std::string& name, const fs::path& dir
   }
   if (IsBuiltinAssetLibrary(name)) {
     throw Error("User library " + name + " name conflicts with a built-in object source");
+  }
+  if (impl.packed.count(name) != 0) {
+    throw Error("User library " + name + " name conflicts with an installed packed library");
   }
   const fs::path root = MakeAbsolute(dir);
   const fs::path index_file = root / "assets_index.json";
@@ -530,10 +616,27 @@ std::vector<std::string> Registry::RegisterGraspLibrary(const std::string& root_
   return names;
 }
 
+void Registry::RegisterPackedLibrary(const std::string& name, const fs::path& dir) {
+  Impl& impl = *impl_;
+  if (name.empty() || name.find('/') != std::string::npos) {
+    throw UsageError("Packed library name '" + name + "' must be non-empty, without slashes");
+  }
+  if (impl.IsAssetLibrary(name)) throw Error("Asset library " + name + " already registered");
+  impl.AddPacked(name, MakeAbsolute(dir));
+  impl.RebuildSources();
+  ++impl.generation;
+}
+
+std::shared_ptr<const PackedLibrary> Registry::FindPackedLibrary(std::string_view name) const {
+  auto it = impl_->packed.find(name);
+  return it == impl_->packed.end() ? nullptr : it->second;
+}
+
 std::vector<std::string> Registry::asset_libraries() const {
   std::vector<std::string> out;
-  if (impl_->options.assets_dir) {
-    out = {std::string(kThor), std::string(kObjaverse), std::string(kObjathorMetadata)};
+  for (const Impl::Source& src : impl_->sources) out.push_back(src.name);
+  if (impl_->options.assets_dir && impl_->packed.count(kObjathorMetadata) == 0) {
+    out.push_back(std::string(kObjathorMetadata));
   }
   for (const auto& lib : impl_->user_libraries) out.push_back(lib->name);
   return out;
@@ -554,27 +657,37 @@ const std::vector<DuplicateUid>& Registry::duplicates() const {
   std::lock_guard<std::mutex> lock(impl.duplicates_mutex);
   if (impl.duplicates_generation == impl.generation) return impl.all_duplicates;
   std::vector<DuplicateUid> out;
-  if (impl.options.assets_dir) {
-    // Built-in UIDs also present elsewhere, and stems found twice inside one library.
-    for (std::string_view lib : {kThor, kObjaverse}) {
-      const Impl::BuiltinScan* scan = impl.Scan(lib);
+  if (!impl.sources.empty()) {
+    // Stems found twice inside one scanned library.
+    for (const Impl::Source& src : impl.sources) {
+      if (src.packed != nullptr) continue;
+      const Impl::BuiltinScan* scan = impl.Scan(src.name);
       out.insert(out.end(), scan->duplicates.begin(), scan->duplicates.end());
     }
-    const Impl::BuiltinScan* thor = impl.Scan(kThor);
-    const Impl::BuiltinScan* objaverse = impl.Scan(kObjaverse);
-    auto add_if_shared = [&](const std::string& uid, bool skip_if_in_thor) {
-      if (skip_if_in_thor && thor->uids.count(uid) != 0) return;  // counted from thor
-      DuplicateUid dup{uid, {}, {}};
+    // UIDs held by several libraries: every UID of every source but the largest packed one
+    // (a UID shared with it is found from the other side), then the user UIDs.
+    const PackedLibrary* largest = nullptr;
+    for (const Impl::Source& src : impl.sources) {
+      if (src.packed != nullptr && (largest == nullptr || src.packed->size() > largest->size())) {
+        largest = src.packed;
+      }
+    }
+    std::unordered_map<std::string, bool> seen;
+    auto add_if_shared = [&](std::string_view uid) {
+      if (!seen.emplace(std::string(uid), true).second) return;
+      DuplicateUid dup{std::string(uid), {}, {}};
       impl.Holders(uid, dup.libraries, dup.paths);
       if (dup.libraries.size() > 1) out.push_back(std::move(dup));
     };
-    for (const auto& [uid, path] : thor->uids) add_if_shared(uid, false);
-    for (const auto& [uid, path] : objaverse->uids) add_if_shared(uid, true);
-    for (const DuplicateUid& dup : impl.user_duplicates) {
-      if (thor->uids.count(dup.uid) == 0 && objaverse->uids.count(dup.uid) == 0) {
-        out.push_back(dup);
+    for (const Impl::Source& src : impl.sources) {
+      if (src.packed == largest && largest != nullptr) continue;
+      if (src.packed != nullptr) {
+        for (size_t i = 0; i < src.packed->size(); ++i) add_if_shared(src.packed->At(i).uid);
+      } else {
+        for (const auto& [uid, path] : impl.Scan(src.name)->uids) add_if_shared(uid);
       }
     }
+    for (const auto& [uid, rec] : impl.uids) add_if_shared(uid);
   } else {
     out = impl.user_duplicates;
   }
@@ -589,7 +702,7 @@ size_t Registry::num_uids() const { return impl_->uids.size(); }
 
 std::optional<AssetLocation> Registry::Locate(std::string_view uid) const {
   const Impl& impl = *impl_;
-  if (!impl.options.assets_dir) {
+  if (impl.sources.empty()) {
     // The common case: one hash lookup.
     const Impl::UidRecord* rec = impl.FindUser(uid);
     if (rec == nullptr) return std::nullopt;
@@ -605,12 +718,16 @@ std::optional<AssetLocation> Registry::Locate(std::string_view uid) const {
   }
   std::vector<std::string> libraries;
   std::vector<fs::path> paths;
-  impl.Holders(uid, libraries, paths);
-  if (libraries.empty()) return std::nullopt;
   AssetLocation loc;
+  impl.Holders(uid, libraries, paths, &loc.archive);
+  if (libraries.empty()) return std::nullopt;
   loc.library = libraries.front();
   loc.mjcf_path = paths.front();
-  if (!IsBuiltinAssetLibrary(loc.library)) loc.entry = impl.FindUser(uid)->entry;
+  if (!loc.archive.empty()) {
+    loc.installed = IsFile(loc.mjcf_path);
+  } else if (!IsBuiltinAssetLibrary(loc.library)) {
+    loc.entry = impl.FindUser(uid)->entry;
+  }
   loc.shadowed.assign(libraries.begin() + 1, libraries.end());
   return loc;
 }
@@ -631,6 +748,15 @@ std::shared_ptr<const Annotation> Registry::GetAnnotation(std::string_view uid) 
     std::lock_guard<std::mutex> lock(impl.annotation_mutex);
     auto it = impl.annotations.find(uid);
     if (it != impl.annotations.end()) return it->second;
+  }
+  for (const Impl::Source& src : impl.sources) {
+    if (src.packed == nullptr) continue;
+    std::optional<PackedAsset> asset = src.packed->Find(uid);
+    if (!asset) continue;
+    std::shared_ptr<const Annotation> annotation = src.packed->LoadAnnotation(*asset);
+    if (!annotation) return nullptr;
+    std::lock_guard<std::mutex> lock(impl.annotation_mutex);
+    return impl.annotations.try_emplace(std::string(uid), std::move(annotation)).first->second;
   }
   const Impl::UidRecord* rec = impl.FindUser(uid);
   if (rec == nullptr) return nullptr;
@@ -655,8 +781,12 @@ std::optional<GraspFileLocation> Registry::FindPickupGraspFile(std::string_view 
   const Impl& impl = *impl_;
   for (const std::string& name : impl.Walk(uid, filter)) {
     const Impl::GraspLibrary& lib = *impl.grasp_libraries.find(name)->second;
+    if (lib.packed != nullptr) {
+      if (auto loc = impl.PackedCandidate(lib, uid, "")) return loc;
+      continue;
+    }
     std::optional<fs::path> candidate = impl.PickupCandidate(lib, uid);
-    if (candidate && IsFile(*candidate)) return GraspFileLocation{name, *candidate};
+    if (candidate && IsFile(*candidate)) return GraspFileLocation{name, *candidate, {}};
   }
   return std::nullopt;
 }
@@ -673,8 +803,13 @@ std::optional<GraspFileLocation> Registry::FindJointGraspFile(std::string_view u
   }
   for (const std::string& name : walk) {
     const Impl::GraspLibrary& lib = *impl.grasp_libraries.find(name)->second;
+    if (lib.packed != nullptr) {
+      if (joint.empty()) continue;  // "" is the packed stores' pickup key, not a joint
+      if (auto loc = impl.PackedCandidate(lib, uid, joint)) return loc;
+      continue;
+    }
     std::optional<fs::path> candidate = impl.JointCandidate(lib, uid, joint);
-    if (candidate && IsFile(*candidate)) return GraspFileLocation{name, *candidate};
+    if (candidate && IsFile(*candidate)) return GraspFileLocation{name, *candidate, {}};
   }
   return std::nullopt;
 }
@@ -693,26 +828,48 @@ std::optional<fs::path> Registry::JointGraspPath(std::string_view uid, std::stri
   return std::move(found->path);
 }
 
+namespace {
+
+size_t GraspCount(const GraspFileLocation& loc) {
+  if (loc.packed) return loc.packed->count;
+  NpzReader reader(loc.path);
+  return ReadGraspHeader(reader).shape[0];
+}
+
+}  // namespace
+
 bool Registry::HasValidPickupGrasps(std::string_view uid, size_t num_grasps,
                                     GraspLibraryFilter filter) const {
-  std::optional<fs::path> path = PickupGraspPath(uid, filter);
-  if (!path) return false;
-  NpzReader reader(*path);
-  return ReadGraspHeader(reader).shape[0] >= num_grasps;
+  std::optional<GraspFileLocation> loc = FindPickupGraspFile(uid, filter);
+  return loc && GraspCount(*loc) >= num_grasps;
 }
 
 bool Registry::HasValidJointGrasps(std::string_view uid, std::string_view joint,
                                    size_t num_grasps, GraspLibraryFilter filter) const {
-  std::optional<fs::path> path = JointGraspPath(uid, joint, filter);
-  if (!path) return false;
-  NpzReader reader(*path);
-  return ReadGraspHeader(reader).shape[0] >= num_grasps;
+  std::optional<GraspFileLocation> loc = FindJointGraspFile(uid, joint, filter);
+  return loc && GraspCount(*loc) >= num_grasps;
 }
 
-namespace {
-
-GraspSet LoadSubsampled(const fs::path& path, size_t num_grasps, uint64_t seed) {
-  NpzReader reader(path);
+GraspSet Registry::Impl::LoadSubsampled(const GraspFileLocation& loc, size_t num_grasps,
+                                        uint64_t seed) const {
+  if (loc.packed) {
+    // Same draws as from the NPZ the poses were packed from.
+    const PackedLibrary& lib = *grasp_libraries.find(loc.library)->second->packed;
+    const size_t n = loc.packed->count;
+    GraspSet out;
+    out.source = loc.path;
+    out.stored_dtype = loc.packed->stored_dtype;
+    if (n <= num_grasps) {
+      out.poses = lib.ReadGrasps(*loc.packed);
+      out.indices.resize(n);
+      std::iota(out.indices.begin(), out.indices.end(), size_t{0});
+    } else {
+      out.indices = SubsampleIndices(n, num_grasps, seed);
+      out.poses = lib.ReadGrasps(*loc.packed, &out.indices);
+    }
+    return out;
+  }
+  NpzReader reader(loc.path);
   const NpyHeader header = ReadGraspHeader(reader);
   const size_t n = header.shape[0];
   if (n <= num_grasps) return ReadGrasps(reader, header, nullptr);
@@ -720,26 +877,24 @@ GraspSet LoadSubsampled(const fs::path& path, size_t num_grasps, uint64_t seed) 
   return ReadGrasps(reader, header, &rows);
 }
 
-}  // namespace
-
 GraspSet Registry::LoadPickupGrasps(std::string_view uid, GraspLibraryFilter filter,
                                     size_t num_grasps, uint64_t seed) const {
-  std::optional<fs::path> path = PickupGraspPath(uid, filter);
-  if (!path) {
+  std::optional<GraspFileLocation> loc = FindPickupGraspFile(uid, filter);
+  if (!loc) {
     throw Error("No grasp file found for " + std::string(uid), "", "", std::string(uid));
   }
-  return LoadSubsampled(*path, num_grasps, seed);
+  return impl_->LoadSubsampled(*loc, num_grasps, seed);
 }
 
 GraspSet Registry::LoadJointGrasps(std::string_view uid, std::string_view joint,
                                    GraspLibraryFilter filter, size_t num_grasps,
                                    uint64_t seed) const {
-  std::optional<fs::path> path = JointGraspPath(uid, joint, filter);
-  if (!path) {
+  std::optional<GraspFileLocation> loc = FindJointGraspFile(uid, joint, filter);
+  if (!loc) {
     throw Error("No joint grasp file found for " + std::string(uid) + "/" + std::string(joint),
                 "", "", std::string(uid));
   }
-  return LoadSubsampled(*path, num_grasps, seed);
+  return impl_->LoadSubsampled(*loc, num_grasps, seed);
 }
 
 GraspSet ReadGraspFile(const fs::path& npz, const std::vector<size_t>* rows) {

@@ -406,15 +406,7 @@ RunReport RunDatagen(const ExperimentConfig& input, const TaskSamplerRegistry& s
   // Temp files a killed run left in the folder (config.yaml or a summary mid-write): those of
   // processes that no longer exist (".tmp.<pid>.<n>", TempSuffix), so a shard sharing the
   // folder keeps its own.
-  for (const auto& e : fs::directory_iterator(report.folder, ec)) {
-    const std::string name = e.path().filename().string();
-    const size_t at = name.find(".tmp.");
-    long pid = 0;
-    if (at != std::string::npos && std::sscanf(name.c_str() + at, ".tmp.%ld.", &pid) == 1 &&
-        pid > 0 && ::kill(static_cast<pid_t>(pid), 0) != 0 && errno == ESRCH) {
-      fs::remove(e.path(), ec);
-    }
-  }
+  RemoveDeadTempFiles(report.folder);
   const fs::path config_file = report.folder / "config.yaml";
   const fs::path journal_file = JournalPath(report.folder, options.shard);
   const ExperimentConfig config = SettleRunConfig(input, config_file, journal_file, options);

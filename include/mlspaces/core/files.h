@@ -34,6 +34,11 @@ std::string RelativeGenericPath(const std::filesystem::path& path,
 /// ".tmp.<pid>.<n>" (what WriteFileAtomic uses; crash leftovers match "*.tmp.*").
 std::string TempSuffix();
 
+/// Removes the entries of `dir` (not recursive; files or folders) that are temp files of
+/// processes that no longer exist: names with TempSuffix's ".tmp.<pid>." whose pid is gone.
+/// Temp files of live processes (another run sharing the folder) are kept. @returns how many.
+size_t RemoveDeadTempFiles(const std::filesystem::path& dir);
+
 /// fsync of a file, or of a folder (`directory`) after a rename into it.
 /// @throws Error naming `error_path` on failure.
 void FsyncPath(const std::filesystem::path& path, bool directory, const std::string& error_path);

@@ -18,6 +18,7 @@
 #include "mlspaces/core/annotation.h"
 #include "mlspaces/core/asset_index.h"
 #include "mlspaces/core/grasp_index.h"
+#include "mlspaces/core/packed_store.h"
 #include "mlspaces/core/transform.h"
 
 namespace mlspaces {
@@ -33,6 +34,10 @@ struct AssetLocation {
   std::string library;                ///< asset library name
   std::filesystem::path mjcf_path;    ///< absolute path of the asset MJCF
   const AssetEntry* entry = nullptr;  ///< the index entry (user libraries); null for built-ins
+  /// Packed libraries: the archive holding the asset (the original's second return value).
+  std::string archive;
+  /// False when the asset's package archive is not installed yet (the MJCF does not exist).
+  bool installed = true;
   /// Other libraries that also hold this UID and are shadowed by `library` (never silent:
   /// the CLI prints them, and Registry::duplicates() lists every such UID).
   std::vector<std::string> shadowed;
@@ -50,7 +55,9 @@ struct DuplicateUid {
 /// A grasp file found by a lookup, and the grasp library that provided it.
 struct GraspFileLocation {
   std::string library;
-  std::filesystem::path path;
+  std::filesystem::path path;  ///< the NPZ, or a packed library's grasp shard
+  /// Packed libraries: where in the shard the poses are.
+  std::optional<PackedGraspRef> packed;
 };
 
 /// A registered grasp library: one per (root, robot) for user libraries.
@@ -79,7 +86,10 @@ class Registry {
   struct Options {
     /// The install dir of built-in data (MLSPACES_ASSETS_DIR). Built-in libraries answer
     /// lookups only when it is set: thor/objaverse MJCFs under <assets>/objects/<lib>/ and
-    /// grasps under <assets>/grasps/<lib>/.
+    /// grasps under <assets>/grasps/<lib>/. Every <assets>/objects/<name> that is an
+    /// installed mlspaces package (it has uid_index.mlsx) is opened as a packed library
+    /// named <name> with grasp libraries <name>/<robot>: its lookups read the package's
+    /// stores, never the disk tree.
     std::optional<std::filesystem::path> assets_dir;
   };
 
@@ -107,6 +117,14 @@ class Registry {
                                                 const std::filesystem::path& dir,
                                                 const std::string& asset_library);
 
+  /// Registers an installed package folder (uid_index.mlsx, metadata.mlsm) as a packed
+  /// asset library `name`, ranked like a built-in (thor first, then alphabetically, all
+  /// before user libraries), with one grasp library "<name>/<robot>" per robot.
+  /// @throws Error for a bad store or a name already taken.
+  void RegisterPackedLibrary(const std::string& name, const std::filesystem::path& dir);
+  /// The packed library of that name, or nullptr.
+  std::shared_ptr<const PackedLibrary> FindPackedLibrary(std::string_view name) const;
+
   /// Registered asset libraries: built-ins first (when an assets dir is set), then user
   /// libraries in registration order.
   std::vector<std::string> asset_libraries() const;
@@ -117,11 +135,11 @@ class Registry {
   /// Number of UIDs across all user libraries (duplicates counted once).
   size_t num_uids() const;
 
-  /// Finds a UID: built-in thor, then built-in objaverse, then user libraries in
-  /// registration order (the original's priority). nullopt if unknown.
-  /// Built-in UIDs come from a one-time scan of the installed <assets>/objects/<lib>/**/*.xml
-  /// (file stem = UID), done on first use; the packed objaverse resource index replaces the
-  /// objaverse scan in a later issue. objathor_metadata holds no MJCFs.
+  /// Finds a UID: thor, then the other built-in and packed libraries alphabetically, then
+  /// user libraries in registration order (the original's priority). nullopt if unknown.
+  /// Packed libraries answer from their UID index (one hash probe). A built-in thor or
+  /// objaverse that is not a package is scanned once (<assets>/objects/<lib>/**/*.xml, file
+  /// stem = UID) on first use. objathor_metadata holds no MJCFs.
   std::optional<AssetLocation> Locate(std::string_view uid) const;
   /// As Locate. @throws Error "<uid> not found in asset libraries [...]" naming every library.
   AssetLocation LocateOrThrow(std::string_view uid) const;

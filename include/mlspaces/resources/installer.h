@@ -1,0 +1,96 @@
+// Installing packaged libraries: set-up of a source (manifest and stores), install by UID or by
+// library, verification. Downloads resume, every file is checked against the manifest's
+// SHA-256, archives are extracted safely into a staging folder and renamed into place, and an
+// extraction flag marks an archive done. Concurrent installers on one cache take a per-version
+// flock, which the kernel releases when a holder dies.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "mlspaces/core/packed_store.h"
+#include "mlspaces/resources/package.h"
+#include "mlspaces/resources/sources.h"
+
+namespace mlspaces {
+
+struct InstallOptions {
+  /// Messages for the user (waiting for a lock, skipped sources). May be empty.
+  std::function<void(const std::string&)> note;
+  /// Byte progress over the whole install: (done, total).
+  std::function<void(uint64_t, uint64_t)> progress;
+  int parallel_downloads = 4;
+  int retries = 3;
+};
+
+/// One source installed or looked at.
+struct InstalledSource {
+  std::string type, name, version;
+  std::filesystem::path dir;  ///< the version dir in the cache
+  PackageManifest manifest;
+};
+
+/// What an install would fetch, and then did.
+struct InstallPlan {
+  struct Item {
+    const InstalledSource* source = nullptr;
+    std::string archive;
+    uint64_t size = 0, unpacked_bytes = 0;
+  };
+  std::vector<Item> archives;           ///< not yet installed, sorted
+  size_t assets = 0;                    ///< assets selected
+  size_t already_installed = 0;         ///< selected archives already there
+  uint64_t download_bytes = 0, unpacked_bytes = 0;
+};
+
+/// A `--where KEY=VALUE` filter on annotations: KEY is a top-level field or a JSON pointer;
+/// matches when the value (or, for a list, any element) printed as text equals VALUE.
+struct WhereFilter {
+  std::string key, value;
+  static WhereFilter Parse(const std::string& flag);  ///< @throws UsageError
+};
+
+class Installer {
+ public:
+  explicit Installer(ResourceSettings settings, InstallOptions options = {});
+  ~Installer();
+
+  const ResourceSettings& settings() const;
+
+  /// Makes sure a source's manifest and stores are in the cache (downloading them if needed)
+  /// and that <assets>/<type>/<name> links to its version dir. @throws Error (unknown source,
+  /// download or checksum failure, not an mlspaces package).
+  const InstalledSource& Setup(const std::string& type, const std::string& name);
+  /// The opened stores of a set-up source.
+  std::shared_ptr<const PackedLibrary> Library(const std::string& type, const std::string& name);
+
+  /// Plans installing UIDs: each is looked up in the object sources in the original's order
+  /// (thor, then the others alphabetically); sources that are not mlspaces packages on the
+  /// remote are skipped with a note. @throws Error "<uid> not found in object sources [...]".
+  InstallPlan PlanUids(const std::vector<std::string>& uids);
+  /// Plans installing a whole library, or the assets whose annotation matches every filter.
+  InstallPlan PlanLibrary(const std::string& name, const std::vector<WhereFilter>& where);
+  /// Downloads, verifies and extracts a plan's archives (with their grasp shards).
+  void Install(const InstallPlan& plan);
+
+  struct Problem {
+    std::filesystem::path file;
+    std::string message;
+  };
+  /// Re-checks installed files of every set-up source in the assets dir (or only `names`)
+  /// against the manifests. With `repair`, archives with bad files lose their extraction
+  /// flag so the next install fetches them again. @returns the problems (empty = all good).
+  std::vector<Problem> Verify(const std::vector<std::string>& names, bool repair,
+                              size_t* files_checked = nullptr);
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace mlspaces

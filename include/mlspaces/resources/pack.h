@@ -1,0 +1,43 @@
+// `mlspaces pack`: a user asset + grasp library -> a published, versioned package.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <string>
+#include <vector>
+
+namespace mlspaces {
+
+struct PackOptions {
+  std::string name;     ///< source name (default: the library folder's name)
+  std::string version;  ///< default: today's UTC date, YYYYMMDD
+  std::string data_type = "objects";
+  /// Grasp library folder (with grasps_index.json); default: the library folder when it has
+  /// one. Empty and absent: no grasps.
+  std::filesystem::path grasp_dir;
+  uint32_t assets_per_archive = 1;
+  int zstd_level = 3;
+  int threads = 0;  ///< 0 = hardware concurrency
+  bool overwrite = false;
+  /// Called as archives finish: (archives done, total).
+  std::function<void(size_t, size_t)> progress;
+};
+
+struct PackReport {
+  std::filesystem::path package_dir;  ///< <out>/<type>/<name>/<version>
+  std::string name, version;
+  size_t assets = 0, archives = 0, grasp_sets = 0, grasps = 0;
+  uint64_t archive_bytes = 0, unpacked_bytes = 0;
+  std::vector<std::string> warnings;  ///< one line each
+};
+
+/// Packs `library_dir` (it must hold assets_index.json) into
+/// <out_dir>/<type>/<name>/<version>/ and merges {type: {name: version}} into
+/// <out_dir>/mlspaces_sources.json. Written under a temp name and renamed into place, so a
+/// crashed pack leaves no half package. Same inputs and options -> same bytes.
+/// @throws Error naming the file at fault; UsageError for bad options.
+PackReport PackLibrary(const std::filesystem::path& library_dir,
+                       const std::filesystem::path& out_dir, PackOptions options);
+
+}  // namespace mlspaces

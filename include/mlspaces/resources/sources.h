@@ -1,0 +1,55 @@
+// Data sources and where they live: the pinned versions, the cache dir, the install (assets)
+// dir of symlinks and the remote base URL (spec section 7).
+#pragma once
+
+#include <filesystem>
+#include <map>
+#include <optional>
+#include <string>
+
+namespace mlspaces {
+
+/// data type -> source -> pinned version. An empty version means "known, not pinned".
+using SourceVersions = std::map<std::string, std::map<std::string, std::string>>;
+
+/// The built-in table: objects thor / objaverse / objathor_metadata, grasps droid /
+/// droid_objaverse (the original's pins), robots and scenes (see docs/resources.md).
+const SourceVersions& BuiltinSourceVersions();
+
+/// Deep-merges a JSON pin file shaped like the table ({"objects": {"thor": "20251117"}}):
+/// leaf values override, new types and sources are added; a null leaf removes a source.
+/// @throws Error naming the file and the JSON pointer of a bad value.
+void MergePinFile(SourceVersions& versions, const std::filesystem::path& pin_file);
+/// As MergePinFile, from JSON text (a remote listing); `origin` names it in errors.
+void MergePinJson(SourceVersions& versions, const std::string& json, const std::string& origin);
+
+/// Everything a download or lookup needs to know about the resource dirs.
+struct ResourceSettings {
+  std::filesystem::path cache_dir;   ///< versioned, read-only extracted data
+  std::filesystem::path assets_dir;  ///< install dir: <type>/<source> symlinks into the cache
+  std::string remote_url;            ///< base URL: <remote>/<type>/<source>/<version>/<file>
+  SourceVersions versions;           ///< built-ins, then the pin file
+  std::filesystem::path pin_file;    ///< empty when none
+
+  /// From the environment: MLSPACES_CACHE_DIR (default ~/.cache/molmo-spaces-resources, the
+  /// original's, so both tools share one cache), MLSPACES_ASSETS_DIR (default
+  /// ~/.cache/mlspaces/assets), MLSPACES_REMOTE_URL (default the original's R2 bucket),
+  /// MLSPACES_PINNED_ASSETS_FILE. Non-empty arguments override the environment.
+  /// @throws Error when the two dirs overlap or the pin file is missing or bad.
+  static ResourceSettings FromEnvironment(const std::string& remote_override = {},
+                                          const std::filesystem::path& pin_override = {});
+
+  /// Pinned version of a source, or nullopt when the source is unknown or unpinned.
+  std::optional<std::string> Version(const std::string& type, const std::string& source) const;
+  /// <cache>/<type>/<source>/<version>
+  std::filesystem::path VersionDir(const std::string& type, const std::string& source,
+                                   const std::string& version) const;
+  /// <remote>/<type>/<source>/<version>/<file>
+  std::string Url(const std::string& type, const std::string& source, const std::string& version,
+                  const std::string& file) const;
+};
+
+/// The default install dir when MLSPACES_ASSETS_DIR is unset: ~/.cache/mlspaces/assets.
+std::filesystem::path DefaultAssetsDir();
+
+}  // namespace mlspaces

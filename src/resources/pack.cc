@@ -1,0 +1,527 @@
+// `mlspaces pack`: user library -> package folder (archives, stores, manifests).
+//
+// An asset's files are the folder of its MJCF with everything under it (the tutorial layout,
+// <uid>/<uid>.xml); folders nested in another asset's folder go with that one, and assets
+// sharing a folder go together. An asset whose MJCF sits at the library root brings only its
+// own files (MJCF, metadata JSON, computed JSON, NPZ). Grasp NPZs named by grasps_index.json
+// are not archived: their poses go to the archive's grasp shard, which the lookups read.
+#include "mlspaces/resources/pack.h"
+
+#include <fcntl.h>
+#include <signal.h>
+#include <zlib.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cerrno>
+#include <chrono>
+#include <condition_variable>
+#include <cstdio>
+#include <ctime>
+#include <map>
+#include <mutex>
+#include <optional>
+#include <set>
+#include <thread>
+#include <unistd.h>
+
+#include "mlspaces/core/annotation.h"
+#include "mlspaces/core/asset_index.h"
+#include "mlspaces/core/error.h"
+#include "mlspaces/core/files.h"
+#include "mlspaces/core/grasp_index.h"
+#include "mlspaces/core/json.h"
+#include "mlspaces/core/packed_store.h"
+#include "mlspaces/core/registry.h"
+#include "mlspaces/core/version.h"
+#include "mlspaces/resources/archive.h"
+#include "mlspaces/resources/package.h"
+#include "mlspaces/resources/sha256.h"
+
+namespace mlspaces {
+namespace fs = std::filesystem;
+
+namespace {
+
+struct Unit {
+  std::string dir;                  ///< relative folder ("" = root-level asset)
+  std::vector<std::string> uids;    ///< sorted
+};
+
+struct ArchivePlan {
+  std::string name, stem;
+  std::vector<const Unit*> units;
+  std::vector<std::string> uids;  ///< sorted
+};
+
+struct GraspFile {
+  std::string robot, joint;  ///< joint empty = pickup
+  fs::path path;
+};
+
+struct ArchiveResult {
+  PackageArchive archive;
+  std::vector<PackedAssetInput> assets;
+  std::vector<std::unique_ptr<Annotation>> annotations;
+  size_t grasp_sets = 0, grasps = 0;
+  std::vector<std::string> warnings;
+};
+
+std::string TodayUtc() {
+  const std::time_t now = std::time(nullptr);
+  std::tm tm{};
+  gmtime_r(&now, &tm);
+  char buf[16];
+  std::strftime(buf, sizeof buf, "%Y%m%d", &tm);
+  return buf;
+}
+
+void CheckName(const std::string& value, const char* what) {
+  if (value.empty() || value[0] == '.' || value.find_first_of("/\\ \t\n") != std::string::npos) {
+    throw UsageError(std::string(what) + " '" + value +
+                     "' must be non-empty, not start with '.', and have no '/' or spaces");
+  }
+}
+
+bool StartsWithDir(const std::string& path, const std::string& dir) {
+  return dir.empty() || (path.size() > dir.size() && path.compare(0, dir.size(), dir) == 0 &&
+                         path[dir.size()] == '/');
+}
+
+std::string ParentOf(const std::string& rel) {
+  const size_t slash = rel.rfind('/');
+  return slash == std::string::npos ? std::string() : rel.substr(0, slash);
+}
+
+/// gzip with a zero mtime, so the same JSON gives the same bytes.
+std::string Gzip(const std::string& data) {
+  z_stream zs{};
+  if (deflateInit2(&zs, 6, Z_DEFLATED, 15 + 16, 8, Z_DEFAULT_STRATEGY) != Z_OK) {
+    throw std::runtime_error("zlib: deflateInit2 failed");
+  }
+  std::string out(deflateBound(&zs, data.size()) + 64, '\0');
+  zs.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(data.data()));
+  zs.avail_in = static_cast<uInt>(data.size());
+  zs.next_out = reinterpret_cast<Bytef*>(out.data());
+  zs.avail_out = static_cast<uInt>(out.size());
+  const int rc = deflate(&zs, Z_FINISH);
+  out.resize(zs.total_out);
+  deflateEnd(&zs);
+  if (rc != Z_STREAM_END) throw std::runtime_error("zlib: deflate failed");
+  return out;
+}
+
+/// The files of a unit, sorted, relative to the library root.
+std::vector<std::string> UnitFiles(const fs::path& root, const Unit& unit,
+                                   const AssetIndex& index, const std::set<std::string>& skip,
+                                   const std::vector<std::string>& nested_other_units,
+                                   std::vector<std::string>& warnings) {
+  std::vector<std::string> files;
+  if (unit.dir.empty()) {
+    for (const std::string& uid : unit.uids) {
+      const AssetEntry& e = index.entries.at(uid);
+      files.push_back(e.object_path);
+      files.push_back(e.metadata_path);
+      if (e.metadata_npz_path) files.push_back(*e.metadata_npz_path);
+      const std::string plain = ParentOf(e.object_path).empty() ? uid + ".json"
+                                                                 : ParentOf(e.object_path) + "/" + uid + ".json";
+      if (IsFile(root / plain)) files.push_back(plain);
+    }
+  } else {
+    std::error_code ec;
+    fs::recursive_directory_iterator it(root / unit.dir, ec);
+    if (ec) throw Error("cannot list: " + ec.message(), (root / unit.dir).string());
+    for (; it != fs::recursive_directory_iterator(); it.increment(ec)) {
+      if (ec) throw Error("cannot list: " + ec.message(), (root / unit.dir).string());
+      const fs::path& p = it->path();
+      const std::string rel = RelativeGenericPath(p, root);
+      if (it->is_symlink()) {
+        warnings.push_back(p.string() + ": symbolic link not packed");
+        if (it->is_directory()) it.disable_recursion_pending();
+        continue;
+      }
+      if (it->is_directory()) {
+        // A folder that is another unit's (never: units are merged) or hidden temp folders.
+        if (std::binary_search(nested_other_units.begin(), nested_other_units.end(), rel)) {
+          it.disable_recursion_pending();
+        }
+        continue;
+      }
+      if (!it->is_regular_file()) continue;
+      const std::string fname = p.filename().string();
+      if (fname.find(".tmp.") != std::string::npos) continue;
+      if (fname == "assets_index.json" || fname == "grasps_index.json") continue;
+      if (skip.count(rel) != 0) continue;
+      files.push_back(rel);
+    }
+  }
+  std::sort(files.begin(), files.end());
+  files.erase(std::unique(files.begin(), files.end()), files.end());
+  for (const std::string& f : files) {
+    if (!IsFile(root / f)) throw Error("file named by the asset index is missing", (root / f).string());
+  }
+  return files;
+}
+
+}  // namespace
+
+PackReport PackLibrary(const fs::path& library_dir, const fs::path& out_dir, PackOptions options) {
+  const fs::path root = fs::absolute(library_dir).lexically_normal().parent_path() /
+                        fs::absolute(library_dir).lexically_normal().filename();
+  const fs::path index_file = root / "assets_index.json";
+  if (!IsFile(index_file)) {
+    throw Error("no assets_index.json here: run `mlspaces index-assets " + library_dir.string() +
+                    "` first",
+                root.string());
+  }
+  if (options.name.empty()) options.name = root.filename().string();
+  if (options.version.empty()) options.version = TodayUtc();
+  CheckName(options.name, "library name");
+  CheckName(options.version, "version");
+  CheckName(options.data_type, "data type");
+  if (options.assets_per_archive < 1) throw UsageError("--assets-per-archive must be >= 1");
+  if (options.zstd_level < 1 || options.zstd_level > 19) {
+    throw UsageError("--zstd-level must be between 1 and 19");
+  }
+  const AssetIndex index = AssetIndex::Load(index_file);
+  if (index.entries.empty()) throw Error("the asset index lists no assets", index_file.string());
+
+  // Grasps: uid -> files, from the grasp library's index.
+  fs::path grasp_root = options.grasp_dir;
+  if (grasp_root.empty() && IsFile(root / "grasps_index.json")) grasp_root = root;
+  PackReport report;
+  std::map<std::string, std::vector<GraspFile>> grasps_of;
+  std::set<std::string> grasp_members;  // library-relative paths not to archive
+  if (!grasp_root.empty()) {
+    grasp_root = fs::absolute(grasp_root).lexically_normal();
+    const GraspIndex gindex = GraspIndex::Load(grasp_root / "grasps_index.json");
+    auto add = [&](const std::string& uid, GraspFile file) {
+      if (index.entries.count(uid) == 0) {
+        report.warnings.push_back(file.path.string() + ": grasps for UID " + uid +
+                                  ", which is not in the asset index, not packed");
+        return;
+      }
+      const std::string rel = RelativeGenericPath(file.path, root);
+      if (rel.rfind("../", 0) != 0) grasp_members.insert(rel);
+      grasps_of[uid].push_back(std::move(file));
+    };
+    for (const auto& [robot, uids] : gindex.grasp_paths) {
+      for (const auto& [uid, rel] : uids) add(uid, {robot, "", grasp_root / rel});
+    }
+    for (const auto& [robot, uids] : gindex.articulated_grasp_paths) {
+      for (const auto& [uid, joints] : uids) {
+        for (const auto& [joint, rel] : joints) add(uid, {robot, joint, grasp_root / rel});
+      }
+    }
+    for (auto& [uid, files] : grasps_of) {
+      std::sort(files.begin(), files.end(), [](const GraspFile& a, const GraspFile& b) {
+        return std::tie(a.robot, a.joint) < std::tie(b.robot, b.joint);
+      });
+    }
+  }
+
+  // Units: MJCF folders, nested ones merged into their outermost ancestor.
+  std::map<std::string, std::vector<std::string>> by_dir;
+  for (const auto& [uid, entry] : index.entries) by_dir[ParentOf(entry.object_path)].push_back(uid);
+  std::vector<Unit> units;
+  std::vector<std::string> unit_dirs;
+  {
+    std::vector<std::string> outer;  // sorted: an ancestor sorts before its descendants
+    for (auto& [dir, uids] : by_dir) {
+      if (dir.empty()) {
+        for (const std::string& uid : uids) units.push_back({"", {uid}});
+        continue;
+      }
+      if (!outer.empty() && StartsWithDir(dir, outer.back())) {
+        auto& target = units.back();
+        target.uids.insert(target.uids.end(), uids.begin(), uids.end());
+        continue;
+      }
+      outer.push_back(dir);
+      units.push_back({dir, uids});
+    }
+    for (Unit& u : units) std::sort(u.uids.begin(), u.uids.end());
+    std::sort(units.begin(), units.end(),
+              [](const Unit& a, const Unit& b) { return a.uids.front() < b.uids.front(); });
+    unit_dirs = outer;
+  }
+
+  // Archives: units in order of their first UID, cut once they hold >= K assets.
+  std::vector<ArchivePlan> plans;
+  for (const Unit& u : units) {
+    if (plans.empty() || plans.back().uids.size() >= options.assets_per_archive) {
+      plans.emplace_back();
+      char num[32];
+      std::snprintf(num, sizeof num, "%05zu", plans.size() - 1);
+      plans.back().stem = options.name + "_" + num;
+      plans.back().name = plans.back().stem + ".tar.zst";
+    }
+    plans.back().units.push_back(&u);
+    plans.back().uids.insert(plans.back().uids.end(), u.uids.begin(), u.uids.end());
+  }
+  for (ArchivePlan& p : plans) std::sort(p.uids.begin(), p.uids.end());
+
+  // Output folder: built under a temp name, renamed into place at the end.
+  const fs::path parent = fs::absolute(out_dir) / options.data_type / options.name;
+  const fs::path final_dir = parent / options.version;
+  std::error_code ec;
+  if (fs::exists(final_dir, ec) && !options.overwrite) {
+    throw Error(final_dir.string() + " already exists. Use --overwrite to overwrite.",
+                final_dir.string());
+  }
+  fs::create_directories(parent, ec);
+  if (ec) throw Error("cannot create folder: " + ec.message(), parent.string());
+  RemoveDeadTempFiles(parent);  // <version>.tmp.<pid>.<n> folders of packs that died
+  const fs::path tmp_dir = parent / (options.version + TempSuffix());
+  fs::create_directories(tmp_dir / ".staging", ec);
+  if (ec) throw Error("cannot create folder: " + ec.message(), tmp_dir.string());
+  struct CleanUp {
+    fs::path dir;
+    ~CleanUp() {
+      std::error_code e;
+      if (!dir.empty()) fs::remove_all(dir, e);
+    }
+  } cleanup{tmp_dir};
+
+  std::vector<std::string> archive_names;
+  for (const ArchivePlan& p : plans) archive_names.push_back(p.name);
+  PackedStoreWriter store(tmp_dir, options.name, archive_names);
+
+  // Workers build archives; the main thread adds them to the store in archive order (so the
+  // output does not depend on scheduling), and workers stay at most a window ahead.
+  const size_t n = plans.size();
+  int threads = options.threads > 0 ? options.threads
+                                    : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  threads = static_cast<int>(std::min<size_t>(static_cast<size_t>(threads), n));
+  const size_t window = static_cast<size_t>(threads) * 4;
+  std::vector<std::optional<ArchiveResult>> results(n);
+  std::vector<std::exception_ptr> errors(n);
+  std::mutex mu;
+  std::condition_variable cv;
+  std::atomic<size_t> next{0};
+  size_t consumed = 0;
+  std::atomic<bool> failed{false};
+
+  auto build = [&](size_t i) {
+    const ArchivePlan& plan = plans[i];
+    ArchiveResult r;
+    const fs::path staging = tmp_dir / ".staging" / plan.stem;
+    fs::create_directories(staging);
+    // Grasp shard.
+    const std::string shard_rel = std::string(kGraspShardDir) + "/" + plan.stem +
+                                  std::string(kGraspShardExtension);
+    const fs::path shard_path = staging / "shard.mlsg";
+    GraspShardWriter shard(shard_path);
+    for (const std::string& uid : plan.uids) {
+      const AssetEntry& e = index.entries.at(uid);
+      PackedAssetInput in;
+      in.uid = uid;
+      in.mjcf = e.object_path;
+      in.archive = static_cast<uint32_t>(i);
+      std::optional<fs::path> npz;
+      if (e.metadata_npz_path) npz = root / *e.metadata_npz_path;
+      auto annotation = std::make_unique<Annotation>(LoadAnnotation(
+          uid, options.name, root / e.metadata_path, npz ? &*npz : nullptr));
+      in.annotation = annotation.get();
+      r.annotations.push_back(std::move(annotation));
+      if (auto g = grasps_of.find(uid); g != grasps_of.end()) {
+        for (const GraspFile& f : g->second) {
+          const GraspSet set = ReadGraspFile(f.path);
+          PackedAssetInput::Grasps ref;
+          ref.robot = f.robot;
+          ref.joint = f.joint;
+          ref.archive = static_cast<uint32_t>(i);
+          ref.offset = shard.Append(set.poses);
+          ref.count = static_cast<uint32_t>(set.poses.size());
+          ref.stored_dtype = set.stored_dtype;
+          in.grasps.push_back(std::move(ref));
+          ++r.grasp_sets;
+          r.grasps += set.poses.size();
+        }
+      }
+      r.assets.push_back(std::move(in));
+    }
+    shard.Finish();
+
+    // Members: the units' files, the shard, then the listing of all of them.
+    std::vector<ArchiveMember> members;
+    for (const Unit* u : plan.units) {
+      for (std::string& rel : UnitFiles(root, *u, index, grasp_members, unit_dirs, r.warnings)) {
+        members.push_back({rel, root / rel});
+      }
+    }
+    members.push_back({shard_rel, shard_path});
+    std::sort(members.begin(), members.end(),
+              [](const ArchiveMember& a, const ArchiveMember& b) { return a.path < b.path; });
+    FlatJson listing = FlatJson::object();
+    uint64_t unpacked = 0;
+    for (const ArchiveMember& m : members) {
+      const FileDigest d = Sha256File(m.source);
+      listing[m.path] = {{"size", d.size}, {"sha256", d.sha256}};
+      unpacked += d.size;
+    }
+    const std::string listing_text = listing.dump(1) + "\n";
+    const std::string listing_rel = std::string(kMemberListDir) + "/" + plan.stem + ".json";
+    const fs::path listing_path = staging / "members.json";
+    WriteFileAtomic(listing_path, listing_text, false);
+    members.push_back({listing_rel, listing_path});
+    unpacked += listing_text.size();
+
+    const fs::path archive_path = tmp_dir / plan.name;
+    WriteTarZst(archive_path, members, ArchiveWriteOptions{options.zstd_level});
+    const FileDigest digest = Sha256File(archive_path);
+    r.archive.name = plan.name;
+    r.archive.size = digest.size;
+    r.archive.sha256 = digest.sha256;
+    r.archive.unpacked_bytes = unpacked;
+    r.archive.assets = static_cast<uint32_t>(plan.uids.size());
+    r.archive.members_file = listing_rel;
+    r.archive.members_sha256 = Sha256Hex(listing_text);
+    fs::remove_all(staging);
+    return r;
+  };
+
+  auto worker = [&] {
+    for (;;) {
+      size_t i;
+      {
+        std::unique_lock<std::mutex> lock(mu);
+        cv.wait(lock, [&] { return failed || next.load() < consumed + window || next.load() >= n; });
+        if (failed || next.load() >= n) return;
+        i = next++;
+      }
+      std::optional<ArchiveResult> r;
+      std::exception_ptr err;
+      try {
+        r = build(i);
+      } catch (...) {
+        err = std::current_exception();
+      }
+      std::lock_guard<std::mutex> lock(mu);
+      results[i] = std::move(r);
+      errors[i] = err;
+      if (err) failed = true;
+      cv.notify_all();
+    }
+  };
+  std::vector<std::thread> pool;
+  for (int t = 0; t < threads; ++t) pool.emplace_back(worker);
+
+  PackageManifest manifest;
+  manifest.data_type = options.data_type;
+  manifest.name = options.name;
+  manifest.version = options.version;
+  manifest.created_by = std::string("mlspaces ") + std::string(Version());
+  FlatJson sizes = FlatJson::object();
+  FlatJson tries = FlatJson::object();
+  std::set<std::string> robots;
+  std::exception_ptr first_error;
+  for (size_t i = 0; i < n; ++i) {
+    std::optional<ArchiveResult> r;
+    {
+      std::unique_lock<std::mutex> lock(mu);
+      cv.wait(lock, [&] { return results[i].has_value() || errors[i] || failed; });
+      if (!results[i]) {
+        // Report the lowest-numbered failure once every worker has stopped.
+        failed = true;
+        cv.notify_all();
+        lock.unlock();
+        for (auto& t : pool) t.join();
+        pool.clear();
+        for (size_t k = 0; k < n; ++k) {
+          if (errors[k]) {
+            first_error = errors[k];
+            break;
+          }
+        }
+        break;
+      }
+      r = std::move(results[i]);
+      results[i].reset();
+      consumed = i + 1;
+      cv.notify_all();
+    }
+    for (const PackedAssetInput& a : r->assets) {
+      store.Add(a);
+      for (const auto& g : a.grasps) robots.insert(g.robot);
+    }
+    report.grasp_sets += r->grasp_sets;
+    report.grasps += r->grasps;
+    report.warnings.insert(report.warnings.end(), r->warnings.begin(), r->warnings.end());
+    report.archive_bytes += r->archive.size;
+    report.unpacked_bytes += r->archive.unpacked_bytes;
+    sizes[r->archive.name] = static_cast<double>(r->archive.size) / (1024.0 * 1024.0);
+    if (options.progress) options.progress(i + 1, n);
+    manifest.archives.push_back(std::move(r->archive));
+  }
+  for (auto& t : pool) t.join();
+  if (first_error) std::rethrow_exception(first_error);
+
+  // The original's tries: {archive: nested {component: ...}, leaves {}}, built from the
+  // member listings we already have in the archives' order.
+  for (const PackageArchive& a : manifest.archives) {
+    FlatJson trie = FlatJson::object();
+    for (const std::string& path : ListTarZst(tmp_dir / a.name)) {
+      FlatJson* node = &trie;
+      size_t start = 0;
+      for (;;) {
+        const size_t slash = path.find('/', start);
+        const std::string part = path.substr(start, slash == std::string::npos ? slash : slash - start);
+        node = &(*node)[part];
+        if (!node->is_object()) *node = FlatJson::object();
+        if (slash == std::string::npos) break;
+        start = slash + 1;
+      }
+    }
+    tries[a.name] = std::move(trie);
+  }
+
+  store.Finish();
+  for (std::string_view file : {kUidIndexFile, kMetadataStoreFile}) {
+    const FileDigest d = Sha256File(tmp_dir / std::string(file));
+    manifest.files[std::string(file)] = PackageFile{d.size, d.sha256};
+  }
+  manifest.num_assets = index.entries.size();
+  manifest.num_grasp_sets = report.grasp_sets;
+  manifest.num_grasps = report.grasps;
+  manifest.robots.assign(robots.begin(), robots.end());
+  WriteFileAtomic(tmp_dir / std::string(kOriginalSizeManifestFile), sizes.dump(1) + "\n", false);
+  WriteFileAtomic(tmp_dir / std::string(kOriginalTriesFile), Gzip(tries.dump()), false);
+  WriteFileAtomic(tmp_dir / std::string(kPackageManifestFile), manifest.Serialize(), false);
+  fs::remove_all(tmp_dir / ".staging");
+  {
+    // One flush for every file above, before the rename publishes them.
+    const int fd = ::open(tmp_dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+    if (fd >= 0) {
+      ::syncfs(fd);
+      ::close(fd);
+    }
+  }
+
+  if (fs::exists(final_dir, ec)) {
+    const fs::path old = parent / (options.version + ".old" + TempSuffix());
+    fs::rename(final_dir, old);
+    fs::rename(tmp_dir, final_dir);
+    fs::remove_all(old, ec);
+  } else {
+    fs::rename(tmp_dir, final_dir);
+  }
+  cleanup.dir.clear();
+  FsyncPath(parent, true, parent.string());
+
+  // <out>/mlspaces_sources.json: what this remote serves, merged with earlier packs.
+  const fs::path listing = fs::absolute(out_dir) / "mlspaces_sources.json";
+  Json sources = IsFile(listing) ? ParseJsonFile(listing) : Json::object();
+  if (!sources.is_object()) sources = Json::object();
+  sources[options.data_type][options.name] = options.version;
+  WriteFileAtomic(listing, DumpJsonIndent4(sources) + "\n");
+
+  report.package_dir = final_dir;
+  report.name = options.name;
+  report.version = options.version;
+  report.assets = index.entries.size();
+  report.archives = n;
+  return report;
+}
+
+}  // namespace mlspaces

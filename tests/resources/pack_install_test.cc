@@ -1,0 +1,414 @@
+// pack -> serve over HTTP -> install -> locate -> load grasps, and the install's fault
+// tolerance: truncated transfers, flipped bytes, HTTP 500, the server gone, SIGKILLed
+// installers and concurrent installers. Every fault is followed by a plain rerun that must
+// complete with nothing corrupt and no manual clean-up.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdlib>
+#include <filesystem>
+#include <thread>
+
+#include "http_test_server.h"
+#include "library_fixture.h"
+#include "mlspaces/core/registry.h"
+#include "mlspaces/resources/archive.h"
+#include "mlspaces/resources/installer.h"
+#include "mlspaces/resources/pack.h"
+#include "mlspaces/resources/package.h"
+#include "mlspaces/resources/sha256.h"
+#include "test_util.h"
+
+namespace mlspaces {
+namespace {
+namespace fs = std::filesystem;
+using ::testing::HasSubstr;
+using testing::ExpectError;
+using testing::FixtureUid;
+using testing::RunCli;
+using testing::Slurp;
+using testing::TempDir;
+
+constexpr size_t kAssets = 24;
+
+/// A packed fixture library ("fixlib", version "1", 3 assets per archive) under <tmp>/remote.
+class PackInstallTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    library = tmp / "library";
+    testing::MakeFixtureLibrary(library, kAssets);
+    remote = tmp / "remote";
+    PackOptions options;
+    options.name = "fixlib";
+    options.version = "1";
+    options.assets_per_archive = 3;
+    report = PackLibrary(library, remote, options);
+    package = remote / "objects" / "fixlib" / "1";
+    manifest = PackageManifest::Load(package / "mlspaces_package.json");
+  }
+
+  ResourceSettings Settings(const std::string& url) const {
+    ResourceSettings s;
+    s.cache_dir = tmp / "cache";
+    s.assets_dir = tmp / "assets";
+    s.remote_url = url;
+    s.versions = BuiltinSourceVersions();
+    s.versions["objects"]["fixlib"] = "1";
+    return s;
+  }
+
+  /// The environment for CLI runs against `url`.
+  std::string Env(const std::string& url) const {
+    return "env MLSPACES_CACHE_DIR=" + testing::ShellQuote((tmp / "cache").string()) +
+           " MLSPACES_ASSETS_DIR=" + testing::ShellQuote((tmp / "assets").string()) +
+           " MLSPACES_REMOTE_URL=" + testing::ShellQuote(url) + " MLSPACES_PINNED_ASSETS_FILE= ";
+  }
+
+  /// Registry over the assets dir, and one over the unpacked library, for comparisons.
+  Registry Installed() const {
+    Registry::Options o;
+    o.assets_dir = tmp / "assets";
+    return Registry(o);
+  }
+  Registry Unpacked() const {
+    Registry r;
+    r.RegisterAssetLibrary("fixlib", library);
+    r.RegisterGraspLibrary("fixlib", library, "fixlib");
+    return r;
+  }
+
+  /// Every installed file matches the manifest, and the grasps of every installed UID equal
+  /// the unpacked library's.
+  void ExpectIntactInstall(size_t expect_archives) {
+    Installer installer(Settings("file:///nonexistent"));
+    size_t checked = 0;
+    const auto problems = installer.Verify({}, false, &checked);
+    for (const auto& p : problems) ADD_FAILURE() << p.file << ": " << p.message;
+    size_t flags = 0;
+    for (const PackageArchive& a : manifest.archives) {
+      flags += fs::exists(tmp / "cache" / "objects" / "fixlib" / "1" / ExtractFlagName(a.name));
+    }
+    EXPECT_EQ(flags, expect_archives);
+    EXPECT_GT(checked, 0u);
+    // No temp, partial or staging files left behind.
+    const fs::path dir = tmp / "cache" / "objects" / "fixlib" / "1";
+    for (const auto& e : fs::recursive_directory_iterator(dir)) {
+      const std::string name = e.path().filename().string();
+      EXPECT_EQ(name.find(".tmp."), std::string::npos) << e.path();
+      EXPECT_EQ(name.find(".part"), std::string::npos) << e.path();
+    }
+    EXPECT_FALSE(fs::exists(dir / ".mlspaces" / "staging") &&
+                 !fs::is_empty(dir / ".mlspaces" / "staging"));
+  }
+
+  TempDir tmp;
+  fs::path library, remote, package;
+  PackReport report;
+  PackageManifest manifest;
+};
+
+TEST_F(PackInstallTest, PackWritesArchivesStoresAndManifests) {
+  EXPECT_EQ(report.assets, kAssets);
+  EXPECT_EQ(report.archives, 8u);
+  EXPECT_EQ(manifest.name, "fixlib");
+  EXPECT_EQ(manifest.version, "1");
+  EXPECT_EQ(manifest.num_assets, kAssets);
+  EXPECT_EQ(manifest.robots, (std::vector<std::string>{"droid", "rum"}));
+  ASSERT_EQ(manifest.archives.size(), 8u);
+  // Every file's size and SHA-256 are right.
+  for (const PackageArchive& a : manifest.archives) {
+    const FileDigest d = Sha256File(package / a.name);
+    EXPECT_EQ(d.size, a.size);
+    EXPECT_EQ(d.sha256, a.sha256);
+    EXPECT_EQ(a.assets, 3u);
+  }
+  for (const auto& [file, info] : manifest.files) {
+    EXPECT_EQ(Sha256File(package / file).sha256, info.sha256) << file;
+  }
+  // The first archive holds its assets' folders (meshes too), the shard and the listing, and
+  // not the grasp NPZs (their poses are in the shard).
+  const std::vector<std::string> members = ListTarZst(package / "fixlib_00000.tar.zst");
+  EXPECT_THAT(members, ::testing::Contains("obj_1000/obj_1000.xml"));
+  EXPECT_THAT(members, ::testing::Contains("obj_1000/meshes/part.obj"));
+  EXPECT_THAT(members, ::testing::Contains("obj_1000/obj_1000.npz"));
+  EXPECT_THAT(members, ::testing::Contains(".mlspaces/grasps/fixlib_00000.mlsg"));
+  EXPECT_THAT(members, ::testing::Contains(".mlspaces/members/fixlib_00000.json"));
+  EXPECT_THAT(members, ::testing::Not(::testing::Contains("obj_1000/droid/grasps.npz")));
+  // The remote lists what it serves; the original's size manifest and tries load in Python.
+  EXPECT_THAT(Slurp(remote / "mlspaces_sources.json"), HasSubstr("\"fixlib\": \"1\""));
+  std::string out;
+  ASSERT_EQ(testing::RunPython(tmp.path(), R"(
+import gzip, json, sys
+d = sys.argv[1]
+sizes = json.load(open(d + '/mjthor_resource_file_to_size_mb.json'))
+tries = json.load(gzip.open(d + '/mjthor_resources_combined_meta.json.gz'))
+assert sorted(sizes) == sorted(tries), (sorted(sizes), sorted(tries))
+print(len(sizes), sorted(tries['fixlib_00000.tar.zst']['obj_1000']))
+)", testing::ShellQuote(package.string()), &out), 0);
+  EXPECT_EQ(out, "8 ['meshes', 'obj_1000.json', 'obj_1000.npz', 'obj_1000.xml']\n");
+}
+
+TEST_F(PackInstallTest, PackIsDeterministicAndRefusesToOverwrite) {
+  PackOptions options;
+  options.name = "fixlib";
+  options.version = "1";
+  options.assets_per_archive = 3;
+  options.threads = 1;  // other scheduling than the fixture's: same bytes
+  PackLibrary(library, tmp / "remote2", options);
+  for (const auto& e : fs::recursive_directory_iterator(package)) {
+    if (!e.is_regular_file()) continue;
+    const fs::path other = tmp / "remote2" / "objects" / "fixlib" / "1" / e.path().lexically_relative(package);
+    EXPECT_EQ(Slurp(e.path()), Slurp(other)) << e.path();
+  }
+  ExpectError([&] { PackLibrary(library, remote, options); },
+              {"already exists", "--overwrite"});
+  options.overwrite = true;
+  EXPECT_NO_THROW(PackLibrary(library, remote, options));
+  ExpectError([&] { PackLibrary(tmp / "nowhere", remote, options); },
+              {"no assets_index.json", "index-assets"});
+  options.name = "bad/name";
+  EXPECT_THROW(PackLibrary(library, remote, options), UsageError);
+}
+
+TEST_F(PackInstallTest, ServeInstallLocateAndLoadGrasps) {
+  testing::HttpTestServer server(remote);
+  Installer installer(Settings(server.url()));
+  const InstallPlan plan = installer.PlanUids({FixtureUid(4), FixtureUid(5)});
+  ASSERT_EQ(plan.archives.size(), 1u);  // both in archive 1 (assets 3, 4, 5)
+  EXPECT_EQ(plan.archives[0].archive, "fixlib_00001.tar.zst");
+  EXPECT_EQ(plan.download_bytes, manifest.archives[1].size);
+  installer.Install(plan);
+  ExpectIntactInstall(1);
+
+  // Lookups through the assets dir: the packed library answers, for installed and not.
+  const Registry installed = Installed();
+  const Registry unpacked = Unpacked();
+  const auto loc = installed.Locate(FixtureUid(4));
+  ASSERT_TRUE(loc);
+  EXPECT_EQ(loc->library, "fixlib");
+  EXPECT_EQ(loc->archive, "fixlib_00001.tar.zst");
+  EXPECT_TRUE(loc->installed);
+  EXPECT_EQ(loc->mjcf_path, tmp / "assets" / "objects" / "fixlib" / "obj_1004" / "obj_1004.xml");
+  EXPECT_EQ(Slurp(loc->mjcf_path), Slurp(library / "obj_1004" / "obj_1004.xml"));
+  const auto other = installed.Locate(FixtureUid(0));
+  ASSERT_TRUE(other);
+  EXPECT_FALSE(other->installed);
+  EXPECT_FALSE(installed.Locate("obj_9999"));
+
+  // Annotations and grasps equal the unpacked library's, draws included.
+  for (int uid_i : {3, 4, 5}) {
+    const std::string uid = FixtureUid(uid_i);
+    auto a = installed.GetAnnotation(uid);
+    auto b = unpacked.GetAnnotation(uid);
+    ASSERT_TRUE(a && b);
+    EXPECT_EQ(a->json, b->json);
+    EXPECT_EQ(a->ToJson(), b->ToJson());
+    for (size_t num : {2u, 50u}) {
+      const std::vector<std::string> filter_a = {"fixlib/droid"}, filter_b = {"fixlib/droid"};
+      GraspSet ga = installed.LoadPickupGrasps(uid, filter_a, num, 7);
+      GraspSet gb = unpacked.LoadPickupGrasps(uid, filter_b, num, 7);
+      EXPECT_EQ(ga.indices, gb.indices);
+      ASSERT_EQ(ga.poses.size(), gb.poses.size());
+      for (size_t i = 0; i < ga.poses.size(); ++i) EXPECT_EQ(ga.poses[i].m, gb.poses[i].m);
+    }
+    EXPECT_EQ(installed.HasValidJointGrasps(uid, "hinge", 4), uid_i % 3 == 0);
+    EXPECT_EQ(installed.GraspLibrariesFor(uid), unpacked.GraspLibrariesFor(uid));
+  }
+  GraspSet joint = installed.LoadJointGrasps(FixtureUid(3), "hinge");
+  EXPECT_EQ(joint.poses.size(), 4u);
+  // Grasps of a UID whose archive is not installed are not there yet.
+  EXPECT_FALSE(installed.HasValidPickupGrasps(FixtureUid(0)));
+
+  // The CLI reads the same install.
+  const auto cli = RunCli({"locate", FixtureUid(0)}, Env(server.url()));
+  EXPECT_EQ(cli.exit_code, 0) << cli.err;
+  EXPECT_THAT(cli.out, HasSubstr("archive: fixlib_00000.tar.zst (not installed"));
+  const auto grasps = RunCli({"grasps", FixtureUid(4), "--num", "2"}, Env(server.url()));
+  EXPECT_EQ(grasps.exit_code, 0) << grasps.err;
+}
+
+TEST_F(PackInstallTest, InstallLibraryWhereWithSizeEstimateAndVerify) {
+  testing::HttpTestServer server(remote);
+  const auto dry = RunCli({"install", "--library", "fixlib", "--where", "category=mug",
+                           "--dry-run"}, Env(server.url()));
+  ASSERT_EQ(dry.exit_code, 0) << dry.err;
+  // 12 mugs (even i) spread over all 8 archives.
+  EXPECT_THAT(dry.out, HasSubstr("12 assets in 8 archives to install"));
+  const auto tagged = RunCli({"install", "--library", "fixlib", "--where", "tags=t1", "-q"},
+                             Env(server.url()));
+  ASSERT_EQ(tagged.exit_code, 0) << tagged.err;
+  EXPECT_THAT(tagged.out, HasSubstr("8 assets in"));
+  const auto all = RunCli({"install", "--library", "fixlib", "-q"}, Env(server.url()));
+  ASSERT_EQ(all.exit_code, 0) << all.err;
+  ExpectIntactInstall(8);
+  const auto verify = RunCli({"verify"}, Env(server.url()));
+  EXPECT_EQ(verify.exit_code, 0) << verify.out << verify.err;
+  EXPECT_THAT(verify.out, HasSubstr(": ok"));
+
+  // Damage one installed file: verify names it; --repair unflags its archive; install again.
+  const fs::path mesh = tmp / "cache" / "objects" / "fixlib" / "1" / "obj_1007" / "meshes" / "part.obj";
+  fs::permissions(mesh, fs::perms::owner_write, fs::perm_options::add);
+  testing::WriteText(mesh, "damaged");
+  const auto bad = RunCli({"verify", "--repair"}, Env(server.url()));
+  EXPECT_EQ(bad.exit_code, 1);
+  EXPECT_THAT(bad.out, HasSubstr("obj_1007/meshes/part.obj: size 7"));
+  const auto again = RunCli({"install", FixtureUid(7), "-q"}, Env(server.url()));
+  ASSERT_EQ(again.exit_code, 0) << again.err;
+  ExpectIntactInstall(8);
+
+  const auto unknown = RunCli({"install", "nope_uid"}, Env(server.url()));
+  EXPECT_EQ(unknown.exit_code, 1);
+  EXPECT_THAT(unknown.err, HasSubstr("nope_uid not found in object sources ["));
+  EXPECT_THAT(unknown.err, HasSubstr("fixlib"));
+  const auto usage = RunCli({"install"}, Env(server.url()));
+  EXPECT_EQ(usage.exit_code, 2);
+}
+
+TEST_F(PackInstallTest, FaultsThenAPlainRerunCompletes) {
+  testing::HttpTestServer server(remote);
+  const std::string a0 = "/objects/fixlib/1/fixlib_00000.tar.zst";
+  const std::string a1 = "/objects/fixlib/1/fixlib_00001.tar.zst";
+  const std::string a2 = "/objects/fixlib/1/fixlib_00002.tar.zst";
+  const std::string idx = "/objects/fixlib/1/uid_index.mlsx";
+  InstallOptions quick;
+  quick.retries = 1;
+  // Truncated transfer (resumed by the retry), one flipped byte (a checksum error: this run
+  // fails), HTTP 500 (retried), and a store file cut short.
+  server.SetFaults("{\"" + a0 + "\": [{\"mode\": \"truncate\", \"after\": 100}],"
+                   "\"" + a1 + "\": [{\"mode\": \"flip\", \"after\": 50}],"
+                   "\"" + a2 + "\": [{\"mode\": \"500\"}],"
+                   "\"" + idx + "\": [{\"mode\": \"truncate\", \"after\": 10}]}");
+  {
+    Installer installer(Settings(server.url()), quick);
+    const InstallPlan plan = installer.PlanUids({FixtureUid(0), FixtureUid(3), FixtureUid(6)});
+    ExpectError([&] { installer.Install(plan); }, {"fixlib_00001.tar.zst"});
+  }
+  bool resumed = false;
+  for (const std::string& line : server.LogLines()) {
+    resumed |= line.find(a0) != std::string::npos && line.find("bytes=100-") != std::string::npos;
+  }
+  EXPECT_TRUE(resumed) << "the truncated download was not resumed with a Range request";
+  {
+    Installer installer(Settings(server.url()), quick);
+    installer.Install(installer.PlanUids({FixtureUid(0), FixtureUid(3), FixtureUid(6)}));
+  }
+  ExpectIntactInstall(3);
+
+  // The server gone in the middle of a transfer: an error; back again: the rerun completes.
+  server.SetFaults("{\"/objects/fixlib/1/fixlib_00003.tar.zst\": [{\"mode\": \"hang\", \"after\": 64}]}");
+  std::thread killer([&] {
+    std::this_thread::sleep_for(std::chrono::milliseconds(500));
+    server.Kill();
+  });
+  {
+    Installer installer(Settings(server.url()), quick);
+    const InstallPlan plan = installer.PlanUids({FixtureUid(9)});
+    EXPECT_THROW(installer.Install(plan), Error);
+  }
+  killer.join();
+  testing::HttpTestServer back(remote);
+  {
+    Installer installer(Settings(back.url()), quick);
+    installer.Install(installer.PlanUids({FixtureUid(9)}));
+  }
+  ExpectIntactInstall(4);
+}
+
+TEST_F(PackInstallTest, KilledInstallersAtRandomMomentsResumeToAnIntactInstall) {
+  testing::HttpTestServer server(remote);
+  const std::string env = Env(server.url());
+  // How long an uninterrupted install takes, to spread the kills over it.
+  const auto t0 = std::chrono::steady_clock::now();
+  ASSERT_EQ(RunCli({"install", "--library", "fixlib", "-q", "-j", "2"}, env).exit_code, 0);
+  const double full_ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  Rng rng(2026);
+  int interrupted = 0;  // trials whose kill left the install unfinished
+  for (int trial = 0; trial < 20; ++trial) {
+    fs::remove_all(tmp / "cache");
+    fs::remove_all(tmp / "assets");
+    const int delay_ms = static_cast<int>(rng.Uniform(0, 0.9 * full_ms));
+    const pid_t pid = ::fork();
+    ASSERT_GE(pid, 0);
+    if (pid == 0) {
+      const std::string cmd = env + testing::ShellQuote(MLSPACES_CLI_PATH) +
+                              " install --library fixlib -q -j 2 >/dev/null 2>&1";
+      ::execl("/bin/sh", "sh", "-c", ("exec " + cmd).c_str(), static_cast<char*>(nullptr));
+      ::_exit(127);
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(delay_ms));
+    ::kill(pid, SIGKILL);
+    int status = 0;
+    ::waitpid(pid, &status, 0);
+    size_t flagged = 0;
+    for (const PackageArchive& a : manifest.archives) {
+      flagged += fs::exists(tmp / "cache" / "objects" / "fixlib" / "1" / ExtractFlagName(a.name));
+    }
+    interrupted += flagged < manifest.archives.size();
+    const auto rerun = RunCli({"install", "--library", "fixlib", "-q"}, env);
+    ASSERT_EQ(rerun.exit_code, 0) << "trial " << trial << " (kill after " << delay_ms
+                                  << " ms): " << rerun.err;
+    ExpectIntactInstall(8);
+    if (HasFailure()) FAIL() << "trial " << trial << ", kill after " << delay_ms << " ms";
+  }
+  // The kills must land inside installs for the test to mean anything.
+  EXPECT_GE(interrupted, 10);
+}
+
+TEST_F(PackInstallTest, ConcurrentInstallersShareOneCache) {
+  testing::HttpTestServer server(remote);
+  const std::string env = Env(server.url());
+  std::vector<pid_t> pids;
+  for (int i = 0; i < 3; ++i) {
+    const pid_t pid = ::fork();
+    ASSERT_GE(pid, 0);
+    if (pid == 0) {
+      const std::string cmd = env + testing::ShellQuote(MLSPACES_CLI_PATH) +
+                              " install --library fixlib -q >/dev/null 2>&1";
+      ::execl("/bin/sh", "sh", "-c", ("exec " + cmd).c_str(), static_cast<char*>(nullptr));
+      ::_exit(127);
+    }
+    pids.push_back(pid);
+  }
+  for (pid_t pid : pids) {
+    int status = 0;
+    ::waitpid(pid, &status, 0);
+    EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0);
+  }
+  ExpectIntactInstall(8);
+}
+
+TEST_F(PackInstallTest, SettingsAndPinsFromTheEnvironment) {
+  const fs::path pins = tmp / "pins.json";
+  testing::WriteText(pins, "{\"objects\": {\"fixlib\": \"1\", \"objaverse\": null}}");
+  ::setenv("MLSPACES_CACHE_DIR", (tmp / "c").c_str(), 1);
+  ::setenv("MLSPACES_ASSETS_DIR", (tmp / "a").c_str(), 1);
+  ::setenv("MLSPACES_PINNED_ASSETS_FILE", pins.c_str(), 1);
+  ::setenv("MLSPACES_REMOTE_URL", "http://127.0.0.1:9/x", 1);
+  ResourceSettings s = ResourceSettings::FromEnvironment();
+  EXPECT_EQ(s.cache_dir, tmp / "c");
+  EXPECT_EQ(s.assets_dir, tmp / "a");
+  EXPECT_EQ(s.Version("objects", "fixlib"), "1");
+  EXPECT_EQ(s.Version("objects", "thor"), "20251117");
+  EXPECT_FALSE(s.Version("objects", "objaverse"));
+  EXPECT_EQ(s.Url("objects", "thor", "20251117", "a.tar.zst"),
+            "http://127.0.0.1:9/x/objects/thor/20251117/a.tar.zst");
+  EXPECT_EQ(ResourceSettings::FromEnvironment("http://other/").remote_url, "http://other/");
+  testing::WriteText(pins, "{\"objects\": {\"fixlib\": 3}}");
+  ExpectError([] { ResourceSettings::FromEnvironment(); }, {"pins.json", "/objects/fixlib"});
+  ::setenv("MLSPACES_PINNED_ASSETS_FILE", (tmp / "missing.json").c_str(), 1);
+  ExpectError([] { ResourceSettings::FromEnvironment(); }, {"Could not find pinned assets file"});
+  ::unsetenv("MLSPACES_PINNED_ASSETS_FILE");
+  ::setenv("MLSPACES_ASSETS_DIR", (tmp / "c" / "inside").c_str(), 1);
+  ExpectError([] { ResourceSettings::FromEnvironment(); }, {"is inside cache dir"});
+  ::unsetenv("MLSPACES_CACHE_DIR");
+  ::unsetenv("MLSPACES_ASSETS_DIR");
+  ::unsetenv("MLSPACES_REMOTE_URL");
+}
+
+}  // namespace
+}  // namespace mlspaces

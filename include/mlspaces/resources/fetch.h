@@ -15,7 +15,7 @@ struct FetchOptions {
   int retries = 3;
   /// Seconds between attempts (doubles each time).
   double retry_delay_s = 0.2;
-  /// Abort a transfer that moves fewer than 1 byte/s for this long.
+  /// Abort (and retry) a transfer that receives no byte for this many seconds.
   long stall_timeout_s = 30;
   long connect_timeout_s = 10;
   /// Called with (bytes so far, total or 0 when unknown); may be empty.

@@ -1,5 +1,7 @@
 // An inter-process lock on a file (flock): released by the kernel when its holder dies, so a
-// crashed installer never leaves a lock behind that needs manual clean-up.
+// crashed installer never leaves a lock behind that needs manual clean-up. As with any flock,
+// a child forked while the lock is held inherits it: the lock is released when the last of
+// them closes the descriptor (exec closes it: O_CLOEXEC).
 #pragma once
 
 #include <filesystem>

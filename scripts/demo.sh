@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # README command 1: install what is missing, build, and run the main job on the bundled
 # example (examples/custom_assets, the seed tutorial): index the asset and grasp libraries,
-# validate them, look the red block's asset, metadata and grasps up, then generate pick
+# validate them, look the red block's asset, metadata and grasps up, publish the library as a
+# package and install the red block from it (file:// remote), then generate pick
 # demonstrations with camera videos from the tutorial's datagen config, validate the dataset
 # and load it with h5py.
 set -euo pipefail
@@ -22,6 +23,16 @@ set -x
 "$ML" meta red_block --libraries libraries.yaml
 "$ML" grasps red_block --libraries libraries.yaml --robot droid --num 1 --out red_block_grasps.npz
 /usr/bin/python3 -c "import numpy as np; print(np.load('red_block_grasps.npz')['transforms'])"
+# Publish the library as a versioned package, serve it as a file:// remote, install the red
+# block (and its grasps) into a private cache and assets dir, and look it up from there.
+"$ML" pack asset_library remote --name custom_assets --version 1 -q
+export MLSPACES_CACHE_DIR="$OUT/cache" MLSPACES_ASSETS_DIR="$OUT/assets"
+export MLSPACES_REMOTE_URL="file://$OUT/remote" MLSPACES_PINNED_ASSETS_FILE=
+"$ML" install red_block -q
+"$ML" verify custom_assets
+"$ML" locate red_block
+"$ML" grasps red_block --num 1
+unset MLSPACES_CACHE_DIR MLSPACES_ASSETS_DIR MLSPACES_REMOTE_URL MLSPACES_PINNED_ASSETS_FILE
 "$ML" config datagen.yaml > resolved_datagen_config.yaml
 head -5 resolved_datagen_config.yaml
 # The tutorial's last step: pick demonstrations of the Franka DROID robot, with the wrist and

@@ -396,6 +396,7 @@ InstallPlan Installer::PlanUids(const std::vector<std::string>& uids) {
     }
   }
   std::vector<std::pair<const InstalledSource*, std::shared_ptr<const PackedLibrary>>> libs;
+  std::string skipped;
   for (const std::string& name : order) {
     const auto key = std::make_pair(std::string("objects"), name);
     if (impl.not_packages.count(key) != 0) continue;
@@ -406,8 +407,12 @@ InstallPlan Installer::PlanUids(const std::vector<std::string>& uids) {
       libs.emplace_back(&impl.sources.at(key), lib);
     } catch (const Error& e) {
       if (impl.not_packages.count(key) == 0) throw;
-      impl.Note("skipping objects/" + name + ": " + e.message());
+      skipped += (skipped.empty() ? "" : ", ") + name;
     }
+  }
+  if (!skipped.empty()) {
+    impl.Note("not searched (no mlspaces package on " + impl.settings.remote_url +
+              "; MolmoSpaces-format sources are not installable yet): " + skipped);
   }
   InstallPlan plan;
   std::set<std::pair<const InstalledSource*, uint32_t>> seen;

@@ -152,6 +152,11 @@ class PackedLibrary {
   std::vector<Mat4> ReadGrasps(const PackedGraspRef& ref,
                                const std::vector<size_t>* rows = nullptr) const;
 
+  /// Walks the whole store: both files' checksums, every bucket, record, grasp ref and
+  /// metadata record (UIDs sorted, each found by its hash). Touches every page; for tests and
+  /// `validate`, not for lookups. Grasp shards are not read. @throws Error naming the file.
+  void Check() const;
+
  private:
   PackedLibrary();
   struct Impl;

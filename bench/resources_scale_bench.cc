@@ -126,6 +126,7 @@ int main(int argc, char** argv) {
               "(%zu checksum)\n", rss0, RssKb(), sink % 10);
 
   // Resident memory of a process that only opens the library and locates 10,000 UIDs.
+  std::fflush(stdout);
   const pid_t pid = ::fork();
   if (pid == 0) {
     lib.reset();

@@ -1282,4 +1282,12 @@ void PackedLibrary::Check() const {
   }
 }
 
+std::string ExtractFlagName(const std::string& archive) {
+  std::string name = archive;
+  for (size_t pos = 0; (pos = name.find('/', pos)) != std::string::npos; pos += 2) {
+    name.replace(pos, 1, "__");
+  }
+  return "." + name + "_complete_extract";
+}
+
 }  // namespace mlspaces

@@ -14,6 +14,7 @@
 
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
@@ -192,9 +193,23 @@ struct Registry::Impl {
     StringMap<fs::path> uids;
     std::vector<DuplicateUid> duplicates;  ///< stems seen twice in this library
   };
+  /// A packed library and which of its archives are known to be installed: checked with
+  /// one stat of the archive's extraction flag, and remembered once seen (an install only
+  /// adds flags), so hot lookups make no system calls.
+  struct PackedEntry {
+    std::shared_ptr<const PackedLibrary> lib;
+    std::unique_ptr<std::atomic<bool>[]> installed;
+    bool Installed(uint32_t archive) const {
+      if (installed[archive].load(std::memory_order_relaxed)) return true;
+      if (!IsFile(lib->dir() / ExtractFlagName(lib->archives()[archive]))) return false;
+      installed[archive].store(true, std::memory_order_relaxed);
+      return true;
+    }
+  };
   struct GraspLibrary {
     GraspLibraryInfo info;
     const PackedLibrary* packed = nullptr;     ///< packed grasp library: its store
+    const PackedEntry* packed_entry = nullptr; ///< its installed-archive cache
     StringMap<fs::path> pickup;                ///< uid -> absolute path
     StringMap<StringMap<fs::path>> joints;     ///< uid -> joint -> absolute path
   };
@@ -210,11 +225,12 @@ struct Registry::Impl {
   mutable BuiltinScan thor_scan, objaverse_scan;
   const BuiltinScan empty_scan;
   /// Packed libraries (assets dir and RegisterPackedLibrary), by name.
-  StringMap<std::shared_ptr<const PackedLibrary>> packed;
+  StringMap<PackedEntry> packed;
   /// Built-in and packed sources in lookup order: thor, then alphabetically.
   struct Source {
     std::string name;
     const PackedLibrary* packed = nullptr;  ///< else a scanned built-in
+    const PackedEntry* entry = nullptr;
   };
   std::vector<Source> sources;
 
@@ -254,18 +270,22 @@ struct Registry::Impl {
   /// Opens a package and makes its grasp libraries "<name>/<robot>", ahead of any others
   /// serving the same name. @throws Error.
   void AddPacked(const std::string& name, const fs::path& dir) {
-    auto lib = PackedLibrary::Open(dir, name);
+    PackedEntry entry;
+    entry.lib = PackedLibrary::Open(dir, name);
+    entry.installed = std::make_unique<std::atomic<bool>[]>(entry.lib->archives().size());
+    const PackedLibrary* lib = entry.lib.get();
+    auto [slot, inserted] = packed.emplace(name, std::move(entry));
     std::vector<std::string> names;
     for (const std::string& robot : lib->robots()) {
       auto g = std::make_unique<GraspLibrary>();
       g->info = {name + "/" + robot, robot, lib->dir(), name, true};
-      g->packed = lib.get();
+      g->packed = lib;
+      g->packed_entry = &slot->second;
       names.push_back(g->info.name);
       grasp_libraries.emplace(g->info.name, std::move(g));
     }
     std::vector<std::string>& list = grasp_lists[name];
     list.insert(list.begin(), names.begin(), names.end());
-    packed.emplace(name, std::move(lib));
   }
 
   void RebuildSources() {
@@ -280,27 +300,28 @@ struct Registry::Impl {
     });
     for (const std::string& name : names) {
       auto it = packed.find(name);
-      sources.push_back({name, it == packed.end() ? nullptr : it->second.get()});
+      if (it == packed.end()) {
+        sources.push_back({name, nullptr, nullptr});
+      } else {
+        sources.push_back({name, it->second.lib.get(), &it->second});
+      }
     }
   }
 
-  /// A source's hit: MJCF path (and archive for packed ones).
+  /// A source's hit: the MJCF path.
   struct Hit {
     fs::path mjcf;
-    std::string archive;
-    std::optional<PackedAsset> asset;
   };
   std::optional<Hit> FindIn(const Source& src, std::string_view uid) const {
     if (src.packed != nullptr) {
       std::optional<PackedAsset> asset = src.packed->Find(uid);
       if (!asset) return std::nullopt;
-      return Hit{src.packed->dir() / std::string(asset->mjcf),
-                 src.packed->archives()[asset->archive], asset};
+      return Hit{src.packed->dir() / std::string(asset->mjcf)};
     }
     const BuiltinScan* scan = Scan(src.name);
     auto it = scan->uids.find(uid);
     if (it == scan->uids.end()) return std::nullopt;
-    return Hit{it->second, {}, std::nullopt};
+    return Hit{it->second};
   }
 
   const BuiltinScan* Scan(std::string_view library) const {
@@ -365,10 +386,9 @@ struct Registry::Impl {
 
   /// Every library holding a UID, in priority order, with its MJCF path.
   void Holders(std::string_view uid, std::vector<std::string>& libraries,
-               std::vector<fs::path>& paths, std::string* first_archive = nullptr) const {
+               std::vector<fs::path>& paths) const {
     for (const Source& src : sources) {
       if (std::optional<Hit> hit = FindIn(src, uid)) {
-        if (first_archive != nullptr && libraries.empty()) *first_archive = hit->archive;
         libraries.push_back(src.name);
         paths.push_back(std::move(hit->mjcf));
       }
@@ -415,9 +435,11 @@ struct Registry::Impl {
     if (!asset) return std::nullopt;
     std::optional<PackedGraspRef> ref = lib.packed->FindGrasps(*asset, lib.info.robot, joint);
     if (!ref) return std::nullopt;
-    fs::path shard = lib.packed->GraspShardPath(ref->archive);
-    if (!IsFile(shard)) return std::nullopt;  // not installed, as a missing NPZ
-    return GraspFileLocation{lib.info.name, std::move(shard), ref};
+    // Not installed: missing, as a built-in NPZ that is not installed yet.
+    if (!lib.packed_entry->Installed(ref->archive)) {
+      return std::nullopt;
+    }
+    return GraspFileLocation{lib.info.name, lib.packed->GraspShardPath(ref->archive), ref};
   }
 
   GraspSet LoadSubsampled(const GraspFileLocation& loc, size_t num_grasps, uint64_t seed) const;
@@ -629,7 +651,7 @@ void Registry::RegisterPackedLibrary(const std::string& name, const fs::path& di
 
 std::shared_ptr<const PackedLibrary> Registry::FindPackedLibrary(std::string_view name) const {
   auto it = impl_->packed.find(name);
-  return it == impl_->packed.end() ? nullptr : it->second;
+  return it == impl_->packed.end() ? nullptr : it->second.lib;
 }
 
 std::vector<std::string> Registry::asset_libraries() const {
@@ -702,33 +724,54 @@ size_t Registry::num_uids() const { return impl_->uids.size(); }
 
 std::optional<AssetLocation> Registry::Locate(std::string_view uid) const {
   const Impl& impl = *impl_;
-  if (impl.sources.empty()) {
-    // The common case: one hash lookup.
-    const Impl::UidRecord* rec = impl.FindUser(uid);
-    if (rec == nullptr) return std::nullopt;
-    AssetLocation loc;
-    loc.library = impl.user_libraries[rec->library]->name;
-    loc.mjcf_path = fs::path(rec->mjcf);
-    loc.entry = rec->entry;
-    if (rec->duplicate >= 0) {
-      const DuplicateUid& dup = impl.user_duplicates[static_cast<size_t>(rec->duplicate)];
-      loc.shadowed.assign(dup.libraries.begin() + 1, dup.libraries.end());
+  // Built-in and packed sources first (one probe each); only the winner's path is built.
+  std::optional<AssetLocation> loc;
+  for (const Impl::Source& src : impl.sources) {
+    if (src.packed != nullptr) {
+      const std::optional<PackedAsset> asset = src.packed->Find(uid);
+      if (!asset) continue;
+      if (loc) {
+        loc->shadowed.push_back(src.name);
+        continue;
+      }
+      loc.emplace();
+      loc->library = src.name;
+      loc->mjcf_path = src.packed->dir();
+      loc->mjcf_path /= asset->mjcf;
+      loc->archive = src.packed->archives()[asset->archive];
+      loc->installed = src.entry->Installed(asset->archive);
+    } else {
+      const Impl::BuiltinScan* scan = impl.Scan(src.name);
+      auto it = scan->uids.find(uid);
+      if (it == scan->uids.end()) continue;
+      if (loc) {
+        loc->shadowed.push_back(src.name);
+        continue;
+      }
+      loc.emplace();
+      loc->library = src.name;
+      loc->mjcf_path = it->second;
     }
+  }
+  // Then the user libraries: one hash lookup.
+  const Impl::UidRecord* rec = impl.FindUser(uid);
+  if (rec == nullptr) return loc;
+  std::vector<std::string> holders;
+  if (rec->duplicate >= 0) {
+    holders = impl.user_duplicates[static_cast<size_t>(rec->duplicate)].libraries;
+  } else {
+    holders.push_back(impl.user_libraries[rec->library]->name);
+  }
+  if (loc) {
+    loc->shadowed.insert(loc->shadowed.end(), holders.begin(), holders.end());
     return loc;
   }
-  std::vector<std::string> libraries;
-  std::vector<fs::path> paths;
-  AssetLocation loc;
-  impl.Holders(uid, libraries, paths, &loc.archive);
-  if (libraries.empty()) return std::nullopt;
-  loc.library = libraries.front();
-  loc.mjcf_path = paths.front();
-  if (!loc.archive.empty()) {
-    loc.installed = IsFile(loc.mjcf_path);
-  } else if (!IsBuiltinAssetLibrary(loc.library)) {
-    loc.entry = impl.FindUser(uid)->entry;
-  }
-  loc.shadowed.assign(libraries.begin() + 1, libraries.end());
+  loc.emplace();
+  loc->library = std::move(holders.front());
+  loc->mjcf_path = fs::path(rec->mjcf);
+  loc->entry = rec->entry;
+  loc->shadowed.assign(std::make_move_iterator(holders.begin() + 1),
+                       std::make_move_iterator(holders.end()));
   return loc;
 }
 

@@ -61,6 +61,7 @@ struct GraspFile {
 
 struct ArchiveResult {
   PackageArchive archive;
+  std::vector<std::string> members;  ///< archive paths, sorted (for the original's tries)
   std::vector<PackedAssetInput> assets;
   std::vector<std::unique_ptr<Annotation>> annotations;
   size_t grasp_sets = 0, grasps = 0;
@@ -366,6 +367,7 @@ PackReport PackLibrary(const fs::path& library_dir, const fs::path& out_dir, Pac
     WriteFileAtomic(listing_path, listing_text, false);
     members.push_back({listing_rel, listing_path});
     unpacked += listing_text.size();
+    for (const ArchiveMember& m : members) r.members.push_back(m.path);
 
     const fs::path archive_path = tmp_dir / plan.name;
     WriteTarZst(archive_path, members, ArchiveWriteOptions{options.zstd_level});
@@ -413,7 +415,23 @@ PackReport PackLibrary(const fs::path& library_dir, const fs::path& out_dir, Pac
   manifest.version = options.version;
   manifest.created_by = std::string("mlspaces ") + std::string(Version());
   FlatJson sizes = FlatJson::object();
+  // The original's tries: {archive: nested {component: ...}, leaves {}}.
   FlatJson tries = FlatJson::object();
+  auto add_trie = [&](const std::string& archive, const std::vector<std::string>& paths) {
+    FlatJson trie = FlatJson::object();
+    for (const std::string& path : paths) {
+      FlatJson* node = &trie;
+      size_t start = 0;
+      for (;;) {
+        const size_t slash = path.find('/', start);
+        node = &(*node)[path.substr(start, slash == std::string::npos ? slash : slash - start)];
+        if (!node->is_object()) *node = FlatJson::object();
+        if (slash == std::string::npos) break;
+        start = slash + 1;
+      }
+    }
+    tries[archive] = std::move(trie);
+  };
   std::set<std::string> robots;
   std::exception_ptr first_error;
   for (size_t i = 0; i < n; ++i) {
@@ -451,30 +469,12 @@ PackReport PackLibrary(const fs::path& library_dir, const fs::path& out_dir, Pac
     report.archive_bytes += r->archive.size;
     report.unpacked_bytes += r->archive.unpacked_bytes;
     sizes[r->archive.name] = static_cast<double>(r->archive.size) / (1024.0 * 1024.0);
+    add_trie(r->archive.name, r->members);
     if (options.progress) options.progress(i + 1, n);
     manifest.archives.push_back(std::move(r->archive));
   }
   for (auto& t : pool) t.join();
   if (first_error) std::rethrow_exception(first_error);
-
-  // The original's tries: {archive: nested {component: ...}, leaves {}}, built from the
-  // member listings we already have in the archives' order.
-  for (const PackageArchive& a : manifest.archives) {
-    FlatJson trie = FlatJson::object();
-    for (const std::string& path : ListTarZst(tmp_dir / a.name)) {
-      FlatJson* node = &trie;
-      size_t start = 0;
-      for (;;) {
-        const size_t slash = path.find('/', start);
-        const std::string part = path.substr(start, slash == std::string::npos ? slash : slash - start);
-        node = &(*node)[part];
-        if (!node->is_object()) *node = FlatJson::object();
-        if (slash == std::string::npos) break;
-        start = slash + 1;
-      }
-    }
-    tries[a.name] = std::move(trie);
-  }
 
   store.Finish();
   for (std::string_view file : {kUidIndexFile, kMetadataStoreFile}) {

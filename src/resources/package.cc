@@ -65,14 +65,6 @@ class Reader {
 
 }  // namespace
 
-std::string ExtractFlagName(const std::string& archive) {
-  std::string name = archive;
-  for (size_t pos = 0; (pos = name.find('/', pos)) != std::string::npos; pos += 2) {
-    name.replace(pos, 1, "__");
-  }
-  return "." + name + "_complete_extract";
-}
-
 std::string PackageManifest::Serialize() const {
   Json out = Json::object();
   out["format"] = "mlspaces-package";

@@ -35,6 +35,19 @@ using testing::TempDir;
 
 constexpr size_t kAssets = 24;
 
+/// Starts `mlspaces ARGS` (shell words) in a child process with `env` before it, output
+/// discarded; the pid is the CLI's own (exec), so a SIGKILL hits it.
+pid_t SpawnCli(const std::string& env, const std::string& args) {
+  const pid_t pid = ::fork();
+  if (pid == 0) {
+    const std::string cmd = "exec " + env + testing::ShellQuote(MLSPACES_CLI_PATH) + " " + args +
+                            " >/dev/null 2>&1";
+    ::execl("/bin/sh", "sh", "-c", cmd.c_str(), static_cast<char*>(nullptr));
+    ::_exit(127);
+  }
+  return pid;
+}
+
 /// A packed fixture library ("fixlib", version "1", 3 assets per archive) under <tmp>/remote.
 class PackInstallTest : public ::testing::Test {
  protected:
@@ -332,14 +345,8 @@ TEST_F(PackInstallTest, KilledInstallersAtRandomMomentsResumeToAnIntactInstall) 
     fs::remove_all(tmp / "cache");
     fs::remove_all(tmp / "assets");
     const int delay_ms = static_cast<int>(rng.Uniform(0, 0.9 * full_ms));
-    const pid_t pid = ::fork();
+    const pid_t pid = SpawnCli(env, "install --library fixlib -q -j 2");
     ASSERT_GE(pid, 0);
-    if (pid == 0) {
-      const std::string cmd = env + testing::ShellQuote(MLSPACES_CLI_PATH) +
-                              " install --library fixlib -q -j 2 >/dev/null 2>&1";
-      ::execl("/bin/sh", "sh", "-c", ("exec " + cmd).c_str(), static_cast<char*>(nullptr));
-      ::_exit(127);
-    }
     std::this_thread::sleep_for(std::chrono::milliseconds(delay_ms));
     ::kill(pid, SIGKILL);
     int status = 0;
@@ -364,14 +371,8 @@ TEST_F(PackInstallTest, ConcurrentInstallersShareOneCache) {
   const std::string env = Env(server.url());
   std::vector<pid_t> pids;
   for (int i = 0; i < 3; ++i) {
-    const pid_t pid = ::fork();
+    const pid_t pid = SpawnCli(env, "install --library fixlib -q");
     ASSERT_GE(pid, 0);
-    if (pid == 0) {
-      const std::string cmd = env + testing::ShellQuote(MLSPACES_CLI_PATH) +
-                              " install --library fixlib -q >/dev/null 2>&1";
-      ::execl("/bin/sh", "sh", "-c", ("exec " + cmd).c_str(), static_cast<char*>(nullptr));
-      ::_exit(127);
-    }
     pids.push_back(pid);
   }
   for (pid_t pid : pids) {

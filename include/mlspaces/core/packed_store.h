@@ -38,6 +38,10 @@ inline constexpr std::string_view kMetadataStoreFile = "metadata.mlsm";
 inline constexpr std::string_view kGraspShardDir = ".mlspaces/grasps";
 inline constexpr std::string_view kGraspShardExtension = ".mlsg";
 
+/// The original's extraction flag for an installed archive, a file in the package folder:
+/// ".<name with '/' -> '__'>_complete_extract". Its presence means the archive is installed.
+std::string ExtractFlagName(const std::string& archive);
+
 /// One (robot, joint) grasp set of an asset. `joint` is empty for pickup grasps.
 struct PackedGraspRef {
   std::string_view robot;

@@ -8,6 +8,8 @@
 #include <string>
 #include <vector>
 
+#include "mlspaces/core/packed_store.h"  // ExtractFlagName
+
 namespace mlspaces {
 
 inline constexpr std::string_view kPackageManifestFile = "mlspaces_package.json";
@@ -54,7 +56,5 @@ struct PackageManifest {
   const PackageArchive* FindArchive(std::string_view name) const;
 };
 
-/// The original's extraction flag for an archive: ".<name with '/' -> '__'>_complete_extract".
-std::string ExtractFlagName(const std::string& archive);
 
 }  // namespace mlspaces

@@ -267,21 +267,25 @@ struct Installer::Impl {
       ++plan.already_installed;
       return;
     }
-    const PackageArchive* a = src.manifest.FindArchive(name);
-    if (a == nullptr) {
-      throw Error("archive " + name + " is in the UID index but not in the manifest",
+    // Pack writes the manifest's archives in the UID index's order: archive i is entry i.
+    const std::vector<PackageArchive>& list = src.manifest.archives;
+    if (archive >= list.size() || list[archive].name != name) {
+      throw Error("archive " + name + " of the UID index is not entry " +
+                      std::to_string(archive) + " of the manifest (mismatched package files)",
                   (src.dir / std::string(kPackageManifestFile)).string());
     }
-    plan.archives.push_back({&src, name, a->size, a->unpacked_bytes});
+    const PackageArchive* a = &list[archive];
+    plan.archives.push_back({&src, name, a->size, a->unpacked_bytes, archive});
     plan.download_bytes += a->size;
     plan.unpacked_bytes += a->unpacked_bytes;
   }
 
-  void InstallArchive(const InstalledSource& src, const std::string& name,
-                      std::atomic<uint64_t>& done, uint64_t total) {
+  void InstallArchive(const InstalledSource& src, uint32_t index, std::atomic<uint64_t>& done,
+                      uint64_t total) {
+    const PackageArchive* a = &src.manifest.archives.at(index);
+    const std::string& name = a->name;
     const fs::path flag = src.dir / ExtractFlagName(name);
     if (IsFile(flag)) return;
-    const PackageArchive* a = src.manifest.FindArchive(name);
     const fs::path download = src.dir / ".mlspaces" / "downloads" / name;
     const fs::path staging = src.dir / ".mlspaces" / "staging" / ArchiveStem(name);
     FetchOptions f = Fetch();
@@ -325,8 +329,8 @@ struct Installer::Impl {
   }
 
   void Install(const InstallPlan& plan) {
-    std::map<const InstalledSource*, std::vector<std::string>> by_source;
-    for (const auto& item : plan.archives) by_source[item.source].push_back(item.archive);
+    std::map<const InstalledSource*, std::vector<uint32_t>> by_source;  // archive indexes
+    for (const auto& item : plan.archives) by_source[item.source].push_back(item.index);
     std::atomic<uint64_t> done{0};
     for (auto& [src, names] : by_source) {
       FileLock lock(src->dir / ".mlspaces" / "lock", [&](long pid) {

@@ -153,11 +153,5 @@ PackageManifest PackageManifest::Load(const std::filesystem::path& file) {
   return Parse(ReadFile(file), file.string());
 }
 
-const PackageArchive* PackageManifest::FindArchive(std::string_view archive) const {
-  for (const PackageArchive& a : archives) {
-    if (a.name == archive) return &a;
-  }
-  return nullptr;
-}
 
 }  // namespace mlspaces

@@ -242,6 +242,11 @@ TEST_F(PackInstallTest, ServeInstallLocateAndLoadGrasps) {
   EXPECT_THAT(cli.out, HasSubstr("archive: fixlib_00000.tar.zst (not installed"));
   const auto grasps = RunCli({"grasps", FixtureUid(4), "--num", "2"}, Env(server.url()));
   EXPECT_EQ(grasps.exit_code, 0) << grasps.err;
+  EXPECT_THAT(grasps.out, HasSubstr("library: fixlib/droid"));
+  const auto meta = RunCli({"meta", FixtureUid(3)}, Env(server.url()));
+  EXPECT_EQ(meta.exit_code, 0) << meta.err;
+  EXPECT_THAT(meta.out, HasSubstr("\"category\": \"block\""));
+  EXPECT_THAT(meta.out, HasSubstr("\"counts\": ["));
 }
 
 TEST_F(PackInstallTest, InstallLibraryWhereWithSizeEstimateAndVerify) {

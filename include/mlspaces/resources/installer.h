@@ -41,6 +41,7 @@ struct InstallPlan {
     const InstalledSource* source = nullptr;
     std::string archive;
     uint64_t size = 0, unpacked_bytes = 0;
+    uint32_t index = 0;  ///< the archive's entry in the source's manifest and UID index
   };
   std::vector<Item> archives;           ///< not yet installed, sorted
   size_t assets = 0;                    ///< assets selected

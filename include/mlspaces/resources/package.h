@@ -53,7 +53,6 @@ struct PackageManifest {
   /// @throws Error naming `origin` and the JSON pointer of a bad field.
   static PackageManifest Parse(const std::string& json, const std::string& origin);
   static PackageManifest Load(const std::filesystem::path& file);
-  const PackageArchive* FindArchive(std::string_view name) const;
 };
 
 

@@ -925,11 +925,12 @@ PackedAsset PackedLibrary::Impl::Record(uint32_t r) const {
 PackedLibrary::PackedLibrary() : impl_(std::make_unique<Impl>()) {}
 PackedLibrary::~PackedLibrary() = default;
 
-std::shared_ptr<const PackedLibrary> PackedLibrary::Open(const fs::path& dir, std::string name) {
+std::shared_ptr<const PackedLibrary> PackedLibrary::Open(const fs::path& dir, std::string name,
+                                                         const fs::path& root) {
   std::shared_ptr<PackedLibrary> lib(new PackedLibrary());
   Impl& m = *lib->impl_;
   m.name = std::move(name);
-  m.dir = dir;
+  m.dir = root.empty() ? dir : root;
   const fs::path index_path = dir / kUidIndexFile, meta_path = dir / kMetadataStoreFile;
   m.index_path = index_path.string();
   m.meta_path = meta_path.string();

@@ -256,22 +256,29 @@ struct Registry::Impl {
       }
       // Installed packages: <assets>/objects/<name> with a UID index (a handful of links,
       // not a scan of the assets).
-      std::vector<fs::path> found;
+      // A MolmoSpaces-format source (no stores of its own) counts once `mlspaces
+      // index-builtin` has built its index into <source>/.mlspaces/index.
+      std::vector<std::pair<fs::path, fs::path>> found;  // (store dir, package root)
       std::error_code ec;
       for (const auto& entry : fs::directory_iterator(*options.assets_dir / "objects", ec)) {
-        if (IsFile(entry.path() / std::string(kUidIndexFile))) found.push_back(entry.path());
+        const fs::path& root = entry.path();
+        if (IsFile(root / std::string(kUidIndexFile))) {
+          found.emplace_back(root, root);
+        } else if (IsFile(root / std::string(kLegacyIndexDir) / std::string(kUidIndexFile))) {
+          found.emplace_back(root / std::string(kLegacyIndexDir), root);
+        }
       }
       std::sort(found.begin(), found.end());
-      for (const fs::path& dir : found) AddPacked(dir.filename().string(), dir);
+      for (const auto& [dir, root] : found) AddPacked(root.filename().string(), dir, root);
     }
     RebuildSources();
   }
 
   /// Opens a package and makes its grasp libraries "<name>/<robot>", ahead of any others
   /// serving the same name. @throws Error.
-  void AddPacked(const std::string& name, const fs::path& dir) {
+  void AddPacked(const std::string& name, const fs::path& dir, const fs::path& root = {}) {
     PackedEntry entry;
-    entry.lib = PackedLibrary::Open(dir, name);
+    entry.lib = PackedLibrary::Open(dir, name, root);
     entry.installed = std::make_unique<std::atomic<bool>[]>(entry.lib->archives().size());
     const PackedLibrary* lib = entry.lib.get();
     auto [slot, inserted] = packed.emplace(name, std::move(entry));

@@ -34,6 +34,9 @@ namespace mlspaces {
 
 inline constexpr std::string_view kUidIndexFile = "uid_index.mlsx";
 inline constexpr std::string_view kMetadataStoreFile = "metadata.mlsm";
+/// Where `mlspaces index-builtin` keeps the UID index of a MolmoSpaces-format source (one
+/// without stores of its own), inside its version folder.
+inline constexpr std::string_view kLegacyIndexDir = ".mlspaces/index";
 /// Grasp shards live inside the archives, under this folder of the package root.
 inline constexpr std::string_view kGraspShardDir = ".mlspaces/grasps";
 inline constexpr std::string_view kGraspShardExtension = ".mlsg";
@@ -125,9 +128,12 @@ class PackedLibrary {
  public:
   /// Opens <dir>/uid_index.mlsx and <dir>/metadata.mlsm (mmap, MAP_SHARED read-only).
   /// `name` is the asset library name lookups report. Grasp shards are opened on first use.
+  /// `root` is the package folder MJCF paths, shards and extraction flags are relative to
+  /// (default `dir`; an index built for a MolmoSpaces-format source lives elsewhere).
   /// @throws Error naming the file for a missing, truncated or inconsistent store.
   static std::shared_ptr<const PackedLibrary> Open(const std::filesystem::path& dir,
-                                                   std::string name);
+                                                   std::string name,
+                                                   const std::filesystem::path& root = {});
   ~PackedLibrary();
 
   const std::string& name() const;

@@ -46,6 +46,8 @@ void AddValidate(CLI::App& app, Action& action);
 void AddPack(CLI::App& app, Action& action);
 /// `install` and `verify`.
 void AddInstall(CLI::App& app, Action& action);
+/// `index-builtin`: UID indexes for MolmoSpaces-format sources (index_builtin.cc).
+void AddIndexBuiltin(CLI::App& app, Action& action);
 
 #ifdef MLSPACES_HAVE_DATAGEN
 /// The flags that choose and adjust a datagen config, shared by `config` and `datagen`:

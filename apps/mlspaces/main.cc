@@ -40,6 +40,7 @@ int main(int argc, char** argv) {
   cli::AddValidate(app, action);
   cli::AddPack(app, action);
   cli::AddInstall(app, action);
+  cli::AddIndexBuiltin(app, action);
 #ifdef MLSPACES_HAVE_SIM
   cli::AddInspect(app, action);
 #endif

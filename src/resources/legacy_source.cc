@@ -1,0 +1,245 @@
+// The tries of a MolmoSpaces-format source -> our UID index (see legacy_source.h).
+#include "mlspaces/resources/legacy_source.h"
+
+#include <zlib.h>
+
+#include <algorithm>
+#include <climits>
+#include <cstdint>
+#include <optional>
+#include <string_view>
+#include <tuple>
+#include <unordered_map>
+#include <utility>
+
+#include "mlspaces/core/error.h"
+#include "mlspaces/core/files.h"
+#include "mlspaces/core/json.h"
+#include "mlspaces/core/packed_store.h"
+#include "mlspaces/resources/package.h"
+
+namespace mlspaces {
+namespace fs = std::filesystem;
+
+namespace {
+
+/// Biggest JSON we inflate: far above the real files (tens of MB), low enough that a
+/// decompression bomb is an Error rather than an allocation failure.
+constexpr size_t kMaxInflated = size_t{8} << 30;
+
+bool HasGzipMagic(const unsigned char* p, size_t n) { return n >= 2 && p[0] == 0x1f && p[1] == 0x8b; }
+
+/// Inflates a gzip file (several members are concatenated, as gzip(1) does).
+std::string Gunzip(const std::string& data, const std::string& path) {
+  const auto* in = reinterpret_cast<const unsigned char*>(data.data());
+  if (!HasGzipMagic(in, data.size())) {
+    throw Error("not a gzip file (it does not start with the gzip magic bytes 1f 8b)", path);
+  }
+  if (data.size() > UINT_MAX) throw Error("file over 4 GiB, too large for a tries file", path);
+  z_stream zs{};
+  if (inflateInit2(&zs, 15 + 16) != Z_OK) throw Error("zlib: cannot start inflating", path);
+  struct End {
+    z_stream* z;
+    ~End() { inflateEnd(z); }
+  } end{&zs};
+  zs.next_in = const_cast<Bytef*>(in);
+  zs.avail_in = static_cast<uInt>(data.size());
+  std::string out(std::min(kMaxInflated, std::max<size_t>(data.size() * 8, 1 << 16)), '\0');
+  size_t produced = 0;
+  for (;;) {
+    if (produced == out.size()) {
+      if (out.size() >= kMaxInflated) {
+        throw Error("inflates to more than " + std::to_string(kMaxInflated >> 30) +
+                        " GiB, too large for a tries file",
+                    path);
+      }
+      out.resize(std::min(kMaxInflated, out.size() * 2));
+    }
+    const size_t room = std::min<size_t>(out.size() - produced, UINT_MAX);
+    zs.next_out = reinterpret_cast<Bytef*>(out.data() + produced);
+    zs.avail_out = static_cast<uInt>(room);
+    const int rc = inflate(&zs, Z_NO_FLUSH);
+    produced += room - zs.avail_out;
+    if (rc == Z_STREAM_END) {
+      if (zs.avail_in == 0) break;
+      if (!HasGzipMagic(zs.next_in, zs.avail_in)) {
+        throw Error("trailing bytes after the gzip stream", path);
+      }
+      if (inflateReset(&zs) != Z_OK) throw Error("zlib: cannot inflate the next member", path);
+      continue;
+    }
+    if (rc == Z_OK) continue;
+    if (rc == Z_BUF_ERROR && zs.avail_out == 0) continue;  // needs more room
+    if (rc == Z_BUF_ERROR) throw Error("truncated gzip stream", path);
+    throw Error(std::string("corrupt gzip stream: ") + (zs.msg != nullptr ? zs.msg : "zlib error"),
+                path);
+  }
+  out.resize(produced);
+  return out;
+}
+
+/// An .xml leaf: an asset candidate.
+struct Candidate {
+  std::string uid;
+  uint32_t archive = 0;
+  std::string path;
+};
+
+/// JSON pointer of `archive` / keys... / `last`.
+std::string Pointer(const std::string& archive, const std::vector<const std::string*>& keys,
+                    const std::string* last) {
+  std::string p = "/" + JsonPointerToken(archive);
+  for (const std::string* k : keys) p += "/" + JsonPointerToken(*k);
+  if (last != nullptr) p += "/" + JsonPointerToken(*last);
+  return p;
+}
+
+/// Checks each '/'-separated component of a trie key: not empty, not "." or "..", so every
+/// path stays inside the source folder. @returns the bad component, or nullopt.
+std::optional<std::string_view> BadComponent(std::string_view key) {
+  size_t start = 0;
+  for (;;) {
+    const size_t slash = key.find('/', start);
+    const std::string_view c =
+        key.substr(start, slash == std::string_view::npos ? std::string_view::npos : slash - start);
+    if (c.empty() || c == "." || c == ".." || c.find('\0') != std::string_view::npos) return c;
+    if (slash == std::string_view::npos) return std::nullopt;
+    start = slash + 1;
+  }
+}
+
+/// Walks one archive's trie (iteratively: no recursion on untrusted depth), appending its
+/// .xml leaves to `out`. @throws Error with the JSON pointer of a bad node or key.
+void WalkTrie(const FlatJson& trie, const std::string& archive, uint32_t archive_index,
+              const std::string& file, std::vector<Candidate>& out,
+              std::vector<std::string>& warnings) {
+  struct Frame {
+    FlatJson::const_iterator it, end;
+    size_t prefix_len;  ///< length of `rel` for this node (its folder path)
+  };
+  std::vector<Frame> stack;
+  std::vector<const std::string*> keys;  // key of each frame but the root, for pointers
+  std::string rel;
+  stack.push_back({trie.cbegin(), trie.cend(), 0});
+  while (!stack.empty()) {
+    Frame& f = stack.back();
+    if (f.it == f.end) {
+      stack.pop_back();
+      if (!keys.empty()) keys.pop_back();
+      continue;
+    }
+    const std::string& key = f.it.key();
+    const FlatJson& value = *f.it;
+    ++f.it;
+    if (auto bad = BadComponent(key)) {
+      throw Error("bad path component '" + std::string(*bad) + "' in trie key '" + key +
+                      "' (components must be non-empty and not '.' or '..')",
+                  file, Pointer(archive, keys, &key));
+    }
+    if (!value.is_object()) {
+      throw Error("expected object (a folder, or {} for a file), got " + JsonTypeWord(value),
+                  file, Pointer(archive, keys, &key));
+    }
+    rel.resize(f.prefix_len);
+    if (!rel.empty()) rel += '/';
+    rel += key;
+    if (!value.empty()) {
+      const size_t len = rel.size();
+      keys.push_back(&key);
+      stack.push_back({value.cbegin(), value.cend(), len});  // `f` is invalid from here
+      continue;
+    }
+    constexpr std::string_view kXml = ".xml";
+    if (rel.size() < kXml.size() || rel.compare(rel.size() - kXml.size(), kXml.size(), kXml) != 0) {
+      continue;
+    }
+    const size_t slash = rel.rfind('/');
+    const size_t name_start = slash == std::string::npos ? 0 : slash + 1;
+    if (rel.size() - name_start == kXml.size()) {
+      warnings.push_back(archive + ": " + rel + ": a file named only \".xml\" has no UID; ignored");
+      continue;
+    }
+    out.push_back({rel.substr(name_start, rel.size() - name_start - kXml.size()), archive_index,
+                   rel});
+  }
+}
+
+}  // namespace
+
+LegacyIndexReport BuildLegacyIndex(const fs::path& version_dir, const std::string& name) {
+  const fs::path tries_path = version_dir / std::string(kOriginalTriesFile);
+  const std::string file = tries_path.string();
+  std::error_code ec;
+  if (!fs::exists(tries_path, ec)) {
+    throw Error("no MolmoSpaces tries file (is this a source version folder of the original's "
+                "resource manager?)",
+                file);
+  }
+  if (!IsFile(tries_path)) throw Error("not a regular file", file);
+  const FlatJson root = [&] {
+    const std::string json = Gunzip(ReadFile(tries_path), file);
+    return ParseFlatJson(json, file);
+  }();
+  if (!root.is_object()) {
+    throw Error("expected an object {archive name: trie} at the top level, got " +
+                    JsonTypeWord(root),
+                file);
+  }
+  if (root.size() > UINT32_MAX) throw Error("too many archives for one index", file);
+
+  LegacyIndexReport report;
+  std::vector<std::string> archives;
+  archives.reserve(root.size());
+  std::vector<Candidate> candidates;
+  // std::map order: archive names sorted bytewise.
+  for (auto it = root.cbegin(); it != root.cend(); ++it) {
+    const std::string& archive = it.key();
+    const FlatJson& trie = *it;
+    if (archive.empty()) throw Error("empty archive name", file, "/");
+    if (!trie.is_object()) {
+      throw Error("expected object (the archive's trie), got " + JsonTypeWord(trie), file,
+                  "/" + JsonPointerToken(archive));
+    }
+    const auto index = static_cast<uint32_t>(archives.size());
+    archives.push_back(archive);
+    WalkTrie(trie, archive, index, file, candidates, report.warnings);
+  }
+
+  // The first in (archive name, path) order wins; the others are warnings.
+  std::sort(candidates.begin(), candidates.end(), [](const Candidate& a, const Candidate& b) {
+    return std::tie(a.archive, a.path) < std::tie(b.archive, b.path);
+  });
+  std::unordered_map<std::string_view, size_t> winner;
+  winner.reserve(candidates.size());
+  std::vector<size_t> kept;
+  kept.reserve(candidates.size());
+  for (size_t i = 0; i < candidates.size(); ++i) {
+    const Candidate& c = candidates[i];
+    auto [it, inserted] = winner.emplace(c.uid, i);
+    if (inserted) {
+      kept.push_back(i);
+      continue;
+    }
+    const Candidate& w = candidates[it->second];
+    if (w.archive == c.archive && w.path == c.path) continue;  // one file listed twice
+    report.warnings.push_back("duplicate UID " + c.uid + ": " + archives[c.archive] + ": " +
+                              c.path + " is ignored; " + archives[w.archive] + ": " + w.path +
+                              " wins");
+  }
+
+  report.index_dir = version_dir / std::string(kLegacyIndexDir);
+  report.archives = archives.size();
+  report.assets = kept.size();
+  PackedStoreWriter writer(report.index_dir, name, std::move(archives));
+  for (size_t i : kept) {
+    PackedAssetInput input;
+    input.uid = std::move(candidates[i].uid);
+    input.mjcf = std::move(candidates[i].path);
+    input.archive = candidates[i].archive;
+    writer.Add(input);
+  }
+  writer.Finish();
+  return report;
+}
+
+}  // namespace mlspaces

@@ -115,7 +115,6 @@ std::string Gzip(const std::string& data) {
 /// The files of a unit, sorted, relative to the library root.
 std::vector<std::string> UnitFiles(const fs::path& root, const Unit& unit,
                                    const AssetIndex& index, const std::set<std::string>& skip,
-                                   const std::vector<std::string>& nested_other_units,
                                    std::vector<std::string>& warnings) {
   std::vector<std::string> files;
   if (unit.dir.empty()) {
@@ -141,13 +140,7 @@ std::vector<std::string> UnitFiles(const fs::path& root, const Unit& unit,
         if (it->is_directory()) it.disable_recursion_pending();
         continue;
       }
-      if (it->is_directory()) {
-        // A folder that is another unit's (never: units are merged) or hidden temp folders.
-        if (std::binary_search(nested_other_units.begin(), nested_other_units.end(), rel)) {
-          it.disable_recursion_pending();
-        }
-        continue;
-      }
+      if (it->is_directory()) continue;  // nested asset folders were merged into this unit
       if (!it->is_regular_file()) continue;
       const std::string fname = p.filename().string();
       if (fname.find(".tmp.") != std::string::npos) continue;
@@ -225,7 +218,6 @@ PackReport PackLibrary(const fs::path& library_dir, const fs::path& out_dir, Pac
   std::map<std::string, std::vector<std::string>> by_dir;
   for (const auto& [uid, entry] : index.entries) by_dir[ParentOf(entry.object_path)].push_back(uid);
   std::vector<Unit> units;
-  std::vector<std::string> unit_dirs;
   {
     std::vector<std::string> outer;  // sorted: an ancestor sorts before its descendants
     for (auto& [dir, uids] : by_dir) {
@@ -244,7 +236,6 @@ PackReport PackLibrary(const fs::path& library_dir, const fs::path& out_dir, Pac
     for (Unit& u : units) std::sort(u.uids.begin(), u.uids.end());
     std::sort(units.begin(), units.end(),
               [](const Unit& a, const Unit& b) { return a.uids.front() < b.uids.front(); });
-    unit_dirs = outer;
   }
 
   // Archives: units in order of their first UID, cut once they hold >= K assets.
@@ -347,7 +338,7 @@ PackReport PackLibrary(const fs::path& library_dir, const fs::path& out_dir, Pac
     // Members: the units' files, the shard, then the listing of all of them.
     std::vector<ArchiveMember> members;
     for (const Unit* u : plan.units) {
-      for (std::string& rel : UnitFiles(root, *u, index, grasp_members, unit_dirs, r.warnings)) {
+      for (std::string& rel : UnitFiles(root, *u, index, grasp_members, r.warnings)) {
         members.push_back({rel, root / rel});
       }
     }

@@ -187,6 +187,45 @@ TEST_F(PackInstallTest, PackIsDeterministicAndRefusesToOverwrite) {
   EXPECT_THROW(PackLibrary(library, remote, options), UsageError);
 }
 
+TEST(PackUnitsTest, RootLevelAssetsAndNestedFoldersGoTogether) {
+  TempDir tmp;
+  const fs::path lib = tmp / "lib";
+  auto asset = [&](const std::string& rel_dir, const std::string& uid) {
+    const fs::path d = rel_dir.empty() ? lib : lib / rel_dir;
+    testing::WriteText(d / (uid + ".xml"), "<mujoco model=\"" + uid + "\"/>\n");
+    testing::WriteText(d / (uid + ".json"), testing::MinimalMetadata(uid));
+  };
+  asset("", "at_root");              // brings only its own files
+  asset("outer", "outer");           // its folder and everything under it...
+  asset("outer/inner", "inner");     // ...including a nested asset's folder
+  testing::WriteText(lib / "outer" / "textures" / "t.png", "png");
+  testing::WriteText(lib / "README.txt", "not an asset file");
+  WriteAssetIndex(lib, AssetIndexOptions{});
+  PackOptions options;
+  options.name = "units";
+  options.version = "1";
+  options.assets_per_archive = 1;
+  const PackReport report = PackLibrary(lib, tmp / "out", options);
+  const fs::path pkg = tmp / "out" / "objects" / "units" / "1";
+  // Units ordered by their first UID: at_root, inner+outer (one unit, 2 assets).
+  ASSERT_EQ(report.archives, 2u);
+  auto members = [&](const std::string& archive) {
+    std::vector<std::string> out;
+    for (const std::string& m : ListTarZst(pkg / archive)) {
+      if (m.rfind(".mlspaces/", 0) != 0) out.push_back(m);
+    }
+    return out;
+  };
+  EXPECT_EQ(members("units_00000.tar.zst"),
+            (std::vector<std::string>{"at_root.json", "at_root.xml"}));
+  EXPECT_EQ(members("units_00001.tar.zst"),
+            (std::vector<std::string>{"outer/inner/inner.json", "outer/inner/inner.xml",
+                                      "outer/outer.json", "outer/outer.xml",
+                                      "outer/textures/t.png"}));
+  const PackageManifest m = PackageManifest::Load(pkg / "mlspaces_package.json");
+  EXPECT_EQ(m.archives[1].assets, 2u);
+}
+
 TEST_F(PackInstallTest, ServeInstallLocateAndLoadGrasps) {
   testing::HttpTestServer server(remote);
   Installer installer(Settings(server.url()));

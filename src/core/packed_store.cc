@@ -392,10 +392,11 @@ class OutFile {
   }
   int fd() const { return fd_; }
   const fs::path& tmp() const { return tmp_; }
-  /// Flushes, fsyncs, closes and renames over `dest`; fsyncs the folder.
-  void Commit(const fs::path& dest) {
+  /// Flushes, fsyncs (unless `sync` is false), closes and renames over `dest`; fsyncs the
+  /// folder.
+  void Commit(const fs::path& dest, bool sync = true) {
     Flush();
-    int err = ::fsync(fd_) != 0 ? errno : 0;
+    int err = sync && ::fsync(fd_) != 0 ? errno : 0;
     if (::close(fd_) != 0 && err == 0) err = errno;
     fd_ = -1;
     if (err != 0) throw Error(std::string("write failed: ") + std::strerror(err), error_path_);
@@ -404,7 +405,7 @@ class OutFile {
     }
     tmp_.clear();
     const fs::path parent = dest.parent_path();
-    FsyncPath(parent.empty() ? fs::path(".") : parent, true, error_path_);
+    if (sync) FsyncPath(parent.empty() ? fs::path(".") : parent, true, error_path_);
   }
   /// Closes and removes the temp file (no-op after Commit).
   void Abandon() {
@@ -472,7 +473,7 @@ uint64_t GraspShardWriter::Append(std::span<const Mat4> poses) {
   return offset;
 }
 
-void GraspShardWriter::Finish() {
+void GraspShardWriter::Finish(bool sync) {
   if (impl_->finished) throw Error("grasp shard already finished", impl_->path.string());
   impl_->out.Flush();
   std::string header;
@@ -484,7 +485,7 @@ void GraspShardWriter::Finish() {
   Put<uint64_t>(header, kHeaderSize);
   header.resize(kHeaderSize, '\0');
   impl_->out.WriteAt(0, header);
-  impl_->out.Commit(impl_->path);
+  impl_->out.Commit(impl_->path, sync);
   impl_->finished = true;
 }
 

@@ -506,7 +506,7 @@ uint64_t WriteTarZst(const fs::path& out, std::span<const ArchiveMember> members
   }
   if (archive_write_close(a) != ARCHIVE_OK) fail("cannot finish archive");
   if (!state.Compress(nullptr, 0, ZSTD_e_end)) fail("cannot finish zstd stream");
-  if (::fsync(state.fd) != 0) throw Error(Errno("fsync failed"), name);
+  if (options.sync && ::fsync(state.fd) != 0) throw Error(Errno("fsync failed"), name);
   if (::close(state.fd) != 0) {
     state.fd = -1;
     throw Error(Errno("close failed"), name);
@@ -514,7 +514,9 @@ uint64_t WriteTarZst(const fs::path& out, std::span<const ArchiveMember> members
   state.fd = -1;
   if (::rename(tmp.c_str(), out.c_str()) != 0) throw Error(Errno("cannot rename into place"), name);
   committed = true;
-  FsyncPath(out.parent_path().empty() ? fs::path(".") : out.parent_path(), true, name);
+  if (options.sync) {
+    FsyncPath(out.parent_path().empty() ? fs::path(".") : out.parent_path(), true, name);
+  }
   return state.written;
 }
 

@@ -365,11 +365,13 @@ void FetchFile(const std::string& url, const fs::path& dest, const FetchExpect& 
     throw Error("SHA-256 mismatch: downloaded " + digest.sha256 + ", expected " + expect.sha256,
                 url);
   }
-  FsyncPath(part, false, part.string());
+  if (options.sync) FsyncPath(part, false, part.string());
   if (::rename(part.c_str(), dest.c_str()) != 0) {
     throw Error(std::string("cannot rename into place: ") + std::strerror(errno), dest.string());
   }
-  FsyncPath(dest.has_parent_path() ? dest.parent_path() : fs::path("."), true, dest.string());
+  if (options.sync) {
+    FsyncPath(dest.has_parent_path() ? dest.parent_path() : fs::path("."), true, dest.string());
+  }
 }
 
 std::string FetchToString(const std::string& url, const FetchOptions& options) {

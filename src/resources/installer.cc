@@ -280,15 +280,17 @@ struct Installer::Impl {
     plan.unpacked_bytes += a->unpacked_bytes;
   }
 
-  void InstallArchive(const InstalledSource& src, uint32_t index, std::atomic<uint64_t>& done,
-                      uint64_t total) {
+  /// Downloads, checks and extracts one archive and renames its files into place; the
+  /// caller flushes and writes the flag. @returns false when the archive was already flagged.
+  bool PlaceArchive(const InstalledSource& src, uint32_t index, std::atomic<uint64_t>& done,
+                    uint64_t total) {
     const PackageArchive* a = &src.manifest.archives.at(index);
     const std::string& name = a->name;
-    const fs::path flag = src.dir / ExtractFlagName(name);
-    if (IsFile(flag)) return;
+    if (IsFile(src.dir / ExtractFlagName(name))) return false;
     const fs::path download = src.dir / ".mlspaces" / "downloads" / name;
     const fs::path staging = src.dir / ".mlspaces" / "staging" / ArchiveStem(name);
     FetchOptions f = Fetch();
+    f.sync = false;  // a download lost in a crash fails its SHA-256 below and is fetched again
     uint64_t last = 0;
     if (options.progress) {
       f.progress = [&](uint64_t now, uint64_t) {
@@ -319,20 +321,32 @@ struct Installer::Impl {
     // Clear the way before the flag: a kill after it must leave nothing behind to clean.
     fs::remove_all(staging, ec);
     fs::remove(download, ec);
+    return true;
+  }
+
+  /// Flushes everything placed so far (one syncfs for many archives), then writes their
+  /// flags. The flags are empty files: creating one is atomic by itself, and no temp file
+  /// can be left over in the (possibly huge) version folder.
+  void FlagArchives(const InstalledSource& src, const std::vector<uint32_t>& placed) {
+    if (placed.empty()) return;
     SyncFs(src.dir);
-    // The flag is empty: creating it is atomic by itself, and no temp file can be left over
-    // in the (possibly huge) version folder.
-    const int fd = ::open(flag.c_str(), O_WRONLY | O_CREAT | O_CLOEXEC, 0444);
-    if (fd < 0) throw Error(std::string("cannot create: ") + std::strerror(errno), flag.string());
-    ::close(fd);
+    for (uint32_t index : placed) {
+      const fs::path flag = src.dir / ExtractFlagName(src.manifest.archives.at(index).name);
+      const int fd = ::open(flag.c_str(), O_WRONLY | O_CREAT | O_CLOEXEC, 0444);
+      if (fd < 0) throw Error(std::string("cannot create: ") + std::strerror(errno), flag.string());
+      ::close(fd);
+    }
     FsyncPath(src.dir, true, src.dir.string());
   }
 
   void Install(const InstallPlan& plan) {
+    // Archives are placed in batches by a pool of workers; each batch is flushed once and
+    // then flagged, so a big install pays one syncfs per batch, not one per archive.
+    constexpr size_t kBatch = 64;
     std::map<const InstalledSource*, std::vector<uint32_t>> by_source;  // archive indexes
     for (const auto& item : plan.archives) by_source[item.source].push_back(item.index);
     std::atomic<uint64_t> done{0};
-    for (auto& [src, names] : by_source) {
+    for (auto& [src, indexes] : by_source) {
       FileLock lock(src->dir / ".mlspaces" / "lock", [&](long pid) {
         Note("waiting for the installer with pid " + std::to_string(pid) + " (" +
              src->dir.string() + ")");
@@ -340,32 +354,40 @@ struct Installer::Impl {
       // Under the lock no other installer works here: any staging folder is a dead one's.
       std::error_code ec;
       fs::remove_all(src->dir / ".mlspaces" / "staging", ec);
-      std::atomic<size_t> next{0};
-      std::mutex mu;
-      std::exception_ptr error;
-      auto work = [&] {
-        for (;;) {
-          const size_t i = next++;
-          if (i >= names.size()) return;
-          {
-            std::lock_guard<std::mutex> l(mu);
-            if (error) return;
+      for (size_t begin = 0; begin < indexes.size(); begin += kBatch) {
+        const size_t end = std::min(indexes.size(), begin + kBatch);
+        std::atomic<size_t> next{begin};
+        std::mutex mu;
+        std::exception_ptr error;
+        std::vector<uint32_t> placed;
+        auto work = [&] {
+          for (;;) {
+            const size_t i = next++;
+            if (i >= end) return;
+            {
+              std::lock_guard<std::mutex> l(mu);
+              if (error) return;
+            }
+            try {
+              if (PlaceArchive(*src, indexes[i], done, plan.download_bytes)) {
+                std::lock_guard<std::mutex> l(mu);
+                placed.push_back(indexes[i]);
+              }
+            } catch (...) {
+              std::lock_guard<std::mutex> l(mu);
+              if (!error) error = std::current_exception();
+            }
           }
-          try {
-            InstallArchive(*src, names[i], done, plan.download_bytes);
-          } catch (...) {
-            std::lock_guard<std::mutex> l(mu);
-            if (!error) error = std::current_exception();
-          }
-        }
-      };
-      const int n = std::max(1, std::min<int>(options.parallel_downloads,
-                                              static_cast<int>(names.size())));
-      std::vector<std::thread> pool;
-      for (int t = 1; t < n; ++t) pool.emplace_back(work);
-      work();
-      for (auto& t : pool) t.join();
-      if (error) std::rethrow_exception(error);
+        };
+        const int n = std::max(1, std::min<int>(options.parallel_downloads,
+                                                static_cast<int>(end - begin)));
+        std::vector<std::thread> pool;
+        for (int t = 1; t < n; ++t) pool.emplace_back(work);
+        work();
+        for (auto& t : pool) t.join();
+        FlagArchives(*src, placed);  // what is complete keeps its work, even on an error
+        if (error) std::rethrow_exception(error);
+      }
     }
   }
 };

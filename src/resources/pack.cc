@@ -333,7 +333,7 @@ PackReport PackLibrary(const fs::path& library_dir, const fs::path& out_dir, Pac
       }
       r.assets.push_back(std::move(in));
     }
-    shard.Finish();
+    shard.Finish(/*sync=*/false);  // staging; the package gets one syncfs at the end
 
     // Members: the units' files, the shard, then the listing of all of them.
     std::vector<ArchiveMember> members;
@@ -361,7 +361,7 @@ PackReport PackLibrary(const fs::path& library_dir, const fs::path& out_dir, Pac
     for (const ArchiveMember& m : members) r.members.push_back(m.path);
 
     const fs::path archive_path = tmp_dir / plan.name;
-    WriteTarZst(archive_path, members, ArchiveWriteOptions{options.zstd_level});
+    WriteTarZst(archive_path, members, ArchiveWriteOptions{options.zstd_level, /*sync=*/false});
     const FileDigest digest = Sha256File(archive_path);
     r.archive.name = plan.name;
     r.archive.size = digest.size;

@@ -77,8 +77,9 @@ class GraspShardWriter {
   GraspShardWriter& operator=(const GraspShardWriter&) = delete;
   /// Appends poses (f8, row-major); returns the byte offset of the first one.
   uint64_t Append(std::span<const Mat4> poses);
-  /// Writes the header, flushes, renames into place. @throws Error naming the path.
-  void Finish();
+  /// Writes the header, flushes, renames into place; with `sync`, fsyncs the file and its
+  /// folder first (pack passes false and flushes the whole package once). @throws Error.
+  void Finish(bool sync = true);
 
  private:
   struct Impl;

@@ -18,6 +18,9 @@ struct FetchOptions {
   /// Abort (and retry) a transfer that receives no byte for this many seconds.
   long stall_timeout_s = 30;
   long connect_timeout_s = 10;
+  /// fsync the finished file and its folder before returning. Off for downloads that are
+  /// re-checked against their SHA-256 before use anyway (the installer's archives).
+  bool sync = true;
   /// Called with (bytes so far, total or 0 when unknown); may be empty.
   std::function<void(uint64_t, uint64_t)> progress;
 };

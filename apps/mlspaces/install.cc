@@ -42,11 +42,11 @@ std::string Mb(uint64_t bytes) {
 }
 
 int RunInstall(const InstallFlags& flags) {
-  if (flags.uids.empty() == flags.library.empty()) {
-    throw UsageError("give UIDs or --library NAME (not both)");
-  }
   if (!flags.where.empty() && flags.library.empty()) {
     throw UsageError("--where needs --library");
+  }
+  if (flags.uids.empty() == flags.library.empty()) {
+    throw UsageError("give UIDs or --library NAME (not both)");
   }
   std::vector<WhereFilter> where;
   for (const std::string& w : flags.where) where.push_back(WhereFilter::Parse(w));

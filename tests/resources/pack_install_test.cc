@@ -427,6 +427,48 @@ TEST_F(PackInstallTest, ConcurrentInstallersShareOneCache) {
   ExpectIntactInstall(8);
 }
 
+TEST_F(PackInstallTest, CliBadInputIsOneLineAndAnExitCode) {
+  auto one_line = [](const testing::CliResult& r) {
+    return std::count(r.err.begin(), r.err.end(), '\n') == 1;
+  };
+  const std::string env = Env("http://127.0.0.1:1");  // nothing listens on port 1
+  auto r = RunCli({"pack", (tmp / "nowhere").string(), (tmp / "out").string()}, env);
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_TRUE(one_line(r)) << r.err;
+  EXPECT_THAT(r.err, HasSubstr("index-assets"));
+  r = RunCli({"pack", library.string(), (tmp / "out").string(), "--name", "a b"}, env);
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_TRUE(one_line(r)) << r.err;
+  r = RunCli({"pack", library.string(), (tmp / "out").string(), "--assets-per-archive", "0"}, env);
+  EXPECT_EQ(r.exit_code, 2);
+  r = RunCli({"install", "--where", "category=mug"}, env);
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_THAT(r.err, HasSubstr("--where needs --library"));
+  r = RunCli({"install", "--library", "fixlib", "--where", "nonsense"}, env);
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_THAT(r.err, HasSubstr("KEY=VALUE"));
+  // An unreachable remote: one line naming the URL, after the retries.
+  r = RunCli({"install", FixtureUid(1), "--pins", (tmp / "pins.json").string()},
+             env + "MLSPACES_PINNED_ASSETS_FILE= ");
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(r.err, HasSubstr("Could not find pinned assets file"));
+  testing::WriteText(tmp / "pins.json", "{\"objects\": {\"fixlib\": \"1\"}}");
+  r = RunCli({"install", FixtureUid(1), "--pins", (tmp / "pins.json").string()}, env);
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_TRUE(one_line(r)) << r.err;
+  EXPECT_THAT(r.err, HasSubstr("http://127.0.0.1:1/"));
+  // A damaged manifest on the remote: one line naming it and the field.
+  testing::HttpTestServer server(remote);
+  fs::permissions(package / "mlspaces_package.json", fs::perms::owner_write, fs::perm_options::add);
+  std::string text = Slurp(package / "mlspaces_package.json");
+  text.replace(text.find("\"num_assets\": 24"), 16, "\"num_assets\": -1");
+  testing::WriteText(package / "mlspaces_package.json", text);
+  r = RunCli({"install", FixtureUid(1)}, Env(server.url()));
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_TRUE(one_line(r)) << r.err;
+  EXPECT_THAT(r.err, HasSubstr("mlspaces_package.json: /num_assets: expected a whole number"));
+}
+
 TEST_F(PackInstallTest, SettingsAndPinsFromTheEnvironment) {
   const fs::path pins = tmp / "pins.json";
   testing::WriteText(pins, "{\"objects\": {\"fixlib\": \"1\", \"objaverse\": null}}");

@@ -132,4 +132,11 @@ size_t RemoveDeadTempFiles(const std::filesystem::path& dir) {
   return removed;
 }
 
+void SyncFileSystem(const std::filesystem::path& dir) {
+  const int fd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  if (fd < 0) return;
+  ::syncfs(fd);
+  ::close(fd);
+}
+
 }  // namespace mlspaces

@@ -125,15 +125,6 @@ uint64_t SatMul(uint64_t a, uint64_t b) {
   return __builtin_mul_overflow(a, b, &r) ? std::numeric_limits<uint64_t>::max() : r;
 }
 
-/// "foo.tar.zst" -> "foo"; otherwise the name without its last extension.
-std::string ArchiveStem(const std::string& archive) {
-  constexpr std::string_view kTarZst = ".tar.zst";
-  if (archive.size() > kTarZst.size() && archive.ends_with(kTarZst)) {
-    return archive.substr(0, archive.size() - kTarZst.size());
-  }
-  return fs::path(archive).stem().string();
-}
-
 // ---------------------------------------------------------------------------------------------
 // Read-only file mappings.
 
@@ -1150,16 +1141,14 @@ fs::path PackedLibrary::GraspShardPath(uint32_t archive) const {
                     std::to_string(m.num_archives) + " archives)",
                 m.index_path);
   }
-  return m.dir / kGraspShardDir /
-         (ArchiveStem(m.archives[archive]) + std::string(kGraspShardExtension));
+  return m.dir / GraspShardMember(m.archives[archive]);
 }
 
 const Shard& PackedLibrary::Impl::GetShard(uint32_t archive) const {
   if (const Shard* s = shards[archive].load(std::memory_order_acquire)) return *s;
   std::lock_guard<std::mutex> lock(shard_mutex);
   if (const Shard* s = shards[archive].load(std::memory_order_acquire)) return *s;
-  const fs::path path = dir / kGraspShardDir /
-                        (ArchiveStem(archives[archive]) + std::string(kGraspShardExtension));
+  const fs::path path = dir / GraspShardMember(archives[archive]);
   auto shard = std::make_unique<Shard>();
   shard->map.Open(path, "grasp shard " + path.string() +
                             " is not installed (install the UID first)",
@@ -1282,6 +1271,19 @@ void PackedLibrary::Check() const {
   if (num_records != Load<uint32_t>(mh + kMetaNumRecords)) {
     throw Error("record count does not match the index", m.meta_path);
   }
+}
+
+std::string ArchiveStem(const std::string& archive) {
+  constexpr std::string_view kTarZst = ".tar.zst";
+  if (archive.size() > kTarZst.size() && archive.ends_with(kTarZst)) {
+    return archive.substr(0, archive.size() - kTarZst.size());
+  }
+  return fs::path(archive).stem().string();
+}
+
+std::string GraspShardMember(const std::string& archive) {
+  return std::string(kGraspShardDir) + "/" + ArchiveStem(archive) +
+         std::string(kGraspShardExtension);
 }
 
 std::string ExtractFlagName(const std::string& archive) {

@@ -204,6 +204,10 @@ struct Attempt {
 
   bool http_error() const { return status >= 400; }
   bool ok() const { return code == CURLE_OK && !http_error(); }
+  /// The file is not there: HTTP 404, or a file:// path that cannot be read.
+  bool not_found() const {
+    return status == 404 || code == CURLE_FILE_COULDNT_READ_FILE;
+  }
   /// Worth another attempt: the network or the server may do better next time.
   bool transient() const {
     if (sink_failed) return false;
@@ -348,7 +352,7 @@ void FetchFile(const std::string& url, const fs::path& dest, const FetchExpect& 
     }
     if (a.bad_range) fs::remove(part);
     if (!a.transient() || attempt >= options.retries) {
-      throw Error(AfterAttempts(a.Describe(sink_error), attempt + 1), url);
+      throw FetchError(AfterAttempts(a.Describe(sink_error), attempt + 1), url, a.not_found());
     }
     Backoff(options, attempt);
   }
@@ -380,7 +384,7 @@ std::string FetchToString(const std::string& url, const FetchOptions& options) {
     const Attempt a = RunOnce(url, 0, 0, sink, options);
     if (a.ok()) return std::move(sink.text);
     if (!a.transient() || attempt >= options.retries) {
-      throw Error(AfterAttempts(a.Describe(sink.error), attempt + 1), url);
+      throw FetchError(AfterAttempts(a.Describe(sink.error), attempt + 1), url, a.not_found());
     }
     Backoff(options, attempt);
   }

@@ -43,26 +43,16 @@ namespace {
 constexpr const char* kRemoteSourcesFile = "mlspaces_sources.json";
 constexpr const char* kInstallManifest = "mjthor_data_type_to_source_to_versions.json";
 
-std::string ArchiveStem(const std::string& archive) {
-  constexpr std::string_view ext = ".tar.zst";
-  if (archive.size() > ext.size() && archive.compare(archive.size() - ext.size(), ext.size(), ext) == 0) {
-    return archive.substr(0, archive.size() - ext.size());
+/// One of the original's small version manifests as an object; a missing, unreadable or
+/// malformed one reads as {} (the caller rewrites it from what is installed).
+Json ReadVersionManifest(const fs::path& file) {
+  if (!IsFile(file)) return Json::object();
+  try {
+    Json doc = ParseJsonFile(file);
+    return doc.is_object() ? doc : Json::object();
+  } catch (const Error&) {
+    return Json::object();
   }
-  return archive;
-}
-
-void SyncFs(const fs::path& dir) {
-  const int fd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
-  if (fd < 0) return;
-  ::syncfs(fd);
-  ::close(fd);
-}
-
-/// Is this error a plain "not there" (HTTP 404 or a missing file:// file)?
-bool IsNotFound(const Error& e) {
-  const std::string& m = e.message();
-  // fetch.cc words these "HTTP 404" and "curl error 37" (CURLE_FILE_COULDNT_READ_FILE).
-  return m.find("HTTP 404") != std::string::npos || m.find("curl error 37") != std::string::npos;
 }
 
 bool JsonValueMatches(const Json& v, const std::string& want) {
@@ -111,8 +101,8 @@ struct Installer::Impl {
     const std::string url = JoinUrl(settings.remote_url, kRemoteSourcesFile);
     try {
       MergePinJson(v, FetchToString(url, Fetch()), url);
-    } catch (const Error& e) {
-      if (!IsNotFound(e)) throw;
+    } catch (const FetchError& e) {
+      if (!e.not_found()) throw;  // no listing on this remote: fine
     }
     if (!settings.pin_file.empty()) MergePinFile(v, settings.pin_file);
     effective = std::move(v);
@@ -163,15 +153,7 @@ struct Installer::Impl {
     // The install-side manifest, as the original keeps it: {type: {source: version}}.
     FileLock lock(settings.assets_dir / ".lock");
     const fs::path manifest = settings.assets_dir / kInstallManifest;
-    Json doc = Json::object();
-    if (IsFile(manifest)) {
-      try {
-        doc = ParseJsonFile(manifest);
-      } catch (const Error&) {
-        doc = Json::object();  // rewritten below from what is linked
-      }
-      if (!doc.is_object()) doc = Json::object();
-    }
+    Json doc = ReadVersionManifest(manifest);
     doc[src.type][src.name] = src.version;
     WriteFileAtomic(manifest, DumpJsonIndent4(doc));
   }
@@ -197,8 +179,8 @@ struct Installer::Impl {
         std::string text;
         try {
           text = FetchToString(url, Fetch());
-        } catch (const Error& e) {
-          if (!IsNotFound(e)) throw;
+        } catch (const FetchError& e) {
+          if (!e.not_found()) throw;
           not_packages.insert(key);
           throw Error("no mlspaces package for " + type + "/" + name + " " + version + " at " +
                           url + " (sources in MolmoSpaces' own format are not installable yet)",
@@ -232,15 +214,7 @@ struct Installer::Impl {
     FileLock lock(settings.cache_dir / ".lock");
     RemoveDeadTempFiles(settings.cache_dir);
     const fs::path manifest = settings.cache_dir / kInstallManifest;
-    Json doc = Json::object();
-    if (IsFile(manifest)) {
-      try {
-        doc = ParseJsonFile(manifest);
-      } catch (const Error&) {
-        doc = Json::object();
-      }
-      if (!doc.is_object()) doc = Json::object();
-    }
+    Json doc = ReadVersionManifest(manifest);
     Json& list = doc[src.type][src.name];
     if (!list.is_array()) list = Json::array();
     for (const Json& v : list) {
@@ -329,7 +303,7 @@ struct Installer::Impl {
   /// can be left over in the (possibly huge) version folder.
   void FlagArchives(const InstalledSource& src, const std::vector<uint32_t>& placed) {
     if (placed.empty()) return;
-    SyncFs(src.dir);
+    SyncFileSystem(src.dir);
     for (uint32_t index : placed) {
       const fs::path flag = src.dir / ExtractFlagName(src.manifest.archives.at(index).name);
       const int fd = ::open(flag.c_str(), O_WRONLY | O_CREAT | O_CLOEXEC, 0444);

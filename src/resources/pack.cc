@@ -7,14 +7,10 @@
 // are not archived: their poses go to the archive's grasp shard, which the lookups read.
 #include "mlspaces/resources/pack.h"
 
-#include <fcntl.h>
-#include <signal.h>
 #include <zlib.h>
 
 #include <algorithm>
 #include <atomic>
-#include <cerrno>
-#include <chrono>
 #include <condition_variable>
 #include <cstdio>
 #include <ctime>
@@ -23,7 +19,6 @@
 #include <optional>
 #include <set>
 #include <thread>
-#include <unistd.h>
 
 #include "mlspaces/core/annotation.h"
 #include "mlspaces/core/asset_index.h"
@@ -300,8 +295,7 @@ PackReport PackLibrary(const fs::path& library_dir, const fs::path& out_dir, Pac
     const fs::path staging = tmp_dir / ".staging" / plan.stem;
     fs::create_directories(staging);
     // Grasp shard.
-    const std::string shard_rel = std::string(kGraspShardDir) + "/" + plan.stem +
-                                  std::string(kGraspShardExtension);
+    const std::string shard_rel = GraspShardMember(plan.name);
     const fs::path shard_path = staging / "shard.mlsg";
     GraspShardWriter shard(shard_path);
     for (const std::string& uid : plan.uids) {
@@ -480,14 +474,7 @@ PackReport PackLibrary(const fs::path& library_dir, const fs::path& out_dir, Pac
   WriteFileAtomic(tmp_dir / std::string(kOriginalTriesFile), Gzip(tries.dump()), false);
   WriteFileAtomic(tmp_dir / std::string(kPackageManifestFile), manifest.Serialize(), false);
   fs::remove_all(tmp_dir / ".staging");
-  {
-    // One flush for every file above, before the rename publishes them.
-    const int fd = ::open(tmp_dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
-    if (fd >= 0) {
-      ::syncfs(fd);
-      ::close(fd);
-    }
-  }
+  SyncFileSystem(tmp_dir);  // one flush for every file above, before the rename publishes them
 
   if (fs::exists(final_dir, ec)) {
     const fs::path old = parent / (options.version + ".old" + TempSuffix());

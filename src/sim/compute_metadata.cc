@@ -1,8 +1,5 @@
 #include "mlspaces/sim/compute_metadata.h"
 
-#include <fcntl.h>
-#include <unistd.h>
-
 #include <algorithm>
 #include <atomic>
 #include <mutex>
@@ -15,18 +12,6 @@
 namespace mlspaces::sim {
 
 namespace fs = std::filesystem;
-
-namespace {
-
-// Flushes the file system holding `dir` (the computed files written without fsync).
-void SyncFileSystem(const fs::path& dir) {
-  int fd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
-  if (fd < 0) return;
-  ::syncfs(fd);
-  ::close(fd);
-}
-
-}  // namespace
 
 Json MakeComputedMetadata(const Json& source, const AssetFacts& facts) {
   Json out = source;

@@ -214,6 +214,24 @@ TEST_F(Fetch, NotFoundIsNotRetried) {
   ExpectError([&] { FetchToString(escape, fast_); }, {escape, "HTTP 403"});
 }
 
+TEST_F(Fetch, NotFoundIsToldApartFromOtherFailures) {
+  auto not_found = [&](const std::string& url) {
+    try {
+      FetchToString(url, fast_);
+    } catch (const FetchError& e) {
+      return e.not_found();
+    }
+    ADD_FAILURE() << "no FetchError for " << url;
+    return false;
+  };
+  EXPECT_TRUE(not_found(Url("nope.bin")));                          // HTTP 404
+  EXPECT_TRUE(not_found(FileUrl(out_.path() / "missing.json")));    // file:// without the file
+  EXPECT_FALSE(not_found(server_.url() + "/%2e%2e/etc/passwd"));    // HTTP 403
+  server_.SetFaults(R"({"/small.json": [{"mode": "500"}, {"mode": "500"}, {"mode": "500"},
+                                         {"mode": "500"}]})");
+  EXPECT_FALSE(not_found(Url("small.json")));                       // HTTP 500, retried
+}
+
 TEST_F(Fetch, StalledTransferTimesOutAndResumes) {
   server_.SetFaults(R"({"/data/file.bin": [{"mode": "hang", "after": 40000},
                                           {"mode": "hang", "after": 60000}]})");

@@ -39,6 +39,10 @@ std::string TempSuffix();
 /// Temp files of live processes (another run sharing the folder) are kept. @returns how many.
 size_t RemoveDeadTempFiles(const std::filesystem::path& dir);
 
+/// Flushes the whole file system holding `dir` (syncfs): one call makes a batch of files
+/// written without fsync durable. Best effort: an unopenable folder is ignored.
+void SyncFileSystem(const std::filesystem::path& dir);
+
 /// fsync of a file, or of a folder (`directory`) after a rename into it.
 /// @throws Error naming `error_path` on failure.
 void FsyncPath(const std::filesystem::path& path, bool directory, const std::string& error_path);

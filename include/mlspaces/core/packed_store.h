@@ -45,6 +45,13 @@ inline constexpr std::string_view kGraspShardExtension = ".mlsg";
 /// ".<name with '/' -> '__'>_complete_extract". Its presence means the archive is installed.
 std::string ExtractFlagName(const std::string& archive);
 
+/// "foo.tar.zst" -> "foo"; otherwise the name without its last extension.
+std::string ArchiveStem(const std::string& archive);
+
+/// Path of an archive's grasp shard inside the archive and the package folder:
+/// ".mlspaces/grasps/<archive stem>.mlsg" (what pack writes and lookups open).
+std::string GraspShardMember(const std::string& archive);
+
 /// One (robot, joint) grasp set of an asset. `joint` is empty for pickup grasps.
 struct PackedGraspRef {
   std::string_view robot;

@@ -7,7 +7,22 @@
 #include <optional>
 #include <string>
 
+#include "mlspaces/core/error.h"
+
 namespace mlspaces {
+
+/// A download that failed after its last attempt. `not_found()` tells a plain "there is no
+/// such file" (HTTP 404, a missing file:// file) from every other failure, for callers that
+/// probe optional files.
+class FetchError : public Error {
+ public:
+  FetchError(std::string message, std::string url, bool not_found)
+      : Error(std::move(message), std::move(url)), not_found_(not_found) {}
+  bool not_found() const { return not_found_; }
+
+ private:
+  bool not_found_;
+};
 
 struct FetchOptions {
   /// Extra attempts after a transient failure (connection refused/reset, timeout, short

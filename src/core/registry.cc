@@ -315,20 +315,17 @@ struct Registry::Impl {
     }
   }
 
-  /// A source's hit: the MJCF path.
-  struct Hit {
-    fs::path mjcf;
-  };
-  std::optional<Hit> FindIn(const Source& src, std::string_view uid) const {
+  /// The MJCF path of a UID in one built-in or packed source, if it holds it.
+  std::optional<fs::path> FindIn(const Source& src, std::string_view uid) const {
     if (src.packed != nullptr) {
       std::optional<PackedAsset> asset = src.packed->Find(uid);
       if (!asset) return std::nullopt;
-      return Hit{src.packed->dir() / std::string(asset->mjcf)};
+      return src.packed->dir() / std::string(asset->mjcf);
     }
     const BuiltinScan* scan = Scan(src.name);
     auto it = scan->uids.find(uid);
     if (it == scan->uids.end()) return std::nullopt;
-    return Hit{it->second};
+    return it->second;
   }
 
   const BuiltinScan* Scan(std::string_view library) const {
@@ -395,9 +392,9 @@ struct Registry::Impl {
   void Holders(std::string_view uid, std::vector<std::string>& libraries,
                std::vector<fs::path>& paths) const {
     for (const Source& src : sources) {
-      if (std::optional<Hit> hit = FindIn(src, uid)) {
+      if (std::optional<fs::path> mjcf = FindIn(src, uid)) {
         libraries.push_back(src.name);
-        paths.push_back(std::move(hit->mjcf));
+        paths.push_back(std::move(*mjcf));
       }
     }
     const UidRecord* rec = FindUser(uid);

@@ -2,11 +2,13 @@
 // binary, the bundled example library and error strings. Include as "test_util.h".
 #pragma once
 
+#include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <set>
@@ -108,6 +110,7 @@ struct CliResult {
   int exit_code = -1;
   std::string out;
   std::string err;
+  bool sigkilled = false;  // ended by SIGKILL (directly, or as the shell's exit code 137)
 };
 
 /// Runs `program` with `args`; `prefix` (shell words, e.g. "env -u X") goes before it.
@@ -121,6 +124,7 @@ inline CliResult RunProgram(const std::string& program, const std::vector<std::s
   const int status = std::system(cmd.c_str());
   CliResult r;
   r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  r.sigkilled = (WIFSIGNALED(status) && WTERMSIG(status) == SIGKILL) || r.exit_code == 128 + SIGKILL;
   r.out = Slurp(io / "out");
   r.err = Slurp(io / "err");
   return r;
@@ -129,6 +133,45 @@ inline CliResult RunProgram(const std::string& program, const std::vector<std::s
 /// Runs the mlspaces binary (see RunProgram).
 inline CliResult RunCli(const std::vector<std::string>& args, const std::string& prefix = "") {
   return RunProgram(MLSPACES_CLI_PATH, args, prefix);
+}
+
+/// Crash points for CLI runs (mlspaces/core/crash_point.h): the environment that makes a run
+/// count its durable steps in a counter file, or SIGKILL itself after step N.
+class CrashPoints {
+ public:
+  explicit CrashPoints(std::filesystem::path counter) : counter_(std::move(counter)) {}
+  /// Shell words for RunCli's prefix: count steps from zero, never crash.
+  std::string Counting() const { return Prefix(0); }
+  /// Shell words for RunCli's prefix: count from zero, SIGKILL after step `n` (>= 1).
+  std::string KillAt(uint64_t n) const { return Prefix(n); }
+  /// The steps the last run counted (all its processes together).
+  uint64_t Count() const {
+    const std::string bytes = Slurp(counter_);
+    uint64_t n = 0;
+    if (bytes.size() >= sizeof n) std::memcpy(&n, bytes.data(), sizeof n);
+    return n;
+  }
+
+ private:
+  std::string Prefix(uint64_t at) const {
+    std::filesystem::remove(counter_);
+    return "env MLSPACES_CRASH_COUNTER=" + ShellQuote(counter_.string()) +
+           (at > 0 ? " MLSPACES_CRASH_AT=" + std::to_string(at) : std::string()) + " ";
+  }
+  std::filesystem::path counter_;
+};
+
+/// Polls `done` every 10 ms until it holds: how a test waits for an event it cannot block on
+/// (a file appearing, a log line). The bound is only a hang guard, far above any real wait;
+/// reaching it is a test failure naming `what`. @returns whether `done` held.
+template <class Done>
+bool WaitUntil(const std::string& what, Done&& done, int guard_seconds = 300) {
+  for (int i = 0; i < guard_seconds * 100; ++i) {
+    if (done()) return true;
+    ::usleep(10000);
+  }
+  ADD_FAILURE() << "still waiting for " << what << " after " << guard_seconds << " s";
+  return false;
 }
 
 /// The what() of the mlspaces::Error `f` throws, or "<no error>".

@@ -3,6 +3,7 @@
 #include <iostream>
 
 #include "commands.h"
+#include "mlspaces/core/crash_point.h"
 #include "mlspaces/core/error.h"
 
 namespace mlspaces::cli {
@@ -75,6 +76,7 @@ int main(int argc, char** argv) {
     return 2;
   }
   try {
+    CrashPointCount();  // a malformed MLSPACES_CRASH_* fails here, before any work
     return action ? action() : 2;
   } catch (const UsageError& e) {
     std::fprintf(stderr, "mlspaces: error: %s\n", e.what());

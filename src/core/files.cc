@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <cstring>
 
+#include "mlspaces/core/crash_point.h"
 #include "mlspaces/core/error.h"
 
 namespace mlspaces {
@@ -90,11 +91,13 @@ void WriteFileAtomic(const fs::path& path, std::string_view data, bool sync) {
     ::unlink(tmp.c_str());
     throw Error(std::string("write failed: ") + std::strerror(err), path.string());
   }
+  CrashPoint("temp file written");  // a kill here leaves the temp file of a dead process
   if (::rename(tmp.c_str(), path.c_str()) != 0) {
     int err = errno;
     ::unlink(tmp.c_str());
     throw Error(std::string("cannot rename into place: ") + std::strerror(err), path.string());
   }
+  CrashPoint("file renamed into place");
 }
 
 std::string RelativeGenericPath(const fs::path& path, const fs::path& base) {

@@ -21,6 +21,7 @@
 // bounds-checked, depth-limited). That leaves the whole LoadAnnotation of a small record
 // (checksum, UID check, decode) at 0.9 us (BM_LoadAnnotation, 150,000-asset store; same run:
 // simdjson text 1.33 us, nlohmann msgpack 2.10 us, Json copy 0.47 us), under the 2 us target.
+#include "mlspaces/core/crash_point.h"
 #include "mlspaces/core/packed_store.h"
 
 #include <fcntl.h>
@@ -395,6 +396,7 @@ class OutFile {
       throw Error(std::string("cannot rename into place: ") + std::strerror(errno), error_path_);
     }
     tmp_.clear();
+    CrashPoint("store file renamed into place");
     const fs::path parent = dest.parent_path();
     if (sync) FsyncPath(parent.empty() ? fs::path(".") : parent, true, error_path_);
   }

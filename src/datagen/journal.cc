@@ -12,6 +12,7 @@
 #include <map>
 #include <set>
 
+#include "mlspaces/core/crash_point.h"
 #include "mlspaces/core/error.h"
 #include "mlspaces/core/files.h"
 
@@ -243,6 +244,7 @@ void Journal::Append(const AttemptRecord& record) {
     throw Error(why, path_.string());
   }
   if (::fsync(fd_) != 0) throw Error(Errno("cannot fsync journal"), path_.string());
+  CrashPoint("journal line written");
 }
 
 JournalContents ReadJournal(const fs::path& path) {

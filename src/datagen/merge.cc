@@ -3,6 +3,7 @@
 #include <map>
 #include <set>
 
+#include "mlspaces/core/crash_point.h"
 #include "mlspaces/core/error.h"
 #include "mlspaces/core/files.h"
 #include "mlspaces/datagen/recorder.h"
@@ -17,6 +18,9 @@ void LinkOrCopy(const fs::path& from, const fs::path& to) {
   const fs::path tmp = to.string() + ".tmp.merge";
   std::error_code ec;
   fs::remove(tmp, ec);
+  // Linked already by a merge that was killed: done. (Linking again would leave the temp
+  // name behind: rename() of two links to one file does nothing.)
+  if (fs::equivalent(from, to, ec)) return;
   fs::create_hard_link(from, tmp, ec);
   if (ec) {
     ec.clear();
@@ -25,6 +29,7 @@ void LinkOrCopy(const fs::path& from, const fs::path& to) {
   }
   fs::rename(tmp, to, ec);
   if (ec) throw Error("cannot rename into place: " + ec.message(), to.string());
+  CrashPoint("merged file linked into place");
 }
 
 }  // namespace
@@ -83,6 +88,7 @@ MergeReport MergeRuns(const std::vector<fs::path>& inputs, const fs::path& outpu
   std::error_code ec;
   fs::create_directories(output, ec);
   if (ec) throw Error("cannot create the output folder: " + ec.message(), output.string());
+  RemoveDeadTempFiles(output);  // journal or summary temp files of a merge that was killed
   for (const auto& [item, in] : found) {
     const fs::path dir = output / item->scene_name();
     fs::create_directories(dir, ec);

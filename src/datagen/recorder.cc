@@ -11,6 +11,7 @@
 #include <set>
 
 #include "hdf5_util.h"
+#include "mlspaces/core/crash_point.h"
 #include "mlspaces/core/error.h"
 #include "mlspaces/core/files.h"
 
@@ -434,6 +435,7 @@ void WriteHdf5Atomic(const fs::path& target, int compression_level, Fill&& fill)
       w.Close();
     }
     FsyncPath(tmp, false, target.string());
+    CrashPoint("HDF5 temp file written");
     if (::rename(tmp.c_str(), target.c_str()) != 0) {
       throw Error(std::string("cannot rename into place: ") + std::strerror(errno),
                   target.string());
@@ -444,6 +446,7 @@ void WriteHdf5Atomic(const fs::path& target, int compression_level, Fill&& fill)
     throw;
   }
   FsyncPath(target.parent_path(), true, target.parent_path().string());
+  CrashPoint("HDF5 file renamed into place");
 }
 
 }  // namespace

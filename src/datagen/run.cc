@@ -3,7 +3,6 @@
 #include <fcntl.h>
 #include <poll.h>
 #include <signal.h>
-#include <sys/file.h>
 #include <sys/prctl.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -21,7 +20,9 @@
 #include <random>
 #include <set>
 
+#include "mlspaces/core/crash_point.h"
 #include "mlspaces/core/error.h"
+#include "mlspaces/core/file_lock.h"
 #include "mlspaces/core/files.h"
 #include "mlspaces/core/progress.h"
 #include "mlspaces/core/registry.h"
@@ -194,6 +195,7 @@ class ItemRunner {
             const std::string final_name = recorder.VideoFileName(recorder.next_index(), camera);
             fs::rename(rec_options.dir / *file, rec_options.dir / final_name);
             *file = final_name;
+            CrashPoint("video given its final name");
           }
         }
         recorder.Write(*result.record);
@@ -284,36 +286,6 @@ bool WriteAll(int fd, const std::string& text) {
   ::_exit(code);
 }
 
-// An exclusive lock on the run folder (per shard), held by the run and inherited by its
-// workers: the lock lives until every process holding it is gone, so a resumed run never
-// overlaps a killed run's last workers. Waits up to `wait_seconds` for a previous run to end.
-class FolderLock {
- public:
-  FolderLock(const fs::path& file, double wait_seconds) {
-    fd_ = ::open(file.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
-    if (fd_ < 0) throw Error(std::string("cannot open the lock file: ") + std::strerror(errno), file.string());
-    const auto t0 = Clock::now();
-    while (::flock(fd_, LOCK_EX | LOCK_NB) != 0) {
-      if (errno != EWOULDBLOCK && errno != EINTR) {
-        ::close(fd_);
-        throw Error(std::string("cannot lock: ") + std::strerror(errno), file.string());
-      }
-      if (Since(t0) > wait_seconds) {
-        ::close(fd_);
-        throw Error("another datagen run is working in this folder (its lock is held)",
-                    file.string());
-      }
-      ::usleep(20000);
-    }
-  }
-  ~FolderLock() { ::close(fd_); }
-  FolderLock(const FolderLock&) = delete;
-  FolderLock& operator=(const FolderLock&) = delete;
-
- private:
-  int fd_ = -1;
-};
-
 }  // namespace
 
 std::string Shard::Name() const {
@@ -402,7 +374,15 @@ RunReport RunDatagen(const ExperimentConfig& input, const TaskSamplerRegistry& s
   fs::create_directories(report.folder, ec);
   if (ec) throw Error("cannot create the run folder: " + ec.message(), report.folder.string());
   const std::string shard_name = options.shard.Name();
-  FolderLock lock(report.folder / (shard_name.empty() ? ".lock" : ".lock." + shard_name), 30.0);
+  // An exclusive lock on the run folder (per shard), held by the run and inherited by its
+  // forked workers: it lives until every process holding it is gone, so a resumed run never
+  // overlaps a killed run's last workers. A second run waits (and says so) rather than fail:
+  // a requeued Slurm task may start while its killed predecessor is still being torn down.
+  const FileLock lock(
+      report.folder / (shard_name.empty() ? ".lock" : ".lock." + shard_name), [&](long pid) {
+        log(LogLevel::kWarning, "waiting for the datagen run with pid " + std::to_string(pid) +
+                                    " working in " + report.folder.string() + " to end");
+      });
   // Temp files a killed run left in the folder (config.yaml or a summary mid-write): those of
   // processes that no longer exist (".tmp.<pid>.<n>", TempSuffix), so a shard sharing the
   // folder keeps its own.

@@ -25,6 +25,7 @@ extern "C" {
 #include <libswscale/swscale.h>
 }
 
+#include "mlspaces/core/crash_point.h"
 #include "mlspaces/core/error.h"
 #include "mlspaces/core/files.h"
 
@@ -355,6 +356,7 @@ void VideoWriter::Finish() {
   m.pkt.reset();
   const fs::path parent = m.path.parent_path().empty() ? fs::path(".") : m.path.parent_path();
   FsyncPath(parent, true, parent.string());
+  CrashPoint("video renamed into place");
 }
 
 int64_t VideoWriter::frames() const { return impl_->frames; }

@@ -27,6 +27,7 @@
 #include <set>
 #include <string_view>
 
+#include "mlspaces/core/crash_point.h"
 #include "mlspaces/core/error.h"
 #include "mlspaces/core/files.h"
 
@@ -514,6 +515,7 @@ uint64_t WriteTarZst(const fs::path& out, std::span<const ArchiveMember> members
   state.fd = -1;
   if (::rename(tmp.c_str(), out.c_str()) != 0) throw Error(Errno("cannot rename into place"), name);
   committed = true;
+  CrashPoint("archive written");
   if (options.sync) {
     FsyncPath(out.parent_path().empty() ? fs::path(".") : out.parent_path(), true, name);
   }

@@ -18,6 +18,7 @@
 #include <thread>
 
 #include "mlspaces/core/error.h"
+#include "mlspaces/core/crash_point.h"
 #include "mlspaces/core/files.h"
 #include "mlspaces/resources/sha256.h"
 
@@ -61,6 +62,8 @@ class StringSink : public Sink {
 /// Appends to `path` from `offset` (the bytes already there).
 class FileSink : public Sink {
  public:
+  static constexpr uint64_t kCrashStride = 4096;
+
   FileSink(const fs::path& path, uint64_t offset) : pos_(offset) {
     fd_ = ::open(path.c_str(), O_WRONLY | O_CREAT | O_CLOEXEC, 0644);
     if (fd_ < 0) throw Error(std::string("cannot write: ") + std::strerror(errno), path.string());
@@ -73,6 +76,7 @@ class FileSink : public Sink {
     return false;
   }
   bool Write(const char* data, size_t size) override {
+    const uint64_t before = pos_;
     while (size > 0) {
       const ssize_t n = ::pwrite(fd_, data, size, static_cast<off_t>(pos_));
       if (n < 0 && errno == EINTR) continue;
@@ -83,6 +87,11 @@ class FileSink : public Sink {
       data += n;
       size -= static_cast<size_t>(n);
       pos_ += static_cast<uint64_t>(n);
+    }
+    // One crash point per 4 KiB boundary the partial file grew past: a count that depends
+    // on the file's size, not on how the network cut it into chunks.
+    for (uint64_t b = before / kCrashStride; b < pos_ / kCrashStride; ++b) {
+      CrashPoint("download chunk on disk");
     }
     return true;
   }
@@ -373,6 +382,7 @@ void FetchFile(const std::string& url, const fs::path& dest, const FetchExpect& 
   if (::rename(part.c_str(), dest.c_str()) != 0) {
     throw Error(std::string("cannot rename into place: ") + std::strerror(errno), dest.string());
   }
+  CrashPoint("download renamed into place");
   if (options.sync) {
     FsyncPath(dest.has_parent_path() ? dest.parent_path() : fs::path("."), true, dest.string());
   }

@@ -27,12 +27,13 @@
 #include <thread>
 #include <tuple>
 
+#include "mlspaces/core/crash_point.h"
 #include "mlspaces/core/error.h"
 #include "mlspaces/core/files.h"
 #include "mlspaces/core/json.h"
 #include "mlspaces/resources/archive.h"
 #include "mlspaces/resources/fetch.h"
-#include "mlspaces/resources/file_lock.h"
+#include "mlspaces/core/file_lock.h"
 #include "mlspaces/resources/sha256.h"
 
 namespace mlspaces {
@@ -150,6 +151,7 @@ struct Installer::Impl {
       fs::remove(tmp);
       throw Error("cannot rename symlink into place: " + ec.message(), link.string());
     }
+    CrashPoint("assets-dir symlink renamed into place");
     // The install-side manifest, as the original keeps it: {type: {source: version}}.
     FileLock lock(settings.assets_dir / ".lock");
     const fs::path manifest = settings.assets_dir / kInstallManifest;
@@ -291,10 +293,12 @@ struct Installer::Impl {
       // A folder in the way (never from our packs) would make rename fail; say so.
       fs::rename(staging / rel, target, ec);
       if (ec) throw Error("cannot move into place: " + ec.message(), target.string());
+      CrashPoint("installed file renamed into place");
     }
     // Clear the way before the flag: a kill after it must leave nothing behind to clean.
     fs::remove_all(staging, ec);
     fs::remove(download, ec);
+    CrashPoint("archive placed");
     return true;
   }
 
@@ -309,6 +313,7 @@ struct Installer::Impl {
       const int fd = ::open(flag.c_str(), O_WRONLY | O_CREAT | O_CLOEXEC, 0444);
       if (fd < 0) throw Error(std::string("cannot create: ") + std::strerror(errno), flag.string());
       ::close(fd);
+      CrashPoint("archive flag written");
     }
     FsyncPath(src.dir, true, src.dir.string());
   }

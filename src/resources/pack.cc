@@ -22,6 +22,7 @@
 
 #include "mlspaces/core/annotation.h"
 #include "mlspaces/core/asset_index.h"
+#include "mlspaces/core/crash_point.h"
 #include "mlspaces/core/error.h"
 #include "mlspaces/core/files.h"
 #include "mlspaces/core/grasp_index.h"
@@ -486,6 +487,7 @@ PackReport PackLibrary(const fs::path& library_dir, const fs::path& out_dir, Pac
   }
   cleanup.dir.clear();
   FsyncPath(parent, true, parent.string());
+  CrashPoint("package renamed into place");
 
   // <out>/mlspaces_sources.json: what this remote serves, merged with earlier packs.
   const fs::path listing = fs::absolute(out_dir) / "mlspaces_sources.json";

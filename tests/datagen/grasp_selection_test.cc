@@ -262,7 +262,7 @@ TEST_F(GraspProbeTest, MicrosecondsPerCandidate) {
               checker.num_probe_geoms(), clean / 4, candidates.size());
   EXPECT_GT(clean, 0u);
   EXPECT_LT(clean, 4 * candidates.size());
-  EXPECT_LT(us, 200.0);  // generous: ~10 us expected on one core
+  // The time per candidate is a figure (printed above; bench/ has the benchmark), not a verdict.
 }
 
 }  // namespace

@@ -43,8 +43,10 @@ class Fetch : public ::testing::Test {
     WriteText(root_ / "data" / "file.bin", data_);
     WriteText(root_ / "small.json", "{\"version\": 1}\n");
     fast_.retry_delay_s = 0.01;
-    fast_.stall_timeout_s = 5;
-    fast_.connect_timeout_s = 2;
+    // Hang guards only: no test here waits for these to expire (a loaded machine may pause
+    // a transfer for a while, and that must not fail a test).
+    fast_.stall_timeout_s = 120;
+    fast_.connect_timeout_s = 60;
   }
   std::string Url(const std::string& rel = "data/file.bin") const {
     return JoinUrl(server_.url(), rel);
@@ -236,15 +238,14 @@ TEST_F(Fetch, StalledTransferTimesOutAndResumes) {
   server_.SetFaults(R"({"/data/file.bin": [{"mode": "hang", "after": 40000},
                                           {"mode": "hang", "after": 60000}]})");
   FetchOptions options = fast_;
-  options.stall_timeout_s = 1;
+  // The server hangs forever: only the stall timeout can end these transfers. (How long a
+  // stall takes to be noticed is a figure for a benchmark, not a test's verdict.)
+  options.stall_timeout_s = 2;
   options.retries = 0;
-  const auto start = std::chrono::steady_clock::now();
-  ExpectError([&] { FetchFile(Url(), dest_, Expect(), options); }, {Url(), "stalled", "1 s"});
+  ExpectError([&] { FetchFile(Url(), dest_, Expect(), options); }, {Url(), "stalled", "2 s"});
   EXPECT_EQ(fs::file_size(Part()), 40000u);
   options.retries = 1;
   FetchFile(Url(), dest_, Expect(), options);
-  // Two stalls of about a second each, not curl's averaged low-speed window.
-  EXPECT_LT(std::chrono::steady_clock::now() - start, std::chrono::seconds(6));
   EXPECT_EQ(Slurp(dest_), data_);
   const auto log = Log();
   ASSERT_EQ(log.size(), 3u);
@@ -257,8 +258,12 @@ TEST_F(Fetch, ServerKilledMidDownloadThenResumedFromPart) {
   FetchOptions options = fast_;
   options.retries = 0;
   options.stall_timeout_s = 30;  // the kill, not the stall timeout, ends the transfer
+  // Killed once the 50,000 bytes before the hang are on disk: an event, not a delay.
   std::thread killer([&] {
-    std::this_thread::sleep_for(std::chrono::milliseconds(500));
+    ::mlspaces::testing::WaitUntil("50000 bytes in the partial file", [&] {
+      std::error_code ec;
+      return fs::file_size(Part(), ec) == 50000u;
+    });
     server_.Kill();
   });
   const std::string url = Url();

@@ -1,7 +1,7 @@
 // flock(2)-based lock. The lock file is never deleted: unlinking it while another process
 // waits on its descriptor would let a third process lock a fresh file of the same name, and
 // two "holders" would run at once.
-#include "mlspaces/resources/file_lock.h"
+#include "mlspaces/core/file_lock.h"
 
 #include <fcntl.h>
 #include <sys/file.h>

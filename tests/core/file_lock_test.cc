@@ -1,12 +1,9 @@
-#include "mlspaces/resources/file_lock.h"
+#include "mlspaces/core/file_lock.h"
 
 #include <poll.h>
 #include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
-
-#include <chrono>
-#include <thread>
 
 #include "test_util.h"
 
@@ -17,7 +14,10 @@ namespace fs = std::filesystem;
 using ::mlspaces::testing::ExpectError;
 using ::mlspaces::testing::Slurp;
 using ::mlspaces::testing::TempDir;
-using Clock = std::chrono::steady_clock;
+
+// Hang guard for waits on pipes: far above any real wait. A test here never decides by time;
+// it waits for events (a byte on a pipe, the lock's on_wait call, a child's exit).
+constexpr int kGuardMs = 300000;
 
 /// A pipe for one-byte messages between parent and forked child.
 struct Pipe {
@@ -59,18 +59,14 @@ int Reap(pid_t pid) {
   return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
 }
 
-double SecondsSince(Clock::time_point t) {
-  return std::chrono::duration<double>(Clock::now() - t).count();
-}
-
 TEST(FileLock, SecondProcessBlocksWhileFirstHolds) {
   TempDir dir;
   const fs::path path = dir / "locks" / "install.lock";  // its folder is created
   // The children are forked before we lock: a child forked while we hold the lock would
   // inherit our descriptor, and with it the lock (flock semantics).
-  Pipe go_impatient, go_patient, got;
+  Pipe go_impatient, go_patient, waiting, got;
   const pid_t impatient = Fork([&] {
-    go_impatient.Wait(10000);
+    go_impatient.Wait(kGuardMs);
     try {
       FileLock l(path, {}, 0.2);
     } catch (const Error& e) {  // a waiter with a timeout gives up, naming the path and us
@@ -83,8 +79,8 @@ TEST(FileLock, SecondProcessBlocksWhileFirstHolds) {
     return 0;
   });
   const pid_t patient = Fork([&] {
-    go_patient.Wait(10000);
-    FileLock l(path);
+    go_patient.Wait(kGuardMs);
+    FileLock l(path, [&](long) { waiting.Send(); });
     got.Send();
     return 0;
   });
@@ -95,9 +91,11 @@ TEST(FileLock, SecondProcessBlocksWhileFirstHolds) {
     go_impatient.Send();
     EXPECT_EQ(Reap(impatient), 3);
     go_patient.Send();
-    EXPECT_FALSE(got.Wait(400)) << "the second process got the lock while we held it";
+    // It found the lock held and is waiting; it must not have it while we do.
+    ASSERT_TRUE(waiting.Wait(kGuardMs)) << "the second process never waited";
+    EXPECT_FALSE(got.Wait(0)) << "the second process got the lock while we held it";
   }
-  EXPECT_TRUE(got.Wait(5000)) << "the second process did not get the lock after release";
+  EXPECT_TRUE(got.Wait(kGuardMs)) << "the second process did not get the lock after release";
   EXPECT_EQ(Reap(patient), 0);
   EXPECT_FALSE(FileLock::IsHeld(path));
   EXPECT_TRUE(fs::exists(path));  // never deleted (see file_lock.cc)
@@ -110,22 +108,19 @@ TEST(FileLock, WaiterGetsItWhenHolderReleases) {
   const pid_t holder = Fork([&] {
     FileLock l(path);
     locked.Send();
-    release.Wait(10000);
+    release.Wait(kGuardMs);
     return 0;
   });
-  ASSERT_TRUE(locked.Wait(5000));
+  ASSERT_TRUE(locked.Wait(kGuardMs));
   std::vector<long> waits;
-  std::thread releaser([&] {
-    std::this_thread::sleep_for(std::chrono::milliseconds(300));
-    release.Send();
-  });
-  const auto start = Clock::now();
   {
-    FileLock lock(path, [&](long pid) { waits.push_back(pid); });
-    EXPECT_GE(SecondsSince(start), 0.25);
+    // The holder is told to release only once we are waiting: the lock cannot be ours early.
+    FileLock lock(path, [&](long pid) {
+      waits.push_back(pid);
+      release.Send();
+    });
     EXPECT_EQ(Slurp(path), std::to_string(::getpid()) + "\n");
   }
-  releaser.join();
   EXPECT_THAT(waits, ::testing::ElementsAre(holder));  // once, with the holder's pid
   EXPECT_EQ(Reap(holder), 0);
 }
@@ -140,24 +135,20 @@ TEST(FileLock, KilledHolderReleasesTheLock) {
     for (;;) ::pause();
     return 0;
   });
-  ASSERT_TRUE(locked.Wait(5000));
+  ASSERT_TRUE(locked.Wait(kGuardMs));
   EXPECT_TRUE(FileLock::IsHeld(path));
   // Still held: a short timeout fails and names the holder.
   ExpectError([&] { FileLock l(path, {}, 0.1); },
               {path.string(), "timed out", "pid " + std::to_string(holder)});
 
   std::vector<long> waits;
-  Clock::time_point killed;
-  std::thread killer([&] {
-    std::this_thread::sleep_for(std::chrono::milliseconds(200));
-    killed = Clock::now();
-    ::kill(holder, SIGKILL);
-  });
   {
-    FileLock lock(path, [&](long pid) { waits.push_back(pid); }, 10.0);
-    killer.join();
-    // The kernel released it with the dead process: no stale lock, a quick hand-over.
-    EXPECT_LT(SecondsSince(killed), 1.0);
+    // Killed once we wait; the kernel releases the lock with the dead process, so we get it
+    // with no stale-lock clean-up (the timeout is a hang guard).
+    FileLock lock(path, [&](long pid) {
+      waits.push_back(pid);
+      ::kill(holder, SIGKILL);
+    }, kGuardMs / 1000.0);
     EXPECT_EQ(Slurp(path), std::to_string(::getpid()) + "\n");
   }
   EXPECT_THAT(waits, ::testing::ElementsAre(holder));

@@ -135,6 +135,22 @@ inline CliResult RunCli(const std::vector<std::string>& args, const std::string&
   return RunProgram(MLSPACES_CLI_PATH, args, prefix);
 }
 
+/// Starts the mlspaces binary with `args` in a child process and returns at once with its pid,
+/// which is the CLI's own (the shell and `env` exec it), so a SIGKILL hits it; reap it with
+/// waitpid. `prefix` as for RunProgram; stdout goes to /dev/null, stderr to `err` (or there).
+inline pid_t SpawnCli(const std::vector<std::string>& args, const std::string& prefix = "",
+                      const std::filesystem::path& err = {}) {
+  std::string cmd = "exec " + prefix + ShellQuote(MLSPACES_CLI_PATH);
+  for (const std::string& a : args) cmd += " " + ShellQuote(a);
+  cmd += " >/dev/null 2>" + (err.empty() ? std::string("/dev/null") : ShellQuote(err.string()));
+  const pid_t pid = ::fork();
+  if (pid == 0) {
+    ::execl("/bin/sh", "sh", "-c", cmd.c_str(), static_cast<char*>(nullptr));
+    ::_exit(127);
+  }
+  return pid;
+}
+
 /// Crash points for CLI runs (mlspaces/core/crash_point.h): the environment that makes a run
 /// count its durable steps in a counter file, or SIGKILL itself after step N.
 class CrashPoints {

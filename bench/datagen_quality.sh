@@ -9,6 +9,7 @@
 # filter_for_successful_trajectories off, so every attempt is an episode (the success rate
 # is not inflated by retrying failed ones), written to a temp folder.
 set -euo pipefail
+ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 build="${1:-$root/build}"
@@ -28,7 +29,7 @@ for seed in "${seeds[@]}"; do
     --episodes "$episodes" --output "$out" \
     --set task_sampler_config.episodes_per_batch="$episodes" \
     --set filter_for_successful_trajectories=false > "$out.txt"
-  /usr/bin/python3 - "$out/journal.jsonl" "$seed" <<'PY'
+  "$ROOT/.venv/bin/python" - "$out/journal.jsonl" "$seed" <<'PY'
 import collections, json, sys
 lines = [json.loads(l) for l in open(sys.argv[1])]
 n = len(lines)

@@ -142,38 +142,27 @@ bool EndsWithNoCase(std::string_view s, std::string_view suffix) {
   return true;
 }
 
-// mj_loadXML of files.back() with `files` in a VFS kept per thread: a fresh mjVFS is a 2 MB
-// struct that mj_defaultVFS clears, a cost comparable to compiling a small mesh. Null when
-// MuJoCo rejects the model.
-ModelPtr LoadFromReusedVfs(const std::vector<VfsFile>& files) {
+// mj_loadXML of files.back() with `files` in an in-memory VFS. Null when MuJoCo rejects the
+// model.
+ModelPtr LoadFromVfs(const std::vector<VfsFile>& files) {
   struct Vfs {
-    std::unique_ptr<mjVFS> vfs{new mjVFS};  // not value-initialized: only nfile entries are read
-    Vfs() { vfs->nfile = 0; }
-    ~Vfs() { Clear(); }
-    void Clear() {
-      for (int i = 0; i < vfs->nfile; ++i) mju_free(vfs->filedata[i]);
-      vfs->nfile = 0;
-    }
-  };
-  thread_local Vfs holder;
-  mjVFS* vfs = holder.vfs.get();
-  holder.Clear();
+    mjVFS vfs;
+    Vfs() { mj_defaultVFS(&vfs); }
+    ~Vfs() { mj_deleteVFS(&vfs); }
+  } holder;
   for (const VfsFile& f : files) {
-    int size = std::max<int>(1, static_cast<int>(f.data.size()));
-    if (f.name.size() >= mjMAXVFSNAME || mj_makeEmptyFileVFS(vfs, f.name.c_str(), size) != 0) {
-      holder.Clear();
+    if (mj_addBufferVFS(&holder.vfs, f.name.c_str(), f.data.data(),
+                        static_cast<int>(f.data.size())) != 0) {
       return nullptr;
     }
-    std::memcpy(vfs->filedata[vfs->nfile - 1], f.data.data(), f.data.size());
   }
   char error[1024] = "";
   mjModel* m = nullptr;
   try {
-    m = mj_loadXML(files.back().name.c_str(), vfs, error, sizeof error);
+    m = mj_loadXML(files.back().name.c_str(), &holder.vfs, error, sizeof error);
   } catch (const MujocoError&) {
     m = nullptr;
   }
-  holder.Clear();
   TakeMujocoWarnings();
   return ModelPtr(m);
 }
@@ -181,7 +170,7 @@ ModelPtr LoadFromReusedVfs(const std::vector<VfsFile>& files) {
 // The physics-only fast path: the composed model with every OBJ / binary STL mesh file read by
 // mesh_reader and handed to MuJoCo as a .msh in the VFS (same triangles, same float corners,
 // one vertex per OBJ index instead of one per face corner; see mesh_reader.h for why the
-// compiled masses and vertices are the same), no constraint buffers, a reused VFS. Meshes the
+// compiled masses and vertices are the same), no constraint buffers. Meshes the
 // readers leave to MuJoCo keep their file. Null when MuJoCo rejected the model: the caller
 // then compiles the composer's model, which reports MuJoCo's error against the source file
 // and line.
@@ -229,7 +218,7 @@ ModelPtr CompileWithFastMeshes(const MjcfComposer& composer) {
   std::ostringstream os;
   doc.save(os, "", pugi::format_raw | pugi::format_no_declaration);
   files.push_back({"__mlspaces_model.xml", os.str()});
-  return LoadFromReusedVfs(files);
+  return LoadFromVfs(files);
 }
 
 }  // namespace

@@ -11,7 +11,6 @@
 
 #include <pugixml.hpp>
 
-#include "mesh_reader.h"
 #include "mlspaces/core/error.h"
 #include "mlspaces/core/files.h"
 #include "mlspaces/sim/mjcf_composer.h"
@@ -132,16 +131,6 @@ void AddGeom(const mjModel* m, const mjData* d, int g, Box* box) {
   }
 }
 
-bool EndsWithNoCase(std::string_view s, std::string_view suffix) {
-  if (s.size() < suffix.size()) return false;
-  for (size_t i = 0; i < suffix.size(); ++i) {
-    char c = s[s.size() - suffix.size() + i];
-    if (c >= 'A' && c <= 'Z') c = static_cast<char>(c - 'A' + 'a');
-    if (c != suffix[i]) return false;
-  }
-  return true;
-}
-
 // mj_loadXML of files.back() with `files` in an in-memory VFS. Null when MuJoCo rejects the
 // model.
 ModelPtr LoadFromVfs(const std::vector<VfsFile>& files) {
@@ -167,48 +156,36 @@ ModelPtr LoadFromVfs(const std::vector<VfsFile>& files) {
   return ModelPtr(m);
 }
 
-// The physics-only fast path: the composed model with every OBJ / binary STL mesh file read by
-// mesh_reader and handed to MuJoCo as a .msh in the VFS (same triangles, same float corners,
-// one vertex per OBJ index instead of one per face corner; see mesh_reader.h for why the
-// compiled masses and vertices are the same), no constraint buffers. Meshes the
-// readers leave to MuJoCo keep their file. Null when MuJoCo rejected the model: the caller
-// then compiles the composer's model, which reports MuJoCo's error against the source file
-// and line.
-// @throws Error for a malformed OBJ (file and line).
-ModelPtr CompileWithFastMeshes(const MjcfComposer& composer) {
+// The physics-only path: the composed model (physics_only: no textures, materials or lights)
+// with every geom's collisions off, so MuJoCo builds no convex hull for its meshes (a hull is
+// built only for meshes that collide or ask for inertia="convex"; it costs more than the rest
+// of a mesh's compile and changes neither masses nor vertices), and no constraint buffers.
+// Null when MuJoCo rejected the model: the caller then compiles the composer's model, which
+// reports MuJoCo's error against the source file and line.
+ModelPtr CompilePhysicsOnly(const MjcfComposer& composer) {
   const std::string text = composer.Emit();
   pugi::xml_document doc;
   if (!doc.load_buffer(text.data(), text.size())) return nullptr;
-  std::vector<VfsFile> files;
   pugi::xml_node root = doc.child("mujoco");
-  for (pugi::xml_node asset : root.children("asset")) {
-    for (pugi::xml_node mesh : asset.children("mesh")) {
-      pugi::xml_attribute file = mesh.attribute("file");
-      if (!file) continue;
-      const std::string name = file.value();
-      const bool obj = EndsWithNoCase(name, "obj");
-      if (!(obj || EndsWithNoCase(name, "stl")) || !std::filesystem::path(name).is_absolute()) {
-        continue;
+  for (pugi::xml_node wb : root.children("worldbody")) {
+    std::vector<pugi::xml_node> stack{wb};
+    while (!stack.empty()) {
+      pugi::xml_node n = stack.back();
+      stack.pop_back();
+      for (pugi::xml_node c : n.children()) {
+        if (std::string_view(c.name()) == "geom") {
+          for (const char* a : {"contype", "conaffinity"}) {
+            if (!c.attribute(a)) c.append_attribute(a);
+            c.attribute(a).set_value("0");
+          }
+        } else if (std::string_view(c.name()) == "body") {
+          stack.push_back(c);
+        }
       }
-      std::string data;
-      try {
-        data = ReadFile(name);
-      } catch (const std::exception&) {
-        continue;  // MuJoCo reports the missing file
-      }
-      TriMesh tri;
-      if (obj ? !ReadObjMesh(data, name, &tri) : !ReadStlMesh(data, &tri)) continue;
-      // MuJoCo names an unnamed mesh after its file.
-      if (!mesh.attribute("name")) {
-        mesh.append_attribute("name").set_value(std::filesystem::path(name).stem().c_str());
-      }
-      std::string vfs_name = "__mlspaces_mesh_" + std::to_string(files.size()) + ".msh";
-      file.set_value(vfs_name.c_str());
-      files.push_back({std::move(vfs_name), EncodeMsh(tri)});
     }
   }
   // Only masses and poses are read from this model: no constraint rows, so MuJoCo's own
-  // mj_makeData in the compile and ours stay small (njmax 500 costs megabytes of memset).
+  // mj_makeData in the compile and ours stay small.
   pugi::xml_node size = root.child("size");
   if (!size) size = root.prepend_child("size");
   for (const char* a : {"njmax", "nconmax"}) {
@@ -217,8 +194,7 @@ ModelPtr CompileWithFastMeshes(const MjcfComposer& composer) {
   }
   std::ostringstream os;
   doc.save(os, "", pugi::format_raw | pugi::format_no_declaration);
-  files.push_back({"__mlspaces_model.xml", os.str()});
-  return LoadFromVfs(files);
+  return LoadFromVfs({{"__mlspaces_model.xml", os.str()}});
 }
 
 }  // namespace
@@ -268,7 +244,7 @@ AssetFacts ComputeAssetFacts(const std::filesystem::path& xml, bool physics_only
   MjcfComposer composer(xml, options);
   const std::filesystem::path abs = std::filesystem::absolute(xml).lexically_normal();
   if (physics_only) {
-    if (ModelPtr m = CompileWithFastMeshes(composer)) return ComputeAssetFacts(m.get(), abs);
+    if (ModelPtr m = CompilePhysicsOnly(composer)) return ComputeAssetFacts(m.get(), abs);
   }
   ModelPtr m = composer.Compile();
   return ComputeAssetFacts(m.get(), abs);

@@ -38,6 +38,11 @@ void InstallMujocoHandlers() {
   std::call_once(once, [] {
     mju_user_error = ThrowingErrorHandler;
     mju_user_warning = CollectingWarningHandler;
+    // MuJoCo 3's compiler keeps decoded meshes and textures in a process-wide asset cache,
+    // keyed by file name and the file's timestamp; a file rewritten within the timestamp's
+    // granularity (an asset fixed and re-indexed, a test's scratch mesh) would compile from
+    // the stale entry. Every file is read afresh instead.
+    mj_setCacheCapacity(mj_getCache(), 0);
   });
 }
 

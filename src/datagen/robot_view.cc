@@ -5,7 +5,6 @@
 #include <limits>
 
 #include "mlspaces/core/error.h"
-#include "mlspaces/sim/gravity_compensation.h"
 
 namespace mlspaces::datagen {
 namespace {
@@ -46,8 +45,7 @@ RobotView::RobotView(const mjModel* m, const RobotSpec& spec) : m_(m), spec_(spe
   for (int k = 0; k < 2; ++k) {
     pads_[k] = Require(m, mjOBJ_GEOM, p + spec.finger_pads[k], "finger pad");
   }
-  gravcomp_dofs_ =
-      sim::SubtreeDofs(m, Require(m, mjOBJ_BODY, p + spec.arm_root_body, "arm root body"));
+  Require(m, mjOBJ_BODY, p + spec.arm_root_body, "arm root body");
   gripper_geom_.assign(m->ngeom, 0);
   for (int g = 0; g < m->ngeom; ++g) {
     for (int b = m->geom_bodyid[g]; b > 0; b = m->body_parentid[b]) {
@@ -144,12 +142,8 @@ bool RobotView::IsGripperGeom(int g) const {
   return g >= 0 && g < static_cast<int>(gripper_geom_.size()) && gripper_geom_[g] != 0;
 }
 
-void RobotView::Step(mjData* d, int n, bool gravcomp) const {
-  for (int i = 0; i < n; ++i) {
-    mj_step1(m_, d);
-    if (gravcomp) sim::ApplyGravityCompensation(m_, d, gravcomp_dofs_);
-    mj_step2(m_, d);
-  }
+void RobotView::Step(mjData* d, int n) const {
+  for (int i = 0; i < n; ++i) mj_step(m_, d);
 }
 
 }  // namespace mlspaces::datagen

@@ -63,8 +63,8 @@ class RobotView {
   /// True when geom `g` belongs to the gripper subtree.
   bool IsGripperGeom(int g) const;
 
-  /// `n` physics steps: mj_step1, arm gravity compensation when `gravcomp`, mj_step2.
-  void Step(mjData* d, int n, bool gravcomp) const;
+  /// `n` physics steps (mj_step; gravity compensation is MuJoCo's body gravcomp).
+  void Step(mjData* d, int n) const;
 
   int tcp_site() const { return tcp_site_; }
   int base_body() const { return base_body_; }
@@ -79,7 +79,6 @@ class RobotView {
   std::vector<int> arm_qpos_, arm_dof_, arm_act_;
   std::vector<double> arm_lower_, arm_upper_;
   std::vector<int> gripper_qpos_, gripper_dof_;
-  std::vector<int> gravcomp_dofs_;
   std::vector<char> gripper_geom_;  // per geom: in the gripper subtree
   std::array<int, 2> pads_{-1, -1};
   int gripper_act_ = -1;

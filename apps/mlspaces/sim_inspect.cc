@@ -167,7 +167,7 @@ void AddInspect(CLI::App& app, Action& action) {
   sub->add_option("FILE", flags->file, "MJCF file (MuJoCo 3 <frame>/<attach> allowed)")
       ->required();
   sub->add_flag("--json", flags->json, "Print JSON for scripts");
-  sub->add_flag("--emit-mjcf", flags->emit, "Print the flat MJCF handed to MuJoCo 2.2.2");
+  sub->add_flag("--emit-mjcf", flags->emit, "Print the flat MJCF handed to MuJoCo");
   sub->callback([&action, flags] { action = [flags] { return Run(*flags); }; });
 }
 

@@ -457,6 +457,25 @@ TEST(FrankaDroid, CompensatedArmHoldsItsHomePose) {
   EXPECT_GT(drift_off, drift);
 }
 
+TEST(FrankaDroid, AloneItHasTheOriginalsOptionsAndHoldsItsHomePose) {
+  // The robot file alone: menagerie FR3's implicitfast, the 2F-85's elliptic cone and
+  // impratio 10. Attached into a scene, the scene's <option> rules (kBareScene: implicit).
+  ModelPtr alone = MjcfComposer(kRobot).Compile();
+  EXPECT_EQ(alone->opt.integrator, mjINT_IMPLICITFAST);
+  EXPECT_EQ(alone->opt.cone, mjCONE_ELLIPTIC);
+  EXPECT_EQ(alone->opt.impratio, 10);
+  ModelPtr attached = Compose(kBareScene);
+  EXPECT_EQ(attached->opt.integrator, mjINT_IMPLICIT);
+  // The attached robot with the robot file's own options holds its home pose too.
+  mjModel* m = attached.get();
+  m->opt.integrator = mjINT_IMPLICITFAST;
+  m->opt.cone = mjCONE_ELLIPTIC;
+  m->opt.impratio = 10;
+  const auto [err, drift] = HoldHome(m, /*gravcomp=*/true);
+  EXPECT_LT(err, 1e-3) << "rad";
+  EXPECT_LT(drift, 1e-3) << "m";
+}
+
 bool Touches(const mjModel*, const mjData* d, int geom_a, int geom_b) {
   for (int c = 0; c < d->ncon; ++c) {
     const int g1 = d->contact[c].geom1, g2 = d->contact[c].geom2;

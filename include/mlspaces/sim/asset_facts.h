@@ -32,8 +32,8 @@ bool BodyGeomBox(const mjModel* m, const mjData* d, int body, std::array<double,
 /// @throws Error when the model has not exactly one body besides the world.
 AssetFacts ComputeAssetFacts(const mjModel* m, const std::filesystem::path& path_for_errors);
 
-/// Composes (physics_only: textures, materials and convex hulls skipped; results bitwise
-/// equal a full compile's) and compiles an asset MJCF, then computes its facts.
+/// Composes (physics_only: textures, materials and lights skipped; results bitwise equal a
+/// full compile's) and compiles an asset MJCF, then computes its facts.
 /// @throws Error naming the file, line and element for bad MJCF, or more than one body.
 AssetFacts ComputeAssetFacts(const std::filesystem::path& xml, bool physics_only = true);
 

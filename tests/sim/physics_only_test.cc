@@ -18,6 +18,7 @@
 #include "mlspaces/core/error.h"
 #include "mlspaces/core/files.h"
 #include "mlspaces/sim/asset_facts.h"
+#include "mlspaces/sim/mujoco_handlers.h"
 
 namespace mlspaces::sim {
 namespace {
@@ -165,6 +166,11 @@ class PhysicsOnly : public ::testing::Test {
     EXPECT_GT(full.mass, 0) << what;
     // Bitwise: MuJoCo compiles the same meshes either way.
     EXPECT_EQ(fast.mass, full.mass) << what;
+    // And MuJoCo's own compile of the asset file, with no composer in between.
+    char error[1000] = "";
+    ModelPtr own(mj_loadXML(xml.c_str(), nullptr, error, sizeof error));
+    ASSERT_TRUE(own) << what << ": " << error;
+    EXPECT_EQ(fast.mass, own->body_mass[1]) << what;
     EXPECT_EQ(fast.aabb_min, full.aabb_min) << what;
     EXPECT_EQ(fast.aabb_max, full.aabb_max) << what;
     EXPECT_EQ(fast.bounding_box, full.bounding_box) << what;
@@ -375,7 +381,7 @@ TEST_F(PhysicsOnly, NumberFormatsEqualFullCompile) {
              "number formats");
 }
 
-TEST_F(PhysicsOnly, SeveralObjectsAreLeftToMuJoCo) {
+TEST_F(PhysicsOnly, SeveralObjectsEqualFullCompile) {
   std::string two = BlobObj({}) + "o second\nv 5 5 5\nv 6 5 5\nv 5 6 5\nf -1 -2 -3\n";
   fs::path obj = Write("two.obj", two);
   ExpectSame(Asset("<mesh name=\"t\" file=\"two.obj\"/>", "<geom type=\"mesh\" mesh=\"t\"/>"),

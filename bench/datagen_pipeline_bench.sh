@@ -9,7 +9,6 @@
 # Defaults: build/, 4 episodes (one per work item, so 2 workers can share them), QUALITY
 # "full" (shadows and reflections on, as the original) or "fast" (both off).
 set -euo pipefail
-ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 build="${1:-$root/build}"
 episodes="${2:-4}"
@@ -30,7 +29,7 @@ run() {  # name, extra args...; prints wall seconds
   t0=$(date +%s.%N)
   "$cli" "${common[@]}" --output "$work/$name" "$@" > /dev/null
   t1=$(date +%s.%N)
-  "$ROOT/.venv/bin/python" -c "print($t1 - $t0)"
+  "$root/.venv/bin/python" -c "print($t1 - $t0)"
 }
 
 physics=$(run physics --set task_config.enable_rendering=false --workers 1)
@@ -42,10 +41,10 @@ for row in "physics-only (1 worker):$physics" "cameras + videos, 1 worker:$one" 
            "cameras + videos, 2 workers:$two"; do
   name="${row%%:*}"; secs="${row##*:}"
   printf '%-34s %10.2f %14.0f %11.3fx\n' "$name" "$secs" \
-    "$("$ROOT/.venv/bin/python" -c "print($episodes * 3600 / $secs)")" \
-    "$("$ROOT/.venv/bin/python" -c "print($physics / $secs)")"
+    "$("$root/.venv/bin/python" -c "print($episodes * 3600 / $secs)")" \
+    "$("$root/.venv/bin/python" -c "print($physics / $secs)")"
 done
-"$ROOT/.venv/bin/python" - "$work/cameras1/journal.jsonl" "$work/cameras1/house_0" <<'PY'
+"$root/.venv/bin/python" - "$work/cameras1/journal.jsonl" "$work/cameras1/house_0" <<'PY'
 import json, sys, glob, h5py
 recs = [json.loads(l) for l in open(sys.argv[1])]
 frames = 0

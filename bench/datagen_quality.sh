@@ -9,7 +9,6 @@
 # filter_for_successful_trajectories off, so every attempt is an episode (the success rate
 # is not inflated by retrying failed ones), written to a temp folder.
 set -euo pipefail
-ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 build="${1:-$root/build}"
@@ -29,7 +28,7 @@ for seed in "${seeds[@]}"; do
     --episodes "$episodes" --output "$out" \
     --set task_sampler_config.episodes_per_batch="$episodes" \
     --set filter_for_successful_trajectories=false > "$out.txt"
-  "$ROOT/.venv/bin/python" - "$out/journal.jsonl" "$seed" <<'PY'
+  "$root/.venv/bin/python" - "$out/journal.jsonl" "$seed" <<'PY'
 import collections, json, sys
 lines = [json.loads(l) for l in open(sys.argv[1])]
 n = len(lines)

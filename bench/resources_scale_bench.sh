@@ -9,7 +9,6 @@
 # Figures: pack time, install time, and from resources_scale_bench: index open, locate
 # p50/p99, annotation, 50-grasp loads, resident memory.
 set -euo pipefail
-ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 build="${1:-$root/build}"
@@ -28,7 +27,7 @@ if [[ ! -f "$lib/.complete-$assets-$grasps" ]]; then
   echo "Generating $lib ($assets assets, $grasps grasps)..."
   rm -rf "$lib"
   mkdir -p "$lib"
-  "$ROOT/.venv/bin/python" - "$lib" "$assets" "$grasps" <<'PY'
+  "$root/.venv/bin/python" - "$lib" "$assets" "$grasps" <<'PY'
 import io, json, os, sys
 import numpy as np
 lib, n, total = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])

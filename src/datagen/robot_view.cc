@@ -113,14 +113,10 @@ Mat4 RobotView::BasePose(const mjData* d) const {
 }
 
 double RobotView::InterFingerDistance(const mjData* d) const {
-  const mjtNum* r = d->site_xmat + 9 * tcp_site_;
-  const double y_axis[3] = {r[1], r[4], r[7]};
-  double gap = 0;
-  for (int c = 0; c < 3; ++c) {
-    gap += (d->geom_xpos[3 * pads_[0] + c] - d->geom_xpos[3 * pads_[1] + c]) * y_axis[c];
-  }
-  gap = std::abs(gap) - m_->geom_size[3 * pads_[0] + 1] - m_->geom_size[3 * pads_[1] + 1];
-  return std::max(0.0, gap);
+  // MuJoCo's distance between the two pad geoms, as the original measures it (up to 1 m;
+  // negative while they press into each other).
+  const mjtNum dist = mj_geomDistance(m_, d, pads_[0], pads_[1], 1.0, nullptr);
+  return std::max(0.0, static_cast<double>(dist));
 }
 
 std::vector<double> RobotView::ArmJacobian(const mjData* d) const {

@@ -51,9 +51,8 @@ class RobotView {
   /// World pose of the robot base (its mocap state).
   Mat4 BasePose(const mjData* d) const;
 
-  /// Gap between the inner faces of the two finger pads, measured along the TCP's y axis
-  /// (the closing direction), clamped at 0. The original measures the geoms' distance with
-  /// mj_geomDistance, which MuJoCo 2.2 lacks; for the parallel pads both agree.
+  /// Distance between the two finger pad geoms (mj_geomDistance, as the original), clamped
+  /// at 0 (needs kinematics).
   double InterFingerDistance(const mjData* d) const;
 
   /// The 6 x num_arm() Jacobian of the TCP site over the arm dofs, row-major, rows

@@ -201,7 +201,6 @@ void BM_DatagenOverhead(benchmark::State& state) {
   const mjModel* m = dgn->env.model();
   mjData* d = dgn->env.data();
   const int substeps = dgn->runner->substeps();
-  const bool gravcomp = dgn->config.robot_config.gravcomp;
   const int64_t loop_policy_steps = kBareSteps / substeps;
   int64_t episode = 0, bare_steps = 0, loop_steps = 0, datagen_steps = 0;
   double bare_s = 0, bare_grasp_s = 0, loop_s = 0, datagen_s = 0, physics_stage_s = 0;
@@ -236,7 +235,7 @@ void BM_DatagenOverhead(benchmark::State& state) {
       dgn->env.Reset();
       t0 = Clock::now();
       for (int64_t i = 0; i < loop_policy_steps; ++i) {
-        robot.Step(d, substeps, gravcomp);
+        robot.Step(d, substeps);
         mj_fwdPosition(m, d);
       }
       loop_s += Since(t0);

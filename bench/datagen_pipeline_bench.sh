@@ -29,7 +29,7 @@ run() {  # name, extra args...; prints wall seconds
   t0=$(date +%s.%N)
   "$cli" "${common[@]}" --output "$work/$name" "$@" > /dev/null
   t1=$(date +%s.%N)
-  /usr/bin/python3 -c "print($t1 - $t0)"
+  "$root/.venv/bin/python" -c "print($t1 - $t0)"
 }
 
 physics=$(run physics --set task_config.enable_rendering=false --workers 1)
@@ -41,10 +41,10 @@ for row in "physics-only (1 worker):$physics" "cameras + videos, 1 worker:$one" 
            "cameras + videos, 2 workers:$two"; do
   name="${row%%:*}"; secs="${row##*:}"
   printf '%-34s %10.2f %14.0f %11.3fx\n' "$name" "$secs" \
-    "$(/usr/bin/python3 -c "print($episodes * 3600 / $secs)")" \
-    "$(/usr/bin/python3 -c "print($physics / $secs)")"
+    "$("$root/.venv/bin/python" -c "print($episodes * 3600 / $secs)")" \
+    "$("$root/.venv/bin/python" -c "print($physics / $secs)")"
 done
-/usr/bin/python3 - "$work/cameras1/journal.jsonl" "$work/cameras1/house_0" <<'PY'
+"$root/.venv/bin/python" - "$work/cameras1/journal.jsonl" "$work/cameras1/house_0" <<'PY'
 import json, sys, glob, h5py
 recs = [json.loads(l) for l in open(sys.argv[1])]
 frames = 0

@@ -28,7 +28,7 @@ for seed in "${seeds[@]}"; do
     --episodes "$episodes" --output "$out" \
     --set task_sampler_config.episodes_per_batch="$episodes" \
     --set filter_for_successful_trajectories=false > "$out.txt"
-  /usr/bin/python3 - "$out/journal.jsonl" "$seed" <<'PY'
+  "$root/.venv/bin/python" - "$out/journal.jsonl" "$seed" <<'PY'
 import collections, json, sys
 lines = [json.loads(l) for l in open(sys.argv[1])]
 n = len(lines)

@@ -27,7 +27,7 @@ if [[ ! -f "$lib/.complete-$assets-$grasps" ]]; then
   echo "Generating $lib ($assets assets, $grasps grasps)..."
   rm -rf "$lib"
   mkdir -p "$lib"
-  /usr/bin/python3 - "$lib" "$assets" "$grasps" <<'PY'
+  "$root/.venv/bin/python" - "$lib" "$assets" "$grasps" <<'PY'
 import io, json, os, sys
 import numpy as np
 lib, n, total = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])

@@ -3,7 +3,8 @@
 // shadows and reflections off (the scene's defaults have both). Real time: llvmpipe renders
 // on threads of its own, so the main thread's CPU time says little.
 //
-// MuJoCo 2.2.2 allows one GL backend per process, so main() runs each backend's benchmarks
+// A process renders with one GL backend (MuJoCo takes its GL functions from the platform
+// library loaded in the process, libEGL first), so main() runs each backend's benchmarks
 // in a forked child of its own; the usual Google Benchmark flags apply to both.
 //   build/bench/sim_render_bench --benchmark_repetitions=3 --benchmark_report_aggregates_only=true
 #include <sys/wait.h>

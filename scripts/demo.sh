@@ -10,6 +10,7 @@ ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 "$ROOT/scripts/install-deps.sh"
 "$ROOT/scripts/build.sh"
 ML="$ROOT/build/apps/mlspaces/mlspaces"
+PY="$ROOT/.venv/bin/python"   # the project venv (numpy, h5py), made by install-deps.sh
 EX="$ROOT/examples/custom_assets"
 OUT="${MLSPACES_DEMO_OUT:-$ROOT/build/demo}"
 rm -rf "$OUT" && mkdir -p "$OUT" && cp -r "$EX"/. "$OUT"/
@@ -22,7 +23,7 @@ set -x
 "$ML" locate red_block --libraries libraries.yaml
 "$ML" meta red_block --libraries libraries.yaml
 "$ML" grasps red_block --libraries libraries.yaml --robot droid --num 1 --out red_block_grasps.npz
-/usr/bin/python3 -c "import numpy as np; print(np.load('red_block_grasps.npz')['transforms'])"
+"$PY" -c "import numpy as np; print(np.load('red_block_grasps.npz')['transforms'])"
 # Publish the library as a versioned package, serve it as a file:// remote, install the red
 # block (and its grasps) into a private cache and assets dir, and look it up from there.
 "$ML" pack asset_library remote --name custom_assets --version 1 -q
@@ -39,7 +40,7 @@ head -5 resolved_datagen_config.yaml
 # exo camera videos, then a full check of the dataset (schema, videos, metadata).
 "$ML" datagen datagen.yaml --output experiment_output --seed 0 --episodes 3
 "$ML" validate-dataset experiment_output
-/usr/bin/python3 - <<'PY'
+"$PY" - <<'PY'
 import h5py, json
 f = h5py.File("experiment_output/house_0/trajectories_batch_1_of_1.h5", "r")
 for k in sorted(f):

@@ -89,6 +89,7 @@ RobotSpec RobotSpecFromConfig(const RobotConfig& config) {
                 spec.xml.string(), "robot_config.robot_xml_path");
   }
   spec.pedestal_size = config.base_size;
+  spec.gravcomp = config.gravcomp;
   spec.home_arm.assign(config.init_qpos.arm.begin(), config.init_qpos.arm.end());
   spec.home_gripper.assign(config.init_qpos.gripper.begin(), config.init_qpos.gripper.end());
   return spec;
@@ -140,6 +141,22 @@ void InsertRobotOnPedestal(sim::Scene& scene, const RobotSpec& robot) {
   std::filesystem::remove(file);
 }
 
+// robot_config.gravcomp on the compiled model: body_gravcomp 1 (or 0) on the arm root's
+// subtree, and ngravcomp recounted (MuJoCo skips gravity compensation when it is 0).
+void SetRobotGravcomp(mjModel* m, const RobotSpec& robot) {
+  const std::string root_name = robot.prefix + robot.arm_root_body;
+  const int root = NameToId(m, mjOBJ_BODY, root_name);
+  if (root < 0) throw Error("robot arm root body " + root_name + " is not in the model",
+                            robot.xml.string());
+  for (int b = 1; b < m->nbody; ++b) {
+    int a = b;
+    while (a > 0 && a != root) a = m->body_parentid[a];
+    if (a == root) m->body_gravcomp[b] = robot.gravcomp ? 1 : 0;
+  }
+  m->ngravcomp = 0;
+  for (int b = 0; b < m->nbody; ++b) m->ngravcomp += m->body_gravcomp[b] != 0;
+}
+
 }  // namespace
 
 Env Env::Create(sim::Scene scene, const RobotSpec& robot, std::string scene_key) {
@@ -149,7 +166,9 @@ Env Env::Create(sim::Scene scene, const RobotSpec& robot, std::string scene_key)
     scene.InsertRobot(robot.xml, robot.prefix, robot.base);
   }
   Env env;
-  env.model_ = std::shared_ptr<const mjModel>(scene.Compile().release(), sim::ModelDeleter{});
+  sim::ModelPtr compiled = scene.Compile();
+  SetRobotGravcomp(compiled.get(), robot);
+  env.model_ = std::shared_ptr<const mjModel>(compiled.release(), sim::ModelDeleter{});
   env.data_ = sim::MakeData(env.model_.get());
   env.robot_ = robot;
   env.robot_base_body_ = robot.prefix + robot.base_body;

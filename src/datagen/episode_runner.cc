@@ -370,7 +370,6 @@ EpisodeResult EpisodeRunner::Run(int64_t episode) {
   observe(nullptr);
   if (cameras_) cameras_->Capture(d);
   t_observe += Since(t_obs);
-  const bool gravcomp = config_.robot_config.gravcomp;
   const ActionNoiseConfig& noise = config_.robot_config.action_noise_config;
   while (!terminated && !truncated) {
     auto tp = Clock::now();
@@ -385,7 +384,7 @@ EpisodeResult EpisodeRunner::Run(int64_t episode) {
     robot_.SetArmTargets(d, target);
     robot_.SetGripperCtrl(d, action.gripper);
     if (options_.on_step) options_.on_step(m, d, step);
-    robot_.Step(d, substeps_, gravcomp);
+    robot_.Step(d, substeps_);
     // Positions, contacts and Jacobians of the new state (what the success check, the
     // recorder and the next action read); the next mj_step1 recomputes the rest.
     mj_fwdPosition(m, d);

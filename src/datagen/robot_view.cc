@@ -5,7 +5,6 @@
 #include <limits>
 
 #include "mlspaces/core/error.h"
-#include "mlspaces/sim/gravity_compensation.h"
 
 namespace mlspaces::datagen {
 namespace {
@@ -46,8 +45,7 @@ RobotView::RobotView(const mjModel* m, const RobotSpec& spec) : m_(m), spec_(spe
   for (int k = 0; k < 2; ++k) {
     pads_[k] = Require(m, mjOBJ_GEOM, p + spec.finger_pads[k], "finger pad");
   }
-  gravcomp_dofs_ =
-      sim::SubtreeDofs(m, Require(m, mjOBJ_BODY, p + spec.arm_root_body, "arm root body"));
+  Require(m, mjOBJ_BODY, p + spec.arm_root_body, "arm root body");
   gripper_geom_.assign(m->ngeom, 0);
   for (int g = 0; g < m->ngeom; ++g) {
     for (int b = m->geom_bodyid[g]; b > 0; b = m->body_parentid[b]) {
@@ -115,14 +113,10 @@ Mat4 RobotView::BasePose(const mjData* d) const {
 }
 
 double RobotView::InterFingerDistance(const mjData* d) const {
-  const mjtNum* r = d->site_xmat + 9 * tcp_site_;
-  const double y_axis[3] = {r[1], r[4], r[7]};
-  double gap = 0;
-  for (int c = 0; c < 3; ++c) {
-    gap += (d->geom_xpos[3 * pads_[0] + c] - d->geom_xpos[3 * pads_[1] + c]) * y_axis[c];
-  }
-  gap = std::abs(gap) - m_->geom_size[3 * pads_[0] + 1] - m_->geom_size[3 * pads_[1] + 1];
-  return std::max(0.0, gap);
+  // MuJoCo's distance between the two pad geoms, as the original measures it (up to 1 m;
+  // negative while they press into each other).
+  const mjtNum dist = mj_geomDistance(m_, d, pads_[0], pads_[1], 1.0, nullptr);
+  return std::max(0.0, static_cast<double>(dist));
 }
 
 std::vector<double> RobotView::ArmJacobian(const mjData* d) const {
@@ -144,12 +138,8 @@ bool RobotView::IsGripperGeom(int g) const {
   return g >= 0 && g < static_cast<int>(gripper_geom_.size()) && gripper_geom_[g] != 0;
 }
 
-void RobotView::Step(mjData* d, int n, bool gravcomp) const {
-  for (int i = 0; i < n; ++i) {
-    mj_step1(m_, d);
-    if (gravcomp) sim::ApplyGravityCompensation(m_, d, gravcomp_dofs_);
-    mj_step2(m_, d);
-  }
+void RobotView::Step(mjData* d, int n) const {
+  for (int i = 0; i < n; ++i) mj_step(m_, d);
 }
 
 }  // namespace mlspaces::datagen

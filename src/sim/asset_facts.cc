@@ -11,7 +11,6 @@
 
 #include <pugixml.hpp>
 
-#include "mesh_reader.h"
 #include "mlspaces/core/error.h"
 #include "mlspaces/core/files.h"
 #include "mlspaces/sim/mjcf_composer.h"
@@ -132,94 +131,44 @@ void AddGeom(const mjModel* m, const mjData* d, int g, Box* box) {
   }
 }
 
-bool EndsWithNoCase(std::string_view s, std::string_view suffix) {
-  if (s.size() < suffix.size()) return false;
-  for (size_t i = 0; i < suffix.size(); ++i) {
-    char c = s[s.size() - suffix.size() + i];
-    if (c >= 'A' && c <= 'Z') c = static_cast<char>(c - 'A' + 'a');
-    if (c != suffix[i]) return false;
-  }
-  return true;
-}
-
-// mj_loadXML of files.back() with `files` in a VFS kept per thread: a fresh mjVFS is a 2 MB
-// struct that mj_defaultVFS clears, a cost comparable to compiling a small mesh. Null when
-// MuJoCo rejects the model.
-ModelPtr LoadFromReusedVfs(const std::vector<VfsFile>& files) {
+// mj_loadXML of files.back() with `files` in an in-memory VFS. Null when MuJoCo rejects the
+// model.
+ModelPtr LoadFromVfs(const std::vector<VfsFile>& files) {
   struct Vfs {
-    std::unique_ptr<mjVFS> vfs{new mjVFS};  // not value-initialized: only nfile entries are read
-    Vfs() { vfs->nfile = 0; }
-    ~Vfs() { Clear(); }
-    void Clear() {
-      for (int i = 0; i < vfs->nfile; ++i) mju_free(vfs->filedata[i]);
-      vfs->nfile = 0;
-    }
-  };
-  thread_local Vfs holder;
-  mjVFS* vfs = holder.vfs.get();
-  holder.Clear();
+    mjVFS vfs;
+    Vfs() { mj_defaultVFS(&vfs); }
+    ~Vfs() { mj_deleteVFS(&vfs); }
+  } holder;
   for (const VfsFile& f : files) {
-    int size = std::max<int>(1, static_cast<int>(f.data.size()));
-    if (f.name.size() >= mjMAXVFSNAME || mj_makeEmptyFileVFS(vfs, f.name.c_str(), size) != 0) {
-      holder.Clear();
+    if (mj_addBufferVFS(&holder.vfs, f.name.c_str(), f.data.data(),
+                        static_cast<int>(f.data.size())) != 0) {
       return nullptr;
     }
-    std::memcpy(vfs->filedata[vfs->nfile - 1], f.data.data(), f.data.size());
   }
   char error[1024] = "";
   mjModel* m = nullptr;
   try {
-    m = mj_loadXML(files.back().name.c_str(), vfs, error, sizeof error);
+    m = mj_loadXML(files.back().name.c_str(), &holder.vfs, error, sizeof error);
   } catch (const MujocoError&) {
     m = nullptr;
   }
-  holder.Clear();
   TakeMujocoWarnings();
   return ModelPtr(m);
 }
 
-// The physics-only fast path: the composed model with every OBJ / binary STL mesh file read by
-// mesh_reader and handed to MuJoCo as a .msh in the VFS (same triangles, same float corners,
-// one vertex per OBJ index instead of one per face corner; see mesh_reader.h for why the
-// compiled masses and vertices are the same), no constraint buffers, a reused VFS. Meshes the
-// readers leave to MuJoCo keep their file. Null when MuJoCo rejected the model: the caller
-// then compiles the composer's model, which reports MuJoCo's error against the source file
-// and line.
-// @throws Error for a malformed OBJ (file and line).
-ModelPtr CompileWithFastMeshes(const MjcfComposer& composer) {
+// The physics-only path: the composed model (physics_only: no textures, materials or lights,
+// whose decoding costs more than the rest for a textured asset) without constraint buffers.
+// (Turning collisions off to spare MuJoCo the convex hulls was measured too: no gain on
+// 3.5, so the model keeps its geoms as they are.) Null when MuJoCo rejected the model: the
+// caller then compiles the composer's model, which reports MuJoCo's error against the source
+// file and line.
+ModelPtr CompilePhysicsOnly(const MjcfComposer& composer) {
   const std::string text = composer.Emit();
   pugi::xml_document doc;
   if (!doc.load_buffer(text.data(), text.size())) return nullptr;
-  std::vector<VfsFile> files;
   pugi::xml_node root = doc.child("mujoco");
-  for (pugi::xml_node asset : root.children("asset")) {
-    for (pugi::xml_node mesh : asset.children("mesh")) {
-      pugi::xml_attribute file = mesh.attribute("file");
-      if (!file) continue;
-      const std::string name = file.value();
-      const bool obj = EndsWithNoCase(name, "obj");
-      if (!(obj || EndsWithNoCase(name, "stl")) || !std::filesystem::path(name).is_absolute()) {
-        continue;
-      }
-      std::string data;
-      try {
-        data = ReadFile(name);
-      } catch (const std::exception&) {
-        continue;  // MuJoCo reports the missing file
-      }
-      TriMesh tri;
-      if (obj ? !ReadObjMesh(data, name, &tri) : !ReadStlMesh(data, &tri)) continue;
-      // MuJoCo names an unnamed mesh after its file.
-      if (!mesh.attribute("name")) {
-        mesh.append_attribute("name").set_value(std::filesystem::path(name).stem().c_str());
-      }
-      std::string vfs_name = "__mlspaces_mesh_" + std::to_string(files.size()) + ".msh";
-      file.set_value(vfs_name.c_str());
-      files.push_back({std::move(vfs_name), EncodeMsh(tri)});
-    }
-  }
   // Only masses and poses are read from this model: no constraint rows, so MuJoCo's own
-  // mj_makeData in the compile and ours stay small (njmax 500 costs megabytes of memset).
+  // mj_makeData in the compile and ours stay small.
   pugi::xml_node size = root.child("size");
   if (!size) size = root.prepend_child("size");
   for (const char* a : {"njmax", "nconmax"}) {
@@ -228,8 +177,7 @@ ModelPtr CompileWithFastMeshes(const MjcfComposer& composer) {
   }
   std::ostringstream os;
   doc.save(os, "", pugi::format_raw | pugi::format_no_declaration);
-  files.push_back({"__mlspaces_model.xml", os.str()});
-  return LoadFromReusedVfs(files);
+  return LoadFromVfs({{"__mlspaces_model.xml", os.str()}});
 }
 
 }  // namespace
@@ -279,7 +227,7 @@ AssetFacts ComputeAssetFacts(const std::filesystem::path& xml, bool physics_only
   MjcfComposer composer(xml, options);
   const std::filesystem::path abs = std::filesystem::absolute(xml).lexically_normal();
   if (physics_only) {
-    if (ModelPtr m = CompileWithFastMeshes(composer)) return ComputeAssetFacts(m.get(), abs);
+    if (ModelPtr m = CompilePhysicsOnly(composer)) return ComputeAssetFacts(m.get(), abs);
   }
   ModelPtr m = composer.Compile();
   return ComputeAssetFacts(m.get(), abs);

@@ -829,11 +829,9 @@ void Finalize(const Shared& sh, const Instance& top, Emitted* out) {
     root.remove_child(h);
   }
   pugi::xml_node compiler = root.insert_child_before("compiler", defaults);
-  std::map<std::string, std::string> attrs = {{"autolimits", "true"},
-                                               {"exactmeshinertia", "true"}};
+  std::map<std::string, std::string> attrs = {{"autolimits", "true"}};
   for (const auto& [k, v] : top.compiler_attrs()) attrs[k] = v;
   attrs["angle"] = "radian";
-  if (sh.options.physics_only) attrs["convexhull"] = "false";
   for (const auto& [k, v] : attrs) compiler.append_attribute(k.c_str()).set_value(v.c_str());
   if (sh.options.physics_only) {
     for (pugi::xml_node s : Children(root, "asset")) {

@@ -15,22 +15,19 @@ void CollectingWarningHandler(const char* msg) {
 }
 
 struct VfsHolder {
-  std::unique_ptr<mjVFS> vfs = std::make_unique<mjVFS>();
-  VfsHolder() { mj_defaultVFS(vfs.get()); }
-  ~VfsHolder() { mj_deleteVFS(vfs.get()); }
+  mjVFS vfs;
+  VfsHolder() { mj_defaultVFS(&vfs); }
+  ~VfsHolder() { mj_deleteVFS(&vfs); }
+  VfsHolder(const VfsHolder&) = delete;
+  VfsHolder& operator=(const VfsHolder&) = delete;
   void Add(const std::string& name, std::string_view data) {
-    if (name.empty() || name.size() >= mjMAXVFSNAME) {
-      throw MujocoError("VFS file name is empty or too long: " + name);
-    }
-    // 2.2.2 refuses empty files; give them one byte of nothing.
-    int size = data.empty() ? 1 : static_cast<int>(data.size());
-    int rc = mj_makeEmptyFileVFS(vfs.get(), name.c_str(), size);
+    if (name.empty()) throw MujocoError("VFS file name is empty");
+    int rc = mj_addBufferVFS(&vfs, name.c_str(), data.data(), static_cast<int>(data.size()));
     if (rc != 0) {
-      throw MujocoError("cannot add '" + name + "' to the MuJoCo VFS (code " +
-                        std::to_string(rc) + ")");
+      throw MujocoError("cannot add '" + name + "' to the MuJoCo VFS (" +
+                        (rc == 2 ? std::string("repeated name") : "code " + std::to_string(rc)) +
+                        ")");
     }
-    std::memset(vfs->filedata[vfs->nfile - 1], 0, size);
-    if (!data.empty()) std::memcpy(vfs->filedata[vfs->nfile - 1], data.data(), data.size());
   }
 };
 
@@ -41,6 +38,11 @@ void InstallMujocoHandlers() {
   std::call_once(once, [] {
     mju_user_error = ThrowingErrorHandler;
     mju_user_warning = CollectingWarningHandler;
+    // MuJoCo 3's compiler keeps decoded meshes and textures in a process-wide asset cache,
+    // keyed by file name and the file's timestamp; a file rewritten within the timestamp's
+    // granularity (an asset fixed and re-indexed, a test's scratch mesh) would compile from
+    // the stale entry. Every file is read afresh instead.
+    mj_setCacheCapacity(mj_getCache(), 0);
   });
 }
 
@@ -57,7 +59,7 @@ ModelPtr LoadModelFromMemory(std::string_view xml, const std::string& main_name,
   holder.Add(main_name, xml);
   for (const VfsFile& f : extra) holder.Add(f.name, f.data);
   char error[1024] = "";
-  mjModel* m = mj_loadXML(main_name.c_str(), holder.vfs.get(), error, sizeof error);
+  mjModel* m = mj_loadXML(main_name.c_str(), &holder.vfs, error, sizeof error);
   if (!m) throw MujocoError(error[0] ? error : "mj_loadXML failed");
   return ModelPtr(m);
 }

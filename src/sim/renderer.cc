@@ -34,8 +34,8 @@ std::string OneLine(std::string s) {
   throw Error(std::string(GlBackendName(backend)) + " renderer: " + OneLine(message));
 }
 
-// Opens the first of `names` that loads (RTLD_LOCAL: its symbols stay out of the global scope
-// until ClaimProcessBackend promotes it). Returns the handle and the name that loaded.
+// Opens the first of `names` that loads (RTLD_LOCAL). Returns the handle and the name that
+// loaded.
 std::pair<void*, const char*> OpenLibrary(GlBackend backend,
                                           std::initializer_list<const char*> names,
                                           const char* package) {
@@ -80,6 +80,8 @@ struct EglApi {
   decltype(&::eglMakeCurrent) make_current = nullptr;
   decltype(&::eglGetCurrentContext) get_current_context = nullptr;
   PFNEGLGETPLATFORMDISPLAYEXTPROC get_platform_display = nullptr;
+  // EGL_EXT_device_enumeration (null without it): the device platform's devices.
+  PFNEGLQUERYDEVICESEXTPROC query_devices = nullptr;
 };
 
 // Loaded once per process; a failed load is retried by the next call.
@@ -126,6 +128,10 @@ const EglApi& LoadEgl() {
     a.get_platform_display = reinterpret_cast<PFNEGLGETPLATFORMDISPLAYEXTPROC>(
         a.get_proc_address("eglGetPlatformDisplayEXT"));
     if (a.get_platform_display == nullptr) Fail(b, "EGL has no eglGetPlatformDisplayEXT");
+    if (std::string_view(ext).find("EGL_EXT_platform_device") != std::string_view::npos) {
+      a.query_devices =
+          reinterpret_cast<PFNEGLQUERYDEVICESEXTPROC>(a.get_proc_address("eglQueryDevicesEXT"));
+    }
     return a;
   }();
   return api;
@@ -137,42 +143,72 @@ std::string EglErrorText(const EglApi& egl) {
   return buf;
 }
 
-// The surfaceless display, initialised while any EGL Renderer lives (eglInitialize and
-// eglTerminate act on the display as a whole, so they are reference-counted).
+// The EGL display of each platform, initialised while any EGL Renderer on it lives
+// (eglInitialize and eglTerminate act on the display as a whole, so they are
+// reference-counted).
 std::mutex g_egl_mutex;
-EGLDisplay g_egl_display = EGL_NO_DISPLAY;
-int g_egl_users = 0;
+struct EglDisplaySlot {
+  EGLDisplay display = EGL_NO_DISPLAY;
+  int users = 0;
+};
+EglDisplaySlot g_egl_displays[2];  // indexed by EglPlatform
 
-EGLDisplay AcquireEglDisplay(const EglApi& egl) {
+const char* EglPlatformName(EglPlatform p) {
+  return p == EglPlatform::kDevice ? "device" : "surfaceless";
+}
+
+// The display of `platform`: Mesa's surfaceless platform (no window system, no GPU needed), or
+// the device platform (EGL_EXT_platform_device: the first EGL device, a GPU where a driver
+// exposes one; Mesa's software device otherwise).
+EGLDisplay OpenEglDisplay(const EglApi& egl, EglPlatform platform) {
+  if (platform == EglPlatform::kSurfaceless) {
+    return egl.get_platform_display(EGL_PLATFORM_SURFACELESS_MESA, EGL_DEFAULT_DISPLAY, nullptr);
+  }
+  if (egl.query_devices == nullptr) {
+    Fail(GlBackend::kEgl, "EGL has no device platform (EGL_EXT_platform_device)");
+  }
+  EGLDeviceEXT device = nullptr;
+  EGLint count = 0;
+  if (!egl.query_devices(1, &device, &count) || count < 1) {
+    Fail(GlBackend::kEgl, "no EGL device (" + EglErrorText(egl) + ")");
+  }
+  return egl.get_platform_display(EGL_PLATFORM_DEVICE_EXT, device, nullptr);
+}
+
+EGLDisplay AcquireEglDisplay(const EglApi& egl, EglPlatform platform) {
   std::lock_guard lock(g_egl_mutex);
-  if (g_egl_users == 0) {
-    EGLDisplay dpy =
-        egl.get_platform_display(EGL_PLATFORM_SURFACELESS_MESA, EGL_DEFAULT_DISPLAY, nullptr);
+  EglDisplaySlot& slot = g_egl_displays[static_cast<int>(platform)];
+  if (slot.users == 0) {
+    EGLDisplay dpy = OpenEglDisplay(egl, platform);
     if (dpy == EGL_NO_DISPLAY) {
-      Fail(GlBackend::kEgl, "no surfaceless EGL display (" + EglErrorText(egl) + ")");
+      Fail(GlBackend::kEgl, std::string("no ") + EglPlatformName(platform) + " EGL display (" +
+                                EglErrorText(egl) + ")");
     }
     EGLint major = 0, minor = 0;
     if (!egl.initialize(dpy, &major, &minor)) {
-      Fail(GlBackend::kEgl,
-           "cannot initialise the surfaceless EGL display (" + EglErrorText(egl) + ")");
+      Fail(GlBackend::kEgl, std::string("cannot initialise the ") + EglPlatformName(platform) +
+                                " EGL display (" + EglErrorText(egl) + ")");
     }
-    g_egl_display = dpy;
+    slot.display = dpy;
   }
-  ++g_egl_users;
-  return g_egl_display;
+  ++slot.users;
+  return slot.display;
 }
 
-void ReleaseEglDisplay(const EglApi& egl) {
+void ReleaseEglDisplay(const EglApi& egl, EglPlatform platform) {
   std::lock_guard lock(g_egl_mutex);
-  if (--g_egl_users == 0) {
-    egl.terminate(g_egl_display);
-    g_egl_display = EGL_NO_DISPLAY;
+  EglDisplaySlot& slot = g_egl_displays[static_cast<int>(platform)];
+  if (--slot.users == 0) {
+    egl.terminate(slot.display);
+    slot.display = EGL_NO_DISPLAY;
   }
 }
 
-// MuJoCo 2.2.2 resolves its GL functions once per process, through the first of
-// eglGetProcAddress / OSMesaGetProcAddress it finds in the global scope: the first Renderer
-// puts its library there and fixes the backend of the process.
+// MuJoCo 3.5 takes its GL functions from the GL platform library it finds loaded in the
+// process (dl_iterate_phdr), preferring libEGL over libOSMesa whatever context is current: an
+// OSMesa context in a process that has loaded libEGL renders nothing ("gladLoadGL error").
+// That is why the platform libraries are loaded at run time, only the one a process uses, and
+// why the first Renderer fixes the process's backend.
 std::mutex g_backend_mutex;
 std::optional<GlBackend> g_process_backend;
 
@@ -181,8 +217,8 @@ void CheckProcessBackendLocked(GlBackend backend) {
   if (g_process_backend && *g_process_backend != backend) {
     Fail(backend, "this process already renders with " +
                       std::string(GlBackendName(*g_process_backend)) +
-                      " (MuJoCo 2.2.2 loads its GL functions once per process: use one backend "
-                      "per process)");
+                      " (MuJoCo takes its GL functions from the platform library loaded in the "
+                      "process: use one backend per process)");
   }
 }
 
@@ -191,16 +227,9 @@ void CheckProcessBackend(GlBackend backend) {
   CheckProcessBackendLocked(backend);
 }
 
-void ClaimProcessBackend(GlBackend backend, const char* lib_name) {
+void ClaimProcessBackend(GlBackend backend) {
   std::lock_guard lock(g_backend_mutex);
   CheckProcessBackendLocked(backend);  // another thread may have claimed it meanwhile
-  if (g_process_backend) return;
-  // Promote the already loaded library to RTLD_GLOBAL so MuJoCo's loader finds its
-  // *GetProcAddress before any other GL library the process may hold.
-  if (::dlopen(lib_name, RTLD_NOW | RTLD_NOLOAD | RTLD_GLOBAL) == nullptr) {
-    const char* e = ::dlerror();
-    Fail(backend, std::string("cannot make ") + lib_name + " global: " + (e ? e : "?"));
-  }
   g_process_backend = backend;
 }
 
@@ -209,7 +238,8 @@ void ClaimProcessBackend(GlBackend backend, const char* lib_name) {
 
 class GlContext {
  public:
-  GlContext(GlBackend backend, int width, int height) : backend_(backend) {
+  GlContext(GlBackend backend, EglPlatform platform, int width, int height)
+      : backend_(backend), platform_(platform) {
     if (backend == GlBackend::kOsMesa) {
       const OsMesaApi& api = LoadOsMesa();
       osmesa_ = api.create_context_ext(OSMESA_RGBA, 24, 8, 8, nullptr);
@@ -221,10 +251,9 @@ class GlContext {
         api.destroy_context(osmesa_);
         Fail(backend, "OSMesaMakeCurrent failed");
       }
-      lib_name_ = api.lib_name;
     } else {
       const EglApi& egl = LoadEgl();
-      display_ = AcquireEglDisplay(egl);
+      display_ = AcquireEglDisplay(egl, platform_);
       const EGLint attribs[] = {EGL_RED_SIZE,          8,
                                 EGL_GREEN_SIZE,        8,
                                 EGL_BLUE_SIZE,         8,
@@ -250,10 +279,9 @@ class GlContext {
         egl.destroy_context(display_, egl_);
       }
       if (!problem.empty()) {
-        ReleaseEglDisplay(egl);
+        ReleaseEglDisplay(egl, platform_);
         Fail(backend, problem);
       }
-      lib_name_ = egl.lib_name;
     }
   }
 
@@ -268,7 +296,7 @@ class GlContext {
         egl.make_current(display_, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
       }
       egl.destroy_context(display_, egl_);
-      ReleaseEglDisplay(egl);
+      ReleaseEglDisplay(egl, platform_);
     }
   }
 
@@ -294,11 +322,10 @@ class GlContext {
     }
   }
 
-  const char* lib_name() const { return lib_name_; }
 
  private:
   GlBackend backend_;
-  const char* lib_name_ = nullptr;
+  EglPlatform platform_;
   OSMesaContext osmesa_ = nullptr;
   std::vector<unsigned char> osmesa_buffer_;
   int width_ = 0, height_ = 0;
@@ -370,7 +397,7 @@ Renderer::Renderer(const mjModel* m, RenderOptions options) : impl_(std::make_un
   CheckProcessBackend(backend);
   Impl& s = *impl_;
   s.options = options;
-  s.gl.emplace(backend, options.width, options.height);
+  s.gl.emplace(backend, options.egl_platform, options.width, options.height);
   try {
     s.model.reset(mj_copyModel(nullptr, m));
     if (!s.model) Fail(backend, "mj_copyModel failed");
@@ -388,7 +415,7 @@ Renderer::Renderer(const mjModel* m, RenderOptions options) : impl_(std::make_un
     mjv_makeScene(mc, &s.scn, options.max_geom);
 
     mjr_defaultContext(&s.con);
-    ClaimProcessBackend(backend, s.gl->lib_name());
+    ClaimProcessBackend(backend);
     s.context_made = true;  // mjr_freeContext frees whatever a failed make left
     mjr_makeContext(mc, &s.con, mjFONTSCALE_100);
     mjr_setBuffer(mjFB_OFFSCREEN, &s.con);
@@ -421,7 +448,9 @@ void Renderer::Render(const mjData* d, const CameraView& view, unsigned char* rg
                   &s.scn);
   // Replace the free camera by `view`, as mjv_updateCamera builds a fixed camera: both eyes
   // at the same place (mono rendering averages them).
-  const double top = s.znear * std::tan(view.fovy_deg * mjPI / 360.0);
+  // As mjv_updateCamera: the near plane in double, then rounded to float.
+  const double znear = s.model->vis.map.znear * s.model->stat.extent;
+  const double top = znear * std::tan(view.fovy_deg * mjPI / 360.0);
   for (mjvGLCamera& c : s.scn.camera) {
     for (int i = 0; i < 3; ++i) {
       c.pos[i] = static_cast<float>(view.pos[i]);
@@ -433,6 +462,15 @@ void Renderer::Render(const mjData* d, const CameraView& view, unsigned char* rg
     c.frustum_bottom = static_cast<float>(-top);
     c.frustum_near = s.znear;
     c.frustum_far = s.zfar;
+  }
+  // MuJoCo 3 places the headlight in mjv_updateScene, at the camera: move it with the view.
+  for (int i = 0; i < s.scn.nlight; ++i) {
+    mjvLight& l = s.scn.lights[i];
+    if (!l.headlight) continue;
+    for (int k = 0; k < 3; ++k) {
+      l.pos[k] = static_cast<float>(view.pos[k]);
+      l.dir[k] = static_cast<float>(-view.xmat[3 * k + 2]);
+    }
   }
   Draw(rgb, depth_m);
 }

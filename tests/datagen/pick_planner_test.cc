@@ -47,7 +47,7 @@ class PickPlannerTest : public ::testing::Test {
       if (before_step) before_step(a, step);
       robot_.SetArmTargets(d, a.arm);
       robot_.SetGripperCtrl(d, a.gripper);
-      robot_.Step(d, 33, true);
+      robot_.Step(d, 33);
       mj_forward(env_.model(), d);
       if (a.done) return step + 1;
     }

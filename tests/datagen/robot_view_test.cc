@@ -42,7 +42,7 @@ TEST_F(RobotViewTest, ClosingTheGripperClosesTheGap) {
   mjData* d = env_.data();
   robot_.SetGripperCtrl(d, 1000.0);  // clipped to 255
   EXPECT_EQ(robot_.GripperCtrl(d), 255.0);
-  robot_.Step(d, 500, true);
+  robot_.Step(d, 500);
   mj_forward(env_.model(), d);
   EXPECT_LT(robot_.InterFingerDistance(d), 0.002);
 }

@@ -23,7 +23,7 @@ const fs::path kData = MLSPACES_TESTDATA_DIR;
 
 TEST(AssetFacts, RedBlock) {
   AssetFacts f = ComputeAssetFacts(kData / "custom_assets/asset_library/red_block/red_block.xml");
-  EXPECT_EQ(f.mass, 0.12500000000000003);  // 8 * 0.025^3 * 1000 as MuJoCo 2.2.2 rounds it
+  EXPECT_EQ(f.mass, 0.12500000000000003);  // 8 * 0.025^3 * 1000 as MuJoCo rounds it
   for (int i = 0; i < 3; ++i) {
     EXPECT_DOUBLE_EQ(f.bounding_box[i], 0.05);
     EXPECT_DOUBLE_EQ(f.aabb_min[i], -0.025);

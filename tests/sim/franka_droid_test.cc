@@ -1,6 +1,6 @@
 // The franka_droid robot model (assets/robots/franka_droid): names, limits, forward kinematics
-// against Franka's modified-DH table, TCP frame, gripper widths, grasp holding, and the gravity
-// compensation that stands in for MuJoCo 3's gravcomp.
+// against Franka's modified-DH table, TCP frame, gripper widths, grasp holding, and MuJoCo's
+// gravity compensation (body gravcomp) on the robot.
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -12,7 +12,6 @@
 #include <gtest/gtest.h>
 #include <mujoco/mujoco.h>
 
-#include "mlspaces/sim/gravity_compensation.h"
 #include "mlspaces/sim/mjcf_composer.h"
 #include "mlspaces/sim/mujoco_handlers.h"
 
@@ -157,7 +156,6 @@ struct Robot {
     tcp = Id(m, mjOBJ_SITE, "robot_0/gripper/grasp_site");
     flange = Id(m, mjOBJ_SITE, "robot_0/fr3_flange");
     base_mocap = m->body_mocapid[Id(m, mjOBJ_BODY, "robot_0/base")];
-    gravcomp_dofs = SubtreeDofs(m, Id(m, mjOBJ_BODY, "robot_0/fr3_link0"));
   }
 
   // Home pose in qpos, servo targets = home, gripper ctrl given.
@@ -170,11 +168,7 @@ struct Robot {
     d->ctrl[fingers] = gripper_ctrl;
   }
 
-  void Step(mjData* d, bool gravcomp = true) const {
-    mj_step1(m, d);
-    if (gravcomp) ApplyGravityCompensation(m, d, gravcomp_dofs);
-    mj_step2(m, d);
-  }
+  void Step(mjData* d) const { mj_step(m, d); }
 
   // Inner-face distance between the pads along the TCP's y axis.
   double PadGap(const mjData* d) const {
@@ -202,7 +196,6 @@ struct Robot {
   std::array<int, 7> arm_qpos{}, arm_dof{}, arm_act{};
   std::array<int, 2> driver_qpos{}, pad{};
   int fingers = -1, tcp = -1, flange = -1, base_mocap = -1;
-  std::vector<int> gravcomp_dofs;
 };
 
 TEST(FrankaDroid, NamesLiveUnderTheRobotPrefix) {
@@ -386,11 +379,28 @@ TEST(FrankaDroid, GripperOpensTo85mmAndClosesFully) {
   for (int k = 0; k < 2; ++k) EXPECT_NEAR(d->qpos[r.driver_qpos[k]], 0, 0.01);
 }
 
-TEST(FrankaDroid, GravityCompensationEqualsTheGravityPartOfTheBias) {
+// The robot's bodies: fr3_link0 and everything below it (arm and gripper).
+std::vector<int> RobotBodies(const mjModel* m) {
+  const int root = Id(m, mjOBJ_BODY, "robot_0/fr3_link0");
+  std::vector<int> out;
+  for (int b = 1; b < m->nbody; ++b) {
+    int a = b;
+    while (a > 0 && a != root) a = m->body_parentid[a];
+    if (a == root) out.push_back(b);
+  }
+  return out;
+}
+
+TEST(FrankaDroid, GravcompOnEveryRobotBodyCancelsGravity) {
   ModelPtr m = Compose(kBareScene);
   DataPtr d = MakeData(m.get());
   const Robot r(m.get());
-  ASSERT_EQ(r.gravcomp_dofs.size(), 11u);  // 7 arm + 2 drivers + 2 followers
+  const std::vector<int> bodies = RobotBodies(m.get());
+  ASSERT_EQ(bodies.size(), 13u);  // fr3_link0..7 + gripper base, 2 drivers, 2 followers
+  for (int b : bodies) EXPECT_EQ(m->body_gravcomp[b], 1) << MjName(m.get(), mjOBJ_BODY, b);
+  EXPECT_EQ(m->body_gravcomp[Id(m.get(), mjOBJ_BODY, "robot_0/base")], 0);
+  EXPECT_EQ(m->ngravcomp, 13);
+  // At rest the bias is gravity alone; MuJoCo's gravcomp force cancels it on every robot dof.
   std::mt19937 rng(3);
   for (int trial = 0; trial < 5; ++trial) {
     for (int i = 0; i < 7; ++i) {
@@ -399,27 +409,22 @@ TEST(FrankaDroid, GravityCompensationEqualsTheGravityPartOfTheBias) {
     for (int k = 0; k < 2; ++k) d->qpos[r.driver_qpos[k]] = 0.3 * trial / 4;
     mju_zero(d->qvel, m->nv);
     mj_forward(m.get(), d.get());
-    std::vector<double> bias(d->qfrc_bias, d->qfrc_bias + m->nv);  // at rest: gravity only
-    // With motion, the bias gains Coriolis terms; the compensation must not.
-    for (int v = 0; v < m->nv; ++v) d->qvel[v] = 0.5;
-    mj_forward(m.get(), d.get());
-    mju_zero(d->qfrc_applied, m->nv);
-    d->qfrc_applied[r.arm_dof[0]] = 123;  // not listed below: must survive
-    const std::vector<int> some(r.arm_dof.begin() + 1, r.arm_dof.end());
-    ApplyGravityCompensation(m.get(), d.get(), some);
-    EXPECT_EQ(d->qfrc_applied[r.arm_dof[0]], 123);
-    for (int dof : some) EXPECT_NEAR(d->qfrc_applied[dof], bias[dof], 1e-9) << dof;
-    double coriolis = 0;
-    for (int dof : some) coriolis = std::max(coriolis, std::abs(d->qfrc_bias[dof] - bias[dof]));
-    EXPECT_GT(coriolis, 1e-3);
+    double largest = 0;
+    for (int v = 0; v < m->nv; ++v) {
+      EXPECT_NEAR(d->qfrc_gravcomp[v], d->qfrc_bias[v], 1e-9) << v;
+      largest = std::max(largest, std::abs(d->qfrc_bias[v]));
+    }
+    EXPECT_GT(largest, 1) << "gravity loads the arm";
   }
-  const std::vector<int> bad = {m->nv};
-  EXPECT_THROW(ApplyGravityCompensation(m.get(), d.get(), bad), std::out_of_range);
-  EXPECT_EQ(SubtreeDofs(m.get(), 0).size(), static_cast<size_t>(m->nv));
 }
 
 // Runs 2 s with the servos at home; returns {max joint error (rad), max TCP drift (m)}.
-std::array<double, 2> HoldHome(const mjModel* m, bool gravcomp) {
+std::array<double, 2> HoldHome(const mjModel* model, bool gravcomp) {
+  ModelPtr copy(mj_copyModel(nullptr, model));
+  mjModel* m = copy.get();
+  if (!gravcomp) {
+    for (int b : RobotBodies(m)) m->body_gravcomp[b] = 0;
+  }
   DataPtr d = MakeData(m);
   const Robot r(m);
   r.SetHome(d.get());
@@ -428,7 +433,7 @@ std::array<double, 2> HoldHome(const mjModel* m, bool gravcomp) {
                                        d->site_xpos[3 * r.tcp + 2]};
   double joint_err = 0, drift = 0;
   for (int s = 0; s < 1000; ++s) {
-    r.Step(d.get(), gravcomp);
+    r.Step(d.get());
     mj_kinematics(m, d.get());
     for (int i = 0; i < 7; ++i) {
       joint_err = std::max(joint_err, std::abs(d->qpos[r.arm_qpos[i]] - kHomeArm[i]));
@@ -450,6 +455,25 @@ TEST(FrankaDroid, CompensatedArmHoldsItsHomePose) {
   EXPECT_GT(err_off, 2 * err);
   EXPECT_GT(err_off, 1e-3) << "rad";
   EXPECT_GT(drift_off, drift);
+}
+
+TEST(FrankaDroid, AloneItHasTheOriginalsOptionsAndHoldsItsHomePose) {
+  // The robot file alone: menagerie FR3's implicitfast, the 2F-85's elliptic cone and
+  // impratio 10. Attached into a scene, the scene's <option> rules (kBareScene: implicit).
+  ModelPtr alone = MjcfComposer(kRobot).Compile();
+  EXPECT_EQ(alone->opt.integrator, mjINT_IMPLICITFAST);
+  EXPECT_EQ(alone->opt.cone, mjCONE_ELLIPTIC);
+  EXPECT_EQ(alone->opt.impratio, 10);
+  ModelPtr attached = Compose(kBareScene);
+  EXPECT_EQ(attached->opt.integrator, mjINT_IMPLICIT);
+  // The attached robot with the robot file's own options holds its home pose too.
+  mjModel* m = attached.get();
+  m->opt.integrator = mjINT_IMPLICITFAST;
+  m->opt.cone = mjCONE_ELLIPTIC;
+  m->opt.impratio = 10;
+  const auto [err, drift] = HoldHome(m, /*gravcomp=*/true);
+  EXPECT_LT(err, 1e-3) << "rad";
+  EXPECT_LT(drift, 1e-3) << "m";
 }
 
 bool Touches(const mjModel*, const mjData* d, int geom_a, int geom_b) {

@@ -53,9 +53,12 @@ struct RobotSpec {
   /// standing on the base frame, with the arm root mounted on its top (as the original's
   /// add_robot_to_scene). The base pose stays the floor pose; nullopt = no pedestal.
   std::optional<std::array<double, 3>> pedestal_size;
+  /// robot_config.gravcomp: MuJoCo's body gravcomp is 1 on every body of the arm root's
+  /// subtree (as the original's apply_control_overrides), else 0 there.
+  bool gravcomp = true;
 
   // What the planner and recorder need (after the prefix); see RobotView.
-  /// Root body of the arm (its subtree gets gravity compensation).
+  /// Root body of the arm (its subtree gets gravity compensation, see `gravcomp`).
   std::string arm_root_body = "fr3_link0";
   /// Root body of the gripper subtree (grasp state, the collision probe).
   std::string gripper_body = "gripper/base";

@@ -51,9 +51,8 @@ class RobotView {
   /// World pose of the robot base (its mocap state).
   Mat4 BasePose(const mjData* d) const;
 
-  /// Gap between the inner faces of the two finger pads, measured along the TCP's y axis
-  /// (the closing direction), clamped at 0. The original measures the geoms' distance with
-  /// mj_geomDistance, which MuJoCo 2.2 lacks; for the parallel pads both agree.
+  /// Distance between the two finger pad geoms (mj_geomDistance, as the original), clamped
+  /// at 0 (needs kinematics).
   double InterFingerDistance(const mjData* d) const;
 
   /// The 6 x num_arm() Jacobian of the TCP site over the arm dofs, row-major, rows
@@ -63,8 +62,8 @@ class RobotView {
   /// True when geom `g` belongs to the gripper subtree.
   bool IsGripperGeom(int g) const;
 
-  /// `n` physics steps: mj_step1, arm gravity compensation when `gravcomp`, mj_step2.
-  void Step(mjData* d, int n, bool gravcomp) const;
+  /// `n` physics steps (mj_step; gravity compensation is MuJoCo's body gravcomp).
+  void Step(mjData* d, int n) const;
 
   int tcp_site() const { return tcp_site_; }
   int base_body() const { return base_body_; }
@@ -79,7 +78,6 @@ class RobotView {
   std::vector<int> arm_qpos_, arm_dof_, arm_act_;
   std::vector<double> arm_lower_, arm_upper_;
   std::vector<int> gripper_qpos_, gripper_dof_;
-  std::vector<int> gravcomp_dofs_;
   std::vector<char> gripper_geom_;  // per geom: in the gripper subtree
   std::array<int, 2> pads_{-1, -1};
   int gripper_act_ = -1;

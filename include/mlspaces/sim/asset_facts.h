@@ -10,7 +10,8 @@ namespace mlspaces::sim {
 
 /// What --compute-metadata writes for one asset.
 struct AssetFacts {
-  /// Compiled mass of the asset's one body (kg); mesh inertia exact (exactmeshinertia).
+  /// Compiled mass of the asset's one body (kg); mesh inertia as MuJoCo computes it (each
+  /// mesh's `inertia` attribute, MuJoCo 3.5's default "legacy" when absent).
   double mass = 0;
   /// Tight box of every geom of the body and its descendants at qpos0, in world axes,
   /// relative to the body's world position (m). Meshes by their vertices; primitives by
@@ -31,7 +32,7 @@ bool BodyGeomBox(const mjModel* m, const mjData* d, int body, std::array<double,
 /// @throws Error when the model has not exactly one body besides the world.
 AssetFacts ComputeAssetFacts(const mjModel* m, const std::filesystem::path& path_for_errors);
 
-/// Composes (physics_only: textures, materials and convex hulls skipped; results equal a
+/// Composes (physics_only: textures, materials and lights skipped; results bitwise equal a
 /// full compile's) and compiles an asset MJCF, then computes its facts.
 /// @throws Error naming the file, line and element for bad MJCF, or more than one body.
 AssetFacts ComputeAssetFacts(const std::filesystem::path& xml, bool physics_only = true);

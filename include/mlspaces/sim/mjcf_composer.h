@@ -16,8 +16,9 @@
 //    equality, tendon, actuator, sensor and custom sections are merged, with the prefix put on
 //    every name and every reference (keyframes of attached models are dropped, with a warning);
 //  - folds every <frame> (nested too) into its children's poses (pos, quat, fromto, light dir).
-// The emitted model uses <compiler angle="radian" autolimits="true" exactmeshinertia="true">
-// (MuJoCo 3's defaults) unless the scene's own compiler says otherwise for the last two.
+// The emitted model uses <compiler angle="radian" autolimits="true"> (autolimits is MuJoCo 3's
+// default) unless the scene's own compiler says otherwise for autolimits; mesh inertia is
+// MuJoCo's default (each <mesh inertia=...> as the source says).
 //
 // Errors are mlspaces::Error with path = the source file and field = "line N, element <tag>",
 // also for errors MuJoCo reports on the flat model (its line is mapped back to the source).
@@ -42,8 +43,8 @@ struct Pose {
 
 struct ComposeOptions {
   /// Keep only what body masses and geometry need: drop textures, materials, skins and
-  /// lights, and compile meshes without convex hulls (convexhull="false"). Masses, inertias
-  /// and geom/mesh vertex data equal a full compile's; collision meshes and rendering do not.
+  /// lights. Masses, inertias and geom/mesh vertex data equal a full compile's; rendering
+  /// does not.
   bool physics_only = false;
 };
 

@@ -1,4 +1,4 @@
-// MuJoCo 2.2.2 plumbing: error/warning handlers, owning pointers, loading from memory.
+// MuJoCo plumbing: error/warning handlers, owning pointers, loading from memory.
 //
 // Error policy. MuJoCo's default error handler prints and then waits for Enter; we replace it
 // (InstallMujocoHandlers) with one that throws MujocoError. That unwinds through MuJoCo's C
@@ -48,7 +48,7 @@ struct VfsFile {
   std::string data;
 };
 
-/// Compiles an MJCF document from memory through a heap-allocated mjVFS (2 MB in 2.2.2).
+/// Compiles an MJCF document from memory through an mjVFS.
 /// `xml` is stored as `main_name`; `extra` files (meshes, textures, includes) are added under
 /// their names. Files not in the VFS are read from disk as MuJoCo does (absolute paths work).
 /// @throws MujocoError with MuJoCo's message (e.g. "XML Error: ...\nElement 'geom', line 3").

@@ -1,12 +1,12 @@
-// Headless offscreen rendering of a MuJoCo 2.2.2 model: RGB and metric depth from any camera
-// pose, through OSMesa or EGL (surfaceless Mesa), with no X server.
+// Headless offscreen rendering of a MuJoCo 3.5 model: RGB and metric depth from any camera
+// pose, through OSMesa or EGL (Mesa's surfaceless platform, or the EGL device platform for a
+// GPU), with no X server.
 //
-// GL libraries are loaded at run time (dlopen, RTLD_LOCAL) rather than linked: MuJoCo 2.2.2
-// picks its GL function loader by looking for eglGetProcAddress, then OSMesaGetProcAddress, in
-// the process's global symbols, so linking libEGL would make it resolve every GL function
-// through EGL's dispatcher, which draws nothing into an OSMesa context. MuJoCo also loads its
-// GL functions once per process, so one process renders with one backend: the first Renderer
-// fixes it, and a Renderer of the other backend in the same process throws Error.
+// The GL platform libraries are loaded at run time (dlopen), not linked: MuJoCo 3.5 takes its
+// GL functions from the platform library it finds loaded in the process and prefers libEGL,
+// so a process that has libEGL loaded cannot render through OSMesa. One process renders with
+// one backend: the first Renderer fixes it, and a Renderer of the other backend in the same
+// process throws Error.
 #pragma once
 
 #include <array>
@@ -29,10 +29,16 @@ std::string_view GlBackendName(GlBackend backend);
 /// MuJoCo's render context; nullopt before that.
 std::optional<GlBackend> ProcessGlBackend();
 
+/// Which EGL display an EGL Renderer uses: Mesa's surfaceless platform (CPU, llvmpipe), or
+/// the first device of EGL_EXT_platform_device (a GPU where the driver exposes one).
+enum class EglPlatform { kSurfaceless, kDevice };
+
 struct RenderOptions {
   int width = 640;
   int height = 368;
   GlBackend backend = GlBackend::kOsMesa;
+  /// For backend kEgl only.
+  EglPlatform egl_platform = EglPlatform::kSurfaceless;
   /// Capacity of the abstract scene (mjv_makeScene); geoms beyond it are not drawn.
   int max_geom = 10000;
 };

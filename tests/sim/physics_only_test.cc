@@ -1,9 +1,8 @@
-// The physics-only fast mesh path (src/sim/mesh_reader.*): OBJ / binary STL read by us and
-// handed to MuJoCo as .msh must give the facts of a full MuJoCo 2.2.2 compile of the original
-// files, over generated meshes and MJCF mass features; malformed OBJ files give one-line errors
-// naming the file and line.
-#include "../src/sim/mesh_reader.h"
-
+// The physics-only compile of compute-metadata (ComputeAssetFacts(xml, true): no textures,
+// materials or lights, no collisions so no convex hulls) must give the very same facts as a
+// full MuJoCo 3.5 compile of the asset, bit for bit, over generated meshes (OBJ in its
+// variants, binary STL, polygons) and MJCF mass features; bad mesh files give one-line errors
+// naming the asset file.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
@@ -12,12 +11,14 @@
 #include <cstring>
 #include <filesystem>
 #include <random>
+#include <sstream>
 #include <string>
 #include <vector>
 
 #include "mlspaces/core/error.h"
 #include "mlspaces/core/files.h"
 #include "mlspaces/sim/asset_facts.h"
+#include "mlspaces/sim/mujoco_handlers.h"
 
 namespace mlspaces::sim {
 namespace {
@@ -134,7 +135,7 @@ std::string StlFromObj(const std::string& obj) {
   return out;
 }
 
-class MeshFastPath : public ::testing::Test {
+class PhysicsOnly : public ::testing::Test {
  protected:
   void SetUp() override {
     dir_ = fs::path(::testing::TempDir()) /
@@ -163,27 +164,22 @@ class MeshFastPath : public ::testing::Test {
     AssetFacts fast = ComputeAssetFacts(xml, true);
     AssetFacts full = ComputeAssetFacts(xml, false);
     EXPECT_GT(full.mass, 0) << what;
-    EXPECT_NEAR(fast.mass, full.mass, 1e-9 * full.mass) << what;
-    for (int i = 0; i < 3; ++i) {
-      EXPECT_NEAR(fast.aabb_min[i], full.aabb_min[i], 1e-9) << what << " axis " << i;
-      EXPECT_NEAR(fast.aabb_max[i], full.aabb_max[i], 1e-9) << what << " axis " << i;
-      EXPECT_NEAR(fast.bounding_box[i], full.bounding_box[i], 1e-9) << what << " axis " << i;
-    }
-    // In practice the very same floats: same triangles, same corner values, same sums.
+    // Bitwise: MuJoCo compiles the same meshes either way.
     EXPECT_EQ(fast.mass, full.mass) << what;
+    // And MuJoCo's own compile of the asset file, with no composer in between.
+    char error[1000] = "";
+    ModelPtr own(mj_loadXML(xml.c_str(), nullptr, error, sizeof error));
+    ASSERT_TRUE(own) << what << ": " << error;
+    EXPECT_EQ(fast.mass, own->body_mass[1]) << what;
     EXPECT_EQ(fast.aabb_min, full.aabb_min) << what;
     EXPECT_EQ(fast.aabb_max, full.aabb_max) << what;
-  }
-
-  bool FastReads(const fs::path& obj) {
-    TriMesh m;
-    return ReadObjMesh(ReadFile(obj), obj.string(), &m);
+    EXPECT_EQ(fast.bounding_box, full.bounding_box) << what;
   }
 
   fs::path dir_;
 };
 
-TEST_F(MeshFastPath, ObjVariantsEqualFullCompile) {
+TEST_F(PhysicsOnly, ObjVariantsEqualFullCompile) {
   std::vector<std::pair<std::string, BlobOptions>> cases;
   BlobOptions o;
   cases.push_back({"triangles", o});
@@ -214,17 +210,16 @@ TEST_F(MeshFastPath, ObjVariantsEqualFullCompile) {
   }
   for (const auto& [what, opts] : cases) {
     fs::path obj = Write("blob.obj", BlobObj(opts));
-    ASSERT_TRUE(FastReads(obj)) << what;
     ExpectSame(
         Asset("<mesh name=\"blob\" file=\"blob.obj\"/>", "<geom type=\"mesh\" mesh=\"blob\"/>"),
         what);
   }
 }
 
-TEST_F(MeshFastPath, MeshAttributesAndMassFeatures) {
+TEST_F(PhysicsOnly, MeshAttributesAndMassFeatures) {
   BlobOptions o;
   o.vt_vn = true;
-  ASSERT_TRUE(FastReads(Write("blob.obj", BlobObj(o))));
+  Write("blob.obj", BlobObj(o));
   const std::string mesh = "<mesh name=\"blob\" file=\"blob.obj\"";
   const std::string geom = "<geom type=\"mesh\" mesh=\"blob\"";
   struct Case {
@@ -260,26 +255,21 @@ TEST_F(MeshFastPath, MeshAttributesAndMassFeatures) {
   for (const Case& c : cases) ExpectSame(Asset(c.assets, c.body, c.top), c.what);
 }
 
-TEST_F(MeshFastPath, BinaryStlEqualsFullCompile) {
+TEST_F(PhysicsOnly, BinaryStlEqualsFullCompile) {
   BlobOptions o;
   o.offset[2] = -0.4;
   std::string stl = StlFromObj(BlobObj(o));
-  TriMesh m;
-  ASSERT_TRUE(ReadStlMesh(stl, &m));
-  EXPECT_EQ(m.vert.size() / 3, 2 + 13 * 21u);  // corners shared again
   Write("blob.stl", stl);
   ExpectSame(Asset("<mesh name=\"s\" file=\"blob.stl\" scale=\"1 2 -1\"/>",
                    "<geom type=\"mesh\" mesh=\"s\"/>"),
              "stl");
 }
 
-TEST_F(MeshFastPath, AsciiStlIsRejectedLikeMuJoCo) {
-  // MuJoCo 2.2.2 reads binary STL only; the fast path leaves the file to MuJoCo's error.
+TEST_F(PhysicsOnly, AsciiStlIsRejectedLikeMuJoCo) {
+  // MuJoCo reads binary STL only.
   std::string ascii =
       "solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 1 0\n"
       "endloop\nendfacet\nendsolid t\n";
-  TriMesh m;
-  EXPECT_FALSE(ReadStlMesh(ascii, &m));
   Write("a.stl", ascii);
   fs::path xml = Asset("<mesh name=\"s\" file=\"a.stl\"/>", "<geom type=\"mesh\" mesh=\"s\"/>");
   for (bool fast : {true, false}) {
@@ -334,14 +324,13 @@ std::string StarPrismObj(int n, unsigned seed, const double axis[3]) {
   return s;
 }
 
-TEST_F(MeshFastPath, PolygonsEqualFullCompile) {
+TEST_F(PhysicsOnly, PolygonsEqualFullCompile) {
   const double axes[][3] = {{0, 0, 1}, {1, 0, 0}, {0, 1, 0}, {0.3, -0.5, 0.8}, {0.9, 0.4, 0.1}};
   int k = 0;
   for (int n : {5, 6, 8, 11, 16}) {
     for (const auto& axis : axes) {
       const std::string what = std::to_string(n) + "-gon prism " + std::to_string(k);
       fs::path obj = Write("prism.obj", StarPrismObj(n, 100 + k++, axis));
-      ASSERT_TRUE(FastReads(obj)) << what;
       ExpectSame(Asset("<mesh name=\"p\" file=\"prism.obj\"/>", "<geom type=\"mesh\" mesh=\"p\"/>"),
                  what);
     }
@@ -349,12 +338,12 @@ TEST_F(MeshFastPath, PolygonsEqualFullCompile) {
   std::string pent =
       "v 0 0 0\nv 1 0 0\nv 1.3 0.8 0\nv 0.5 1.3 0\nv -0.3 0.8 0\nv 0.5 0.6 0.9\n"
       "f 5 4 3 2 1\nf 1 2 6\nf 2 3 6\nf 3 4 6\nf 4 5 6\nf 5 1 6\n";
-  ASSERT_TRUE(FastReads(Write("pent.obj", pent)));
+  Write("pent.obj", pent);
   ExpectSame(Asset("<mesh name=\"p\" file=\"pent.obj\"/>", "<geom type=\"mesh\" mesh=\"p\"/>"),
              "pentagon pyramid");
 }
 
-TEST_F(MeshFastPath, NumberFormatsEqualFullCompile) {
+TEST_F(PhysicsOnly, NumberFormatsEqualFullCompile) {
   // A blob whose coordinates are written in every number form tinyobjloader reads.
   std::string blob = BlobObj({});
   std::string out;
@@ -388,25 +377,25 @@ TEST_F(MeshFastPath, NumberFormatsEqualFullCompile) {
     out += "\n";
   }
   fs::path obj = Write("formats.obj", out);
-  ASSERT_TRUE(FastReads(obj));
   ExpectSame(Asset("<mesh name=\"f\" file=\"formats.obj\"/>", "<geom type=\"mesh\" mesh=\"f\"/>"),
              "number formats");
 }
 
-TEST_F(MeshFastPath, SeveralObjectsAreLeftToMuJoCo) {
-  // MuJoCo 2.2.2 keeps the first shape only: the fast reader declines and MuJoCo reads the file.
+TEST_F(PhysicsOnly, SeveralObjectsEqualFullCompile) {
   std::string two = BlobObj({}) + "o second\nv 5 5 5\nv 6 5 5\nv 5 6 5\nf -1 -2 -3\n";
   fs::path obj = Write("two.obj", two);
-  EXPECT_FALSE(FastReads(obj));
   ExpectSame(Asset("<mesh name=\"t\" file=\"two.obj\"/>", "<geom type=\"mesh\" mesh=\"t\"/>"),
              "two objects");
 }
 
-TEST_F(MeshFastPath, InconsistentOrientationIsMuJoCosError) {
+TEST_F(PhysicsOnly, InconsistentOrientationIsMuJoCosErrorForExactInertia) {
   std::string tet = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\nf 1 2 4\nf 2 3 4\nf 3 1 4\n";
-  fs::path obj = Write("tet.obj", tet);
-  EXPECT_FALSE(FastReads(obj));
-  fs::path xml = Asset("<mesh name=\"t\" file=\"tet.obj\"/>", "<geom type=\"mesh\" mesh=\"t\"/>");
+  Write("tet.obj", tet);
+  // MuJoCo's default (legacy) mesh inertia accepts it, the same either way.
+  ExpectSame(Asset("<mesh name=\"t\" file=\"tet.obj\"/>", "<geom type=\"mesh\" mesh=\"t\"/>"),
+             "inconsistent tetrahedron");
+  fs::path xml = Asset("<mesh name=\"t\" file=\"tet.obj\" inertia=\"exact\"/>",
+                       "<geom type=\"mesh\" mesh=\"t\"/>");
   for (bool fast : {true, false}) {
     try {
       ComputeAssetFacts(xml, fast);
@@ -417,30 +406,30 @@ TEST_F(MeshFastPath, InconsistentOrientationIsMuJoCosError) {
   }
 }
 
-TEST_F(MeshFastPath, MalformedObjGivesOneLineErrorWithFileAndLine) {
+TEST_F(PhysicsOnly, MalformedObjIsMuJoCosErrorInOneLineNamingTheAssetFile) {
   const std::string good = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\n";
   struct Case {
     std::string text, line, message;
   };
   std::vector<Case> cases = {
-      {"v 0 0 0\nv 1 x 0\n", "line 2", "bad vertex coordinate 'x'"},
-      {"v 0 0\n", "line 1", "vertex needs 3 coordinates"},
-      {good + "f 1 2 3\nf 1 2 9\n", "line 6", "out of range"},
-      {good + "f 1 0 3\n", "line 5", "bad face vertex index '0'"},
-      {good + "f 1 a 3\n", "line 5", "bad face vertex index 'a'"},
-      {"v 0 0 0\nf -2 -1 1\n" + good, "line 2", "before the first vertex"},
-      {good + "# comment\n\nf 1 2 3 \nf 1/1/1 2/ 3\nf 99999999999999 1 2\n", "line 9",
-       "bad face vertex index"},
+      {"v 0 0 0\nv 1 x 0\n", "line 1, element <mesh>", "at least 4 vertices"},
+      {"v 0 0\n", "line 1, element <mesh>", "at least 4 vertices"},
+      {good + "f 1 2 3\nf 1 2 9\n", "line 1, element <mesh>", "does not exist"},
+      {good + "f 1 0 3\n", "line 1, element <mesh>", "could not parse OBJ"},
+      {good + "f 1 a 3\n", "line 1, element <mesh>", "could not parse OBJ"},
+      {"v 0 0 0\nf -2 -1 1\n" + good, "line 1, element <mesh>", "does not exist"},
+      {good + "# comment\n\nf 1 2 3 \nf 1/1/1 2/ 3\nf 99999999999999 1 2\n", "line 1",
+       "does not exist"},
   };
   for (const Case& c : cases) {
-    fs::path obj = Write("bad.obj", c.text);
+    Write("bad.obj", c.text);
     fs::path xml = Asset("<mesh name=\"b\" file=\"bad.obj\"/>", "<geom type=\"mesh\" mesh=\"b\"/>");
     try {
       ComputeAssetFacts(xml, true);
       ADD_FAILURE() << "accepted: " << c.text;
     } catch (const Error& e) {
       std::string what = e.what();
-      EXPECT_THAT(what, HasSubstr(obj.string())) << c.text;
+      EXPECT_THAT(what, HasSubstr(xml.string())) << c.text;
       EXPECT_THAT(what, HasSubstr(c.line)) << c.text;
       EXPECT_THAT(what, HasSubstr(c.message)) << c.text;
       EXPECT_THAT(what, Not(HasSubstr("\n"))) << c.text;
@@ -448,7 +437,7 @@ TEST_F(MeshFastPath, MalformedObjGivesOneLineErrorWithFileAndLine) {
   }
 }
 
-TEST_F(MeshFastPath, TruncatedAndGarbageFilesNeverCrash) {
+TEST_F(PhysicsOnly, TruncatedAndGarbageFilesNeverCrash) {
   BlobOptions o;
   o.quads = true;
   const std::string obj = BlobObj(o);

@@ -1,5 +1,6 @@
 #include "mlspaces/datagen/env.h"
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 
@@ -123,6 +124,41 @@ TEST(EnvCreateTest, SharedModelAndMissingHomeNumeric) {
   bad.home_arm_numeric = "no_home";
   EXPECT_THAT([&] { Env::Load(kScene, bad); },
               ::testing::ThrowsMessage<Error>(::testing::HasSubstr("robot_0/no_home")));
+}
+
+TEST(EnvCreateTest, RobotConfigGravcompSwitchesMuJoCosGravcompOnTheRobotBodies) {
+  for (bool on : {true, false}) {
+    RobotSpec spec = FrankaDroidSpec(MLSPACES_SOURCE_DIR);
+    spec.gravcomp = on;
+    Env env = Env::Load(kScene, spec);
+    const mjModel* m = env.model();
+    const int root = mj_name2id(m, mjOBJ_BODY, "robot_0/fr3_link0");
+    ASSERT_GE(root, 0);
+    int robot_bodies = 0;
+    for (int b = 1; b < m->nbody; ++b) {
+      int a = b;
+      while (a > 0 && a != root) a = m->body_parentid[a];
+      if (a == root) {
+        ++robot_bodies;
+        EXPECT_EQ(m->body_gravcomp[b], on ? 1 : 0) << b;
+      } else {
+        EXPECT_EQ(m->body_gravcomp[b], 0) << b;  // the scene's bodies keep their own (none)
+      }
+    }
+    EXPECT_EQ(robot_bodies, 13);
+    EXPECT_EQ(m->ngravcomp, on ? 13 : 0);
+    // MuJoCo's gravcomp force is there exactly when it is on.
+    mj_forward(m, env.data());
+    double largest = 0;
+    for (int v = 0; v < m->nv; ++v) {
+      largest = std::max(largest, std::abs(env.data()->qfrc_gravcomp[v]));
+    }
+    if (on) {
+      EXPECT_GT(largest, 1);
+    } else {
+      EXPECT_EQ(largest, 0);
+    }
+  }
 }
 
 }  // namespace

@@ -45,13 +45,14 @@ TEST(InspectCli, JsonIsMachineReadable) {
   EXPECT_NEAR((*block)["pos"][2].get<double>(), 0.025, 1e-12);
 }
 
-TEST(InspectCli, EmitMjcfIsFlatFor222) {
+TEST(InspectCli, EmitMjcfIsPlainMjcfThatMujocoLoads) {
   auto r = RunCli({"inspect", kScene, "--emit-mjcf"});
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_THAT(r.out, HasSubstr("<mujoco"));
   EXPECT_THAT(r.out, Not(HasSubstr("<frame")));
   EXPECT_THAT(r.out, Not(HasSubstr("<attach")));
   EXPECT_THAT(r.out, Not(HasSubstr("<model")));
+  EXPECT_THAT(r.out, HasSubstr("name=\"red_block\" pos=\"0.4 0 0.025\""));
 }
 
 TEST(InspectCli, BadMjcfIsOneLineWithFileLineAndElement) {

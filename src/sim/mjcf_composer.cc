@@ -101,6 +101,17 @@ void AbsolutizeFiles(mjSpec* spec, const SourceRoot& root) {
   }
 }
 
+/// Elements that refer to others by name: what MuJoCo 3.5's mj_copySpec (like its attach)
+/// silently drops when the reference does not resolve.
+int CountReferrers(mjSpec* spec) {
+  int n = 0;
+  for (mjtObj type : {mjOBJ_ACTUATOR, mjOBJ_SENSOR, mjOBJ_TENDON, mjOBJ_EQUALITY, mjOBJ_PAIR,
+                      mjOBJ_EXCLUDE}) {
+    for (mjsElement* e = mjs_firstElement(spec, type); e; e = mjs_nextElement(spec, e)) ++n;
+  }
+  return n;
+}
+
 /// Compiles `spec` on its own. @throws Error located in `root`'s files.
 void CompileAlone(mjSpec* spec, const SourceRoot& root) {
   mjModel* m = nullptr;
@@ -114,10 +125,20 @@ void CompileAlone(mjSpec* spec, const SourceRoot& root) {
   TakeMujocoWarnings();
 }
 
-/// MuJoCo 3.5's attach drops, without a word, whatever in the attached model refers to an
-/// element the model lacks (an actuator on a missing joint, ...): the composed model compiles
-/// without it. So each <model> asset of `spec` (as parsed from `root`) is compiled on its own,
-/// where MuJoCo reports such errors. Only files with a <model> asset pay for this.
+/// MuJoCo 3.5's attach (and mj_copySpec) drops, without a word, whatever in the attached
+/// model refers to an element the model lacks (an actuator on a missing joint, ...): the
+/// composed model compiles without it. A copy drops the same, so a copy with fewer referring
+/// elements means such a reference; compiling the model on its own then reports it.
+/// @throws Error located in `root`'s files.
+void CheckReferences(mjSpec* spec, const SourceRoot& root) {
+  SpecPtr copy(mj_copySpec(spec));
+  if (copy && CountReferrers(copy.get()) == CountReferrers(spec)) return;
+  CompileAlone(spec, root);
+  throw Error("MuJoCo cannot resolve a reference of this model", root.path.string());
+}
+
+/// CheckReferences for each <model> asset of `spec` (as parsed from `root`): MuJoCo's parser
+/// has attached them already. Only files with a <model> asset pay for this.
 void CheckModelAssets(mjSpec* spec, const SourceRoot& root, int depth = 0) {
   if (depth > 32 || root.text.find("<model") == std::string::npos) return;
   for (const auto& [name, file] : internal::ModelAssets(root)) {
@@ -130,7 +151,7 @@ void CheckModelAssets(mjSpec* spec, const SourceRoot& root, int depth = 0) {
       continue;  // the parser has read it; nothing to locate errors in
     }
     CheckModelAssets(child, child_root, depth + 1);
-    CompileAlone(child, child_root);
+    CheckReferences(child, child_root);
   }
 }
 
@@ -206,11 +227,11 @@ struct MjcfComposer::Impl {
   /// after more attaches; the lock keeps concurrent Compile/Emit calls of one (const) composer
   /// apart. (Not a copy: mj_copySpec of MuJoCo 3.5 drops an unresolvable reference, e.g. an
   /// actuator on a missing joint, and the copy would compile without the error.)
-  ModelPtr CompileSpec() const {
+  ModelPtr CompileSpec(const mjVFS* vfs = nullptr) const {
     TakeMujocoWarnings();
     mjModel* m = nullptr;
     try {
-      m = mj_compile(spec.get(), nullptr);
+      m = mj_compile(spec.get(), vfs);
     } catch (const MujocoError& e) {
       internal::ThrowCompileError(e.what(), roots);
     }
@@ -256,9 +277,8 @@ struct MjcfComposer::Impl {
       what = b->element;
       bodies.push_back(name_of(b->element));
     }
-    // Checked on its own first: attach would drop a dangling reference without a word (see
-    // CheckModelAssets), and a failed attach would leave the spec half changed.
-    CompileAlone(child.get(), SourceRoot{root.path, root.text, ""});
+    // Checked first: attach would drop a dangling reference without a word.
+    CheckReferences(child.get(), SourceRoot{root.path, root.text, ""});
     mjsFrame* frame = mjs_addFrame(parent, nullptr);
     std::copy(pose.pos.begin(), pose.pos.end(), frame->pos);
     std::copy(pose.quat.begin(), pose.quat.end(), frame->quat);
@@ -309,6 +329,11 @@ MjcfComposer& MjcfComposer::operator=(const MjcfComposer& other) {
   impl->spec.reset(mj_copySpec(other.impl_->spec.get()));
   if (!impl->spec) throw Error("MuJoCo could not copy the model", other.impl_->path.string());
   mjs_setDeepCopy(impl->spec.get(), 1);
+  if (CountReferrers(impl->spec.get()) != CountReferrers(other.impl_->spec.get())) {
+    // The copy lost a dangling reference (see CheckReferences): compiling the original names it.
+    other.Compile();
+    throw Error("MuJoCo left out part of the model when copying it", other.impl_->path.string());
+  }
   impl->options = other.impl_->options;
   impl->path = other.impl_->path;
   impl->roots = other.impl_->roots;
@@ -360,10 +385,12 @@ std::string MjcfComposer::Emit() const {
               impl_->path.string());
 }
 
-ModelPtr MjcfComposer::Compile() const {
+ModelPtr MjcfComposer::Compile(const mjVFS* vfs) const {
   std::lock_guard<std::mutex> lock(impl_->mutex);
-  return impl_->CompileSpec();
+  return impl_->CompileSpec(vfs);
 }
+
+mjSpec* MjcfComposer::spec() { return impl_->spec.get(); }
 
 const std::vector<std::string>& MjcfComposer::warnings() const { return impl_->warnings; }
 

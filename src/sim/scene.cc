@@ -39,4 +39,10 @@ std::vector<std::string> Scene::InsertRobot(const std::filesystem::path& robot_x
   return composer_.Attach(robot_xml, "world", prefix, base);
 }
 
+std::vector<std::string> Scene::InsertRobotString(std::string_view xml,
+                                                  const std::filesystem::path& path_for_errors,
+                                                  std::string_view prefix, const Pose& base) {
+  return composer_.AttachString(xml, path_for_errors, "world", prefix, base);
+}
+
 }  // namespace mlspaces::sim

@@ -312,6 +312,36 @@ TEST(Composer, EmitLoadsFromAnyFolderAndAttachStringResolvesBesideItsPath) {
   EXPECT_NEAR(reloaded->body_mass[t], direct->body_mass[t], 1e-6 * direct->body_mass[t]);
 }
 
+TEST(Composer, CopyOfAModelWithADanglingReferenceIsAnError) {
+  // MuJoCo's mj_copySpec drops the motor on a missing joint; the copy must not hide the error.
+  const MjcfComposer bad(kData / "bad/dangling_ref.xml");
+  try {
+    MjcfComposer copy = bad;
+    FAIL() << "copied without an error";
+  } catch (const Error& e) {
+    EXPECT_EQ(fs::path(e.path()).filename(), "dangling_ref.xml");
+    EXPECT_EQ(e.field(), "line 8, element <motor>");
+  }
+}
+
+TEST(Composer, SpecEditsAndVfsFilesReachTheCompile) {
+  MjcfComposer c(kData / "facts/neg_tet/neg_tet.xml", ComposeOptions{.physics_only = true});
+  const double mass = c.Compile()->body_mass[1];
+  // The same tetrahedron at twice the size, handed over in memory: 8 times the mass.
+  const std::string obj =
+      "v 0 0 0\nv -0.2 0 0\nv 0 -0.2 0\nv 0 0 -0.2\nf 1 2 3\nf 1 4 2\nf 1 3 4\nf 2 4 3\n";
+  mjsElement* mesh = mjs_firstElement(c.spec(), mjOBJ_MESH);
+  ASSERT_NE(mesh, nullptr);
+  mjs_setString(mjs_asMesh(mesh)->file, "in_memory_tet.obj");
+  mjVFS vfs;
+  mj_defaultVFS(&vfs);
+  ASSERT_EQ(mj_addBufferVFS(&vfs, "in_memory_tet.obj", obj.data(), static_cast<int>(obj.size())),
+            0);
+  ModelPtr big = c.Compile(&vfs);
+  mj_deleteVFS(&vfs);
+  EXPECT_NEAR(big->body_mass[1], 8 * mass, 1e-9 * mass);
+}
+
 struct BadCase {
   const char* file;
   const char* where_file;

@@ -65,6 +65,10 @@ TEST(Scene, BadInsertionsAreErrors) {
   const mlspaces::testing::TempDir tmp;
   const fs::path lib = tmp / "library";
   fs::copy(kData / "library", lib, fs::copy_options::recursive);
+  // "twin": an asset with metadata but two top-level bodies.
+  fs::create_directories(lib / "twin");
+  fs::copy_file(lib / "multi/multi.xml", lib / "twin/twin.xml");
+  WriteFileAtomic(lib / "twin/twin.json", R"({"assetId": "twin", "category": "pair"})");
   WriteFileAtomic(lib / "assets_index.json",
                   BuildAssetIndex(lib, AssetIndexOptions{}, nullptr).Serialize());
   Registry registry;
@@ -80,13 +84,13 @@ TEST(Scene, BadInsertionsAreErrors) {
   EXPECT_EQ(scene.metadata()["objects"].size(), objects);
   EXPECT_FALSE(scene.composer().HasBody("given_0/given"));
   EXPECT_EQ(scene.Compile()->nbody, 2);
-  // "multi" has two top-level bodies; an inserted object must have one.
+  // An inserted object must have one top-level body.
   try {
-    scene.InsertAsset(registry, "multi", Pose{});
+    scene.InsertAsset(registry, "twin", Pose{});
     FAIL();
   } catch (const Error& e) {
     EXPECT_THAT(e.message(), ::testing::HasSubstr("exactly one top-level body"));
-    EXPECT_EQ(fs::path(e.path()).filename(), "multi.xml");
+    EXPECT_EQ(fs::path(e.path()).filename(), "twin.xml");
   }
 }
 

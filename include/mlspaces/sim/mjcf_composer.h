@@ -80,9 +80,15 @@ class MjcfComposer {
   /// Compile.
   std::string Emit() const;
 
-  /// Compiles (a copy of) the composed model. @throws Error with the source file, line and
-  /// element; for a name defined twice, naming both files and lines.
-  ModelPtr Compile() const;
+  /// Compiles the composed model (the spec stays as it was). @throws Error with the source
+  /// file, line and element; for a name defined twice, naming both files and lines.
+  ModelPtr Compile() const { return Compile(nullptr); }
+  /// Compile where files in `vfs` take precedence over the disk (e.g. meshes given in memory).
+  ModelPtr Compile(const mjVFS* vfs) const;
+
+  /// The composed model's mjSpec, for edits with MuJoCo's API before compiling (owned by the
+  /// composer; edits show in Compile, Emit and copies).
+  mjSpec* spec();
 
   /// MuJoCo's compile warnings, of every Compile/Emit so far.
   const std::vector<std::string>& warnings() const;

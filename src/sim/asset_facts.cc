@@ -5,11 +5,8 @@
 #include <cstring>
 #include <limits>
 #include <memory>
-#include <sstream>
 #include <string>
 #include <vector>
-
-#include <pugixml.hpp>
 
 #include "mesh_reader.h"
 #include "mlspaces/core/error.h"
@@ -142,83 +139,66 @@ bool EndsWithNoCase(std::string_view s, std::string_view suffix) {
   return true;
 }
 
-// mj_loadXML of files.back() with `files` in an in-memory VFS. Null when MuJoCo rejects the
-// model.
-ModelPtr LoadFromVfs(const std::vector<VfsFile>& files) {
+// The physics-only fast path: the composed model with every OBJ / binary STL mesh file read by
+// mesh_reader and handed to MuJoCo as a .msh in a VFS (same triangles, same float corners,
+// one vertex per OBJ index instead of one per face corner; see mesh_reader.h for why the
+// compiled masses and vertices are the same), edited in the composer's spec. Meshes the
+// readers leave to MuJoCo keep their file. Null when MuJoCo rejected the model: the caller
+// then compiles the composer's model (its files as they were), which reports MuJoCo's error
+// against the source file and line.
+// @throws Error for a malformed OBJ (file and line).
+ModelPtr CompileWithFastMeshes(MjcfComposer& composer) {
+  mjSpec* spec = composer.spec();
   struct Vfs {
     mjVFS vfs;
     Vfs() { mj_defaultVFS(&vfs); }
     ~Vfs() { mj_deleteVFS(&vfs); }
   } holder;
-  for (const VfsFile& f : files) {
-    if (mj_addBufferVFS(&holder.vfs, f.name.c_str(), f.data.data(),
-                        static_cast<int>(f.data.size())) != 0) {
-      return nullptr;
+  std::vector<std::pair<mjsMesh*, std::string>> replaced;  // mesh, its own file
+  auto restore = [&] {
+    for (auto& [mesh, file] : replaced) mjs_setString(mesh->file, file.c_str());
+  };
+  for (mjsElement* e = mjs_firstElement(spec, mjOBJ_MESH); e; e = mjs_nextElement(spec, e)) {
+    mjsMesh* mesh = mjs_asMesh(e);
+    const char* f = mjs_getString(mesh->file);
+    const std::string name = f ? f : "";
+    const bool obj = EndsWithNoCase(name, "obj");
+    if (!(obj || EndsWithNoCase(name, "stl")) || !std::filesystem::path(name).is_absolute()) {
+      continue;
     }
+    std::string data;
+    try {
+      data = ReadFile(name);
+    } catch (const std::exception&) {
+      continue;  // MuJoCo reports the missing file
+    }
+    TriMesh tri;
+    try {
+      if (obj ? !ReadObjMesh(data, name, &tri) : !ReadStlMesh(data, &tri)) continue;
+    } catch (...) {
+      restore();
+      throw;
+    }
+    // MuJoCo names an unnamed mesh after its file.
+    const char* n = mjs_getString(mjs_getName(e));
+    if (!n || !*n) mjs_setName(e, std::filesystem::path(name).stem().c_str());
+    const std::string vfs_name = "__mlspaces_mesh_" + std::to_string(replaced.size()) + ".msh";
+    const std::string msh = EncodeMsh(tri);
+    if (mj_addBufferVFS(&holder.vfs, vfs_name.c_str(), msh.data(),
+                        static_cast<int>(msh.size())) != 0) {
+      break;
+    }
+    replaced.emplace_back(mesh, name);
+    mjs_setString(mesh->file, vfs_name.c_str());
   }
-  char error[1024] = "";
-  mjModel* m = nullptr;
+  ModelPtr m;
   try {
-    m = mj_loadXML(files.back().name.c_str(), &holder.vfs, error, sizeof error);
-  } catch (const MujocoError&) {
+    m = composer.Compile(&holder.vfs);
+  } catch (const Error&) {
     m = nullptr;
   }
-  TakeMujocoWarnings();
-  return ModelPtr(m);
-}
-
-// The physics-only fast path: the composed model with every OBJ / binary STL mesh file read by
-// mesh_reader and handed to MuJoCo as a .msh in the VFS (same triangles, same float corners,
-// one vertex per OBJ index instead of one per face corner; see mesh_reader.h for why the
-// compiled masses and vertices are the same), no constraint buffers. Meshes the
-// readers leave to MuJoCo keep their file. Null when MuJoCo rejected the model: the caller
-// then compiles the composer's model, which reports MuJoCo's error against the source file
-// and line.
-// @throws Error for a malformed OBJ (file and line).
-ModelPtr CompileWithFastMeshes(const MjcfComposer& composer) {
-  const std::string text = composer.Emit();
-  pugi::xml_document doc;
-  if (!doc.load_buffer(text.data(), text.size())) return nullptr;
-  std::vector<VfsFile> files;
-  pugi::xml_node root = doc.child("mujoco");
-  for (pugi::xml_node asset : root.children("asset")) {
-    for (pugi::xml_node mesh : asset.children("mesh")) {
-      pugi::xml_attribute file = mesh.attribute("file");
-      if (!file) continue;
-      const std::string name = file.value();
-      const bool obj = EndsWithNoCase(name, "obj");
-      if (!(obj || EndsWithNoCase(name, "stl")) || !std::filesystem::path(name).is_absolute()) {
-        continue;
-      }
-      std::string data;
-      try {
-        data = ReadFile(name);
-      } catch (const std::exception&) {
-        continue;  // MuJoCo reports the missing file
-      }
-      TriMesh tri;
-      if (obj ? !ReadObjMesh(data, name, &tri) : !ReadStlMesh(data, &tri)) continue;
-      // MuJoCo names an unnamed mesh after its file.
-      if (!mesh.attribute("name")) {
-        mesh.append_attribute("name").set_value(std::filesystem::path(name).stem().c_str());
-      }
-      std::string vfs_name = "__mlspaces_mesh_" + std::to_string(files.size()) + ".msh";
-      file.set_value(vfs_name.c_str());
-      files.push_back({std::move(vfs_name), EncodeMsh(tri)});
-    }
-  }
-  // Only masses and poses are read from this model: no constraint rows, so MuJoCo's own
-  // mj_makeData in the compile and ours stay small (njmax 500 costs megabytes of memset).
-  pugi::xml_node size = root.child("size");
-  if (!size) size = root.prepend_child("size");
-  for (const char* a : {"njmax", "nconmax"}) {
-    if (!size.attribute(a)) size.append_attribute(a);
-    size.attribute(a).set_value("1");
-  }
-  std::ostringstream os;
-  doc.save(os, "", pugi::format_raw | pugi::format_no_declaration);
-  files.push_back({"__mlspaces_model.xml", os.str()});
-  return LoadFromVfs(files);
+  restore();
+  return m;
 }
 
 }  // namespace

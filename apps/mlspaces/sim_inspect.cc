@@ -127,8 +127,11 @@ int Run(const InspectFlags& flags) {
     const std::string& n = item["name"].get_ref<const std::string&>();
     return n.empty() ? std::string("(unnamed)") : n;
   };
-  std::printf("%s: %d bodies, %d joints, %d geoms, %d actuators, %d cameras\n",
-              flags.file.c_str(), m->nbody, m->njnt, m->ngeom, m->nu, m->ncam);
+  // MuJoCo 3's sizes are mjtSize (64-bit).
+  std::printf("%s: %lld bodies, %lld joints, %lld geoms, %lld actuators, %lld cameras\n",
+              flags.file.c_str(), static_cast<long long>(m->nbody),
+              static_cast<long long>(m->njnt), static_cast<long long>(m->ngeom),
+              static_cast<long long>(m->nu), static_cast<long long>(m->ncam));
   std::printf("bodies (world pose at qpos0; box = world-axes box of the body's own geoms):\n");
   for (const Json& b : bodies) {
     std::printf("  %-24s pos %s quat %s mass %.6g", name(b).c_str(), vec(b["pos"]).c_str(),

@@ -246,16 +246,29 @@ struct MjcfComposer::Impl {
 
   mutable std::mutex mutex;
 
-  std::vector<std::string> Attach(SourceRoot root, std::string_view parent_body, const Pose& pose,
-                                  std::string_view body) {
-    mjSpec* s = spec.get();
+  mjsBody* Parent(std::string_view parent_body) const {
     const std::string parent_name =
         parent_body.empty() || parent_body == "world" ? "world" : std::string(parent_body);
-    mjsBody* parent = mjs_findBody(s, parent_name.c_str());
+    mjsBody* parent = mjs_findBody(spec.get(), parent_name.c_str());
     if (!parent) {
       throw Error("no body named '" + parent_name + "' to attach under", path.string());
     }
+    return parent;
+  }
+
+  std::vector<std::string> Attach(SourceRoot root, std::string_view parent_body, const Pose& pose,
+                                  std::string_view body) {
+    Parent(parent_body);  // before reading the file: a bad parent is the caller's error
     SpecPtr child = ParseRoot(root, options);
+    return AttachSpec(child.get(), std::move(root), parent_body, pose, body);
+  }
+
+  /// Attaches `child` (parsed from `root`, whose prefix is the one to put on its names).
+  std::vector<std::string> AttachSpec(mjSpec* child, SourceRoot root,
+                                      std::string_view parent_body, const Pose& pose,
+                                      std::string_view body) {
+    mjSpec* s = spec.get();
+    mjsBody* parent = Parent(parent_body);
     const mjsElement* what = child->element;
     std::vector<std::string> bodies;
     auto name_of = [&](mjsElement* e) {
@@ -263,13 +276,13 @@ struct MjcfComposer::Impl {
       return n.empty() ? n : root.prefix + n;
     };
     if (body.empty()) {
-      mjsBody* world = mjs_findBody(child.get(), "world");
+      mjsBody* world = mjs_findBody(child, "world");
       for (mjsElement* e = mjs_firstChild(world, mjOBJ_BODY, 0); e;
            e = mjs_nextChild(world, e, 0)) {
         bodies.push_back(name_of(e));
       }
     } else {
-      mjsBody* b = mjs_findBody(child.get(), std::string(body).c_str());
+      mjsBody* b = mjs_findBody(child, std::string(body).c_str());
       if (!b) {
         throw Error("the model has no body '" + std::string(body) + "' to attach",
                     root.path.string());
@@ -278,7 +291,7 @@ struct MjcfComposer::Impl {
       bodies.push_back(name_of(b->element));
     }
     // Checked first: attach would drop a dangling reference without a word.
-    CheckReferences(child.get(), SourceRoot{root.path, root.text, ""});
+    CheckReferences(child, SourceRoot{root.path, root.text, ""});
     mjsFrame* frame = mjs_addFrame(parent, nullptr);
     std::copy(pose.pos.begin(), pose.pos.end(), frame->pos);
     std::copy(pose.quat.begin(), pose.quat.end(), frame->quat);
@@ -359,6 +372,30 @@ std::vector<std::string> MjcfComposer::AttachString(std::string_view xml,
                                                     std::string_view body) {
   return impl_->Attach(SourceRoot{Absolute(path_for_errors), std::string(xml), std::string(prefix)},
                        parent_body, pose, body);
+}
+
+std::vector<std::string> MjcfComposer::Attach(const MjcfComposer& model,
+                                              std::string_view parent_body,
+                                              std::string_view prefix, const Pose& pose,
+                                              std::string_view body) {
+  if (model.impl_->options.physics_only != impl_->options.physics_only) {
+    throw UsageError("Attach: the model was composed with other ComposeOptions",
+                     model.impl_->path.string());
+  }
+  const SourceRoot& own = model.impl_->roots.front();
+  std::lock_guard<std::mutex> lock(model.impl_->mutex);
+  return impl_->AttachSpec(model.impl_->spec.get(), SourceRoot{own.path, own.text,
+                                                                std::string(prefix)},
+                           parent_body, pose, body);
+}
+
+std::vector<std::string> MjcfComposer::TopLevelBodies() const {
+  std::vector<std::string> out;
+  mjsBody* world = mjs_findBody(impl_->spec.get(), "world");
+  for (mjsElement* e = mjs_firstChild(world, mjOBJ_BODY, 0); e; e = mjs_nextChild(world, e, 0)) {
+    out.push_back(Str(mjs_getName(e)));
+  }
+  return out;
 }
 
 bool MjcfComposer::HasBody(std::string_view name) const {

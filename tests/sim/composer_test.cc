@@ -258,6 +258,25 @@ TEST(Composer, CompileLeavesTheComposerAsItWasAndCopiesAreIndependent) {
   }
 }
 
+TEST(Composer, AParsedModelAttachesAsOftenAsWanted) {
+  const MjcfComposer arm(kData / "two_link_arm.xml");
+  EXPECT_EQ(arm.TopLevelBodies(), std::vector<std::string>{"base"});
+  MjcfComposer scene(kData / "custom_assets/scene.xml");
+  EXPECT_EQ(scene.TopLevelBodies(), std::vector<std::string>{"red_block"});
+  Pose left, right;
+  left.pos = {0, 1, 0};
+  right.pos = {0, -1, 0};
+  EXPECT_EQ(scene.Attach(arm, "world", "l/", left), std::vector<std::string>{"l/base"});
+  EXPECT_EQ(scene.Attach(arm, "world", "r/", right), std::vector<std::string>{"r/base"});
+  Compiled c = Load(scene);
+  EXPECT_EQ(c.m->nu, 4);
+  ExpectPos(c, "l/base", 0, 1, 0.05);
+  ExpectPos(c, "r/base", 0, -1, 0.05);
+  EXPECT_EQ(arm.Compile()->nbody, 5);  // the attached model is unchanged
+  const MjcfComposer physics(kData / "two_link_arm.xml", ComposeOptions{.physics_only = true});
+  EXPECT_THROW(scene.Attach(physics, "world", "p/", Pose{}), Error);
+}
+
 TEST(Composer, RuntimeAttachErrorsNameTheFileAndLine) {
   MjcfComposer scene(kData / "custom_assets/scene.xml");
   try {

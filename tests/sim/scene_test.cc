@@ -61,7 +61,7 @@ TEST(Scene, InsertsRobotAndUserLibraryAssetsWithMetadata) {
   EXPECT_EQ(scene.Compile()->nbody, m->nbody);
 }
 
-TEST(Scene, BadInsertionsAreErrors) {
+TEST(Scene, BadInsertionsAreErrorsAndLeaveTheSceneAsItWas) {
   const mlspaces::testing::TempDir tmp;
   const fs::path lib = tmp / "library";
   fs::copy(kData / "library", lib, fs::copy_options::recursive);
@@ -92,6 +92,9 @@ TEST(Scene, BadInsertionsAreErrors) {
     EXPECT_THAT(e.message(), ::testing::HasSubstr("exactly one top-level body"));
     EXPECT_EQ(fs::path(e.path()).filename(), "twin.xml");
   }
+  EXPECT_FALSE(scene.composer().HasBody("twin_0/a"));
+  EXPECT_EQ(scene.Compile()->nbody, 2);
+  EXPECT_EQ(scene.metadata()["objects"].size(), objects);
 }
 
 }  // namespace

@@ -6,11 +6,16 @@
 // settings and defaults, its names get the attach prefix, its keyframes come along, prefixed
 // and padded to the whole model); Attach parses another model file and mjs_attach-es it (its
 // whole worldbody, or one body's subtree) into a new frame under a body of this one;
-// Compile compiles a copy of the spec with mj_compile, so the composer is unchanged by it;
-// Emit writes that compiled copy with mj_saveXMLString (plain MJCF: frames folded into the
-// bodies, attachments expanded, angles in radians; MuJoCo writes numbers with 6 significant
-// digits). Asset file paths of a model without <model>/<include> are made absolute at parse
-// time, so the emitted MJCF of such models loads from any folder.
+// Compile is mj_compile of the spec (which leaves it as it was: compiling again, attaching
+// more, copying all still work); Emit compiles and writes the spec with mj_saveXMLString
+// (plain MJCF: frames folded into the bodies, attachments expanded, angles in radians; MuJoCo
+// writes numbers with 6 significant digits, so re-parsing Emit's text is not the same model:
+// edit spec() and Compile instead). Asset file paths of a model without <model>/<include>
+// are made absolute at parse time, so the emitted MJCF of such models loads from any folder.
+//
+// MuJoCo 3.5's attach and mj_copySpec silently drop an element whose reference does not
+// resolve (an actuator on a joint the model lacks); the composer checks every attached model
+// and every copy for that and reports MuJoCo's error for the model on its own instead.
 //
 // Errors are mlspaces::Error on one line with path = the source file and field = "line N,
 // element <tag>": MuJoCo's message, located in the file it is about (the scene, an included
@@ -72,6 +77,15 @@ class MjcfComposer {
                                         const std::filesystem::path& path_for_errors,
                                         std::string_view parent_body, std::string_view prefix,
                                         const Pose& pose, std::string_view body = {});
+
+  /// Attach for a model composed already (parsed once, attached as often as wanted; `model`
+  /// must have the same ComposeOptions). @throws Error as Attach.
+  std::vector<std::string> Attach(const MjcfComposer& model, std::string_view parent_body,
+                                  std::string_view prefix, const Pose& pose,
+                                  std::string_view body = {});
+
+  /// The names of the worldbody's child bodies ("" for an unnamed one), in order.
+  std::vector<std::string> TopLevelBodies() const;
 
   /// True when a body of that name exists (mjs_findBody; names as prefixed).
   bool HasBody(std::string_view name) const;

@@ -48,11 +48,12 @@ class Scene {
   const MjcfComposer& composer() const { return composer_; }
 
  private:
-  Scene(MjcfComposer composer, Json metadata)
-      : composer_(std::move(composer)), metadata_(std::move(metadata)) {}
+  Scene(MjcfComposer composer, Json metadata, ComposeOptions options)
+      : composer_(std::move(composer)), metadata_(std::move(metadata)), options_(options) {}
 
   MjcfComposer composer_;
   Json metadata_;
+  ComposeOptions options_;
   int inserted_ = 0;
 };
 

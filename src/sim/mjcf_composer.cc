@@ -378,6 +378,7 @@ std::vector<std::string> MjcfComposer::Attach(const MjcfComposer& model,
                                               std::string_view parent_body,
                                               std::string_view prefix, const Pose& pose,
                                               std::string_view body) {
+  if (&model == this) throw UsageError("Attach: a model cannot be attached to itself");
   if (model.impl_->options.physics_only != impl_->options.physics_only) {
     throw UsageError("Attach: the model was composed with other ComposeOptions",
                      model.impl_->path.string());

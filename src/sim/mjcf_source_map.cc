@@ -172,13 +172,16 @@ void ThrowParseError(std::string_view message, const SourceRoot& root) {
     std::smatch m;
     // tinyxml2's "Error=XML_ERROR_MISMATCHED_ELEMENT ErrorID=14 (0xe) Line number=3: XMLElement
     // name=body" reads as "XML parse error: XML_ERROR_MISMATCHED_ELEMENT (XMLElement name=body)".
-    static const std::regex kTinyXml(R"(Error=(\w+) ErrorID=\d+ \(0x[0-9a-fA-F]+\) Line number=(\d+):? ?([^\n]*))");
+    static const std::regex kTinyXml(
+        R"(Error=(\w+) ErrorID=\d+ \(0x[0-9a-fA-F]+\) Line number=(\d+):? ?([^\n]*))");
     if (std::regex_search(s, m, kTinyXml)) {
       std::string text = "XML parse error: " + m[1].str();
       if (m[3].length() > 0) text += " (" + m[3].str() + ")";
       throw Error(text, path, "line " + m[2].str());
     }
-    if (std::regex_search(s, m, kXmlLine)) throw Error(OneLine(message), path, "line " + m[1].str());
+    if (std::regex_search(s, m, kXmlLine)) {
+      throw Error(OneLine(message), path, "line " + m[1].str());
+    }
     throw Error(OneLine(message), path);
   }
   // An error inside a <model> or <include>d file: MuJoCo names only the element that read it.

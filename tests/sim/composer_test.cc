@@ -275,6 +275,17 @@ TEST(Composer, AParsedModelAttachesAsOftenAsWanted) {
   EXPECT_EQ(arm.Compile()->nbody, 5);  // the attached model is unchanged
   const MjcfComposer physics(kData / "two_link_arm.xml", ComposeOptions{.physics_only = true});
   EXPECT_THROW(scene.Attach(physics, "world", "p/", Pose{}), Error);
+  EXPECT_THROW(scene.Attach(scene, "world", "self/", Pose{}), Error);
+  // Text attached at run time: errors name the path it was given for.
+  try {
+    scene.AttachString(
+        "<mujoco>\n<worldbody>\n<body><geom size=\"x\"/></body>\n</worldbody>\n</mujoco>",
+        kData / "generated.xml", "world", "g/", Pose{});
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_EQ(fs::path(e.path()).filename(), "generated.xml");
+    EXPECT_EQ(e.field(), "line 3, element <geom>");
+  }
 }
 
 TEST(Composer, RuntimeAttachErrorsNameTheFileAndLine) {

@@ -65,6 +65,15 @@ TEST(InspectCli, BadMjcfIsOneLineWithFileLineAndElement) {
   EXPECT_THAT(r.err, HasSubstr(bad.string() + ": line 3, element <geom>"));
   EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
 
+  // An error in an included file names that file and its line.
+  WriteText(tmp.path() / "part.xml",
+            "<mujoco>\n  <worldbody>\n\n    <gizmo/>\n  </worldbody>\n</mujoco>\n");
+  WriteText(tmp.path() / "main.xml", "<mujoco>\n  <include file=\"part.xml\"/>\n</mujoco>\n");
+  r = RunCli({"inspect", (tmp.path() / "main.xml").string()});
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(r.err, HasSubstr((tmp.path() / "part.xml").string() + ": line 4, element <gizmo>"));
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+
   r = RunCli({"inspect", (tmp.path() / "missing.xml").string()});
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_THAT(r.err, HasSubstr("missing.xml"));

@@ -69,14 +69,11 @@ void DropRendering(mjSpec* spec);
 
 /// Gives the asset files of a freshly parsed spec absolute paths, so that Emit's MJCF (which
 /// writes file names as they are in the spec) loads from anywhere and attached models keep
-/// their files. Only for a model that attaches no <model> and includes nothing: MuJoCo
-/// resolves an attached model's files against that model's folder and meshdir, which its spec
-/// does not expose once attached, so those are left as MuJoCo keeps them.
+/// their files. Only for a model without <model> assets (its own or its includes'; included
+/// files' paths are relative to the including model, as MuJoCo reads them): MuJoCo resolves an
+/// attached model's files against that model's folder and meshdir, which the spec does not
+/// expose once attached, so those are left as MuJoCo keeps them.
 void AbsolutizeFiles(mjSpec* spec, const SourceRoot& root) {
-  if (root.text.find("<model") != std::string::npos ||
-      root.text.find("<include") != std::string::npos) {
-    return;
-  }
   const fs::path dir = root.path.parent_path();
   const std::string meshdir = Str(spec->compiler.meshdir);
   const std::string texturedir = Str(spec->compiler.texturedir);
@@ -137,11 +134,22 @@ void CheckReferences(mjSpec* spec, const SourceRoot& root) {
   throw Error("MuJoCo cannot resolve a reference of this model", root.path.string());
 }
 
-/// CheckReferences for each <model> asset of `spec` (as parsed from `root`): MuJoCo's parser
-/// has attached them already. Only files with a <model> asset pay for this.
-void CheckModelAssets(mjSpec* spec, const SourceRoot& root, int depth = 0) {
-  if (depth > 32 || root.text.find("<model") == std::string::npos) return;
-  for (const auto& [name, file] : internal::ModelAssets(root)) {
+/// The <model> assets of `root` and its includes (only files that have a <model> or an
+/// <include> are read for this).
+std::vector<std::pair<std::string, fs::path>> ModelAssetsOf(const SourceRoot& root) {
+  if (root.text.find("<model") == std::string::npos &&
+      root.text.find("<include") == std::string::npos) {
+    return {};
+  }
+  return internal::ModelAssets(root);
+}
+
+/// CheckReferences for each <model> asset of `spec` (as parsed from `root`, `models` its
+/// assets): MuJoCo's parser has attached them already.
+void CheckModelAssets(mjSpec* spec, const std::vector<std::pair<std::string, fs::path>>& models,
+                      int depth = 0) {
+  if (depth > 32) return;
+  for (const auto& [name, file] : models) {
     mjSpec* child = mjs_findSpec(spec, name.c_str());
     if (!child) continue;
     SourceRoot child_root{file, "", ""};
@@ -150,15 +158,16 @@ void CheckModelAssets(mjSpec* spec, const SourceRoot& root, int depth = 0) {
     } catch (const Error&) {
       continue;  // the parser has read it; nothing to locate errors in
     }
-    CheckModelAssets(child, child_root, depth + 1);
+    CheckModelAssets(child, ModelAssetsOf(child_root), depth + 1);
     CheckReferences(child, child_root);
   }
 }
 
 SpecPtr ParseRoot(const SourceRoot& root, const ComposeOptions& options) {
   SpecPtr spec = Parse(root);
-  CheckModelAssets(spec.get(), root);
-  AbsolutizeFiles(spec.get(), root);
+  const auto models = ModelAssetsOf(root);
+  CheckModelAssets(spec.get(), models);
+  if (models.empty()) AbsolutizeFiles(spec.get(), root);
   if (options.physics_only) DropRendering(spec.get());
   return spec;
 }

@@ -354,6 +354,24 @@ TEST(Composer, CopyOfAModelWithADanglingReferenceIsAnError) {
   }
 }
 
+TEST(Composer, EmitOfAModelWithIncludesNamesItsMeshFilesAbsolutely) {
+  // MuJoCo reads an included file's mesh relative to the including model and its meshdir.
+  const mlspaces::testing::TempDir tmp;
+  fs::create_directories(tmp / "meshes");
+  fs::create_directories(tmp / "parts");
+  fs::copy_file(kData / "facts/neg_tet/neg_tet.obj", tmp / "meshes/neg_tet.obj");
+  WriteFileAtomic(tmp / "parts/assets.xml",
+                  "<mujoco><asset><mesh file=\"neg_tet.obj\"/></asset></mujoco>\n");
+  WriteFileAtomic(tmp / "main.xml",
+                  "<mujoco><compiler meshdir=\"meshes\"/><include file=\"parts/assets.xml\"/>\n"
+                  "<worldbody><body name=\"t\"><geom type=\"mesh\" mesh=\"neg_tet\"/></body>"
+                  "</worldbody></mujoco>\n");
+  MjcfComposer c(tmp / "main.xml");
+  const double mass = c.Compile()->body_mass[1];
+  ModelPtr reloaded = LoadModelFromMemory(c.Emit(), "elsewhere.xml");
+  EXPECT_NEAR(reloaded->body_mass[1], mass, 1e-6 * mass);
+}
+
 TEST(Composer, SpecEditsAndVfsFilesReachTheCompile) {
   MjcfComposer c(kData / "facts/neg_tet/neg_tet.xml", ComposeOptions{.physics_only = true});
   const double mass = c.Compile()->body_mass[1];

@@ -32,6 +32,12 @@ std::string Str(const mjString* s) {
   return c ? c : "";
 }
 
+/// The spec's compiler error or warning ("" for none).
+std::string SpecError(mjSpec* spec) {
+  const char* e = mjs_getError(spec);
+  return e ? e : "";
+}
+
 fs::path Absolute(const fs::path& p) { return fs::absolute(p).lexically_normal(); }
 
 /// Parses MJCF text as the file `path` (relative paths resolve against its folder; <include>
@@ -117,7 +123,7 @@ void CompileAlone(mjSpec* spec, const SourceRoot& root) {
   } catch (const MujocoError& e) {
     internal::ThrowCompileError(e.what(), {root});
   }
-  if (!m) internal::ThrowCompileError(mjs_getError(spec), {root});
+  if (!m) internal::ThrowCompileError(SpecError(spec), {root});
   mj_deleteModel(m);
   TakeMujocoWarnings();
 }
@@ -191,7 +197,7 @@ void DropRendering(mjSpec* spec) {
   }
   for (mjtObj type : {mjOBJ_SKIN, mjOBJ_MATERIAL, mjOBJ_TEXTURE, mjOBJ_LIGHT}) {
     while (mjsElement* e = mjs_firstElement(spec, type)) {
-      if (mjs_delete(spec, e) != 0) throw Error(std::string("MuJoCo: ") + mjs_getError(spec));
+      if (mjs_delete(spec, e) != 0) throw Error("MuJoCo: " + SpecError(spec));
     }
   }
 }
@@ -230,7 +236,7 @@ struct MjcfComposer::Impl {
   fs::path path;
   std::vector<SourceRoot> roots;  // the composed file, then each run-time attach
   mutable std::vector<std::string> warnings;
-
+  mutable std::mutex mutex;
 
   /// Compiles the spec itself. A compile leaves the spec as it was, and a spec compiles again
   /// after more attaches; the lock keeps concurrent Compile/Emit calls of one (const) composer
@@ -244,16 +250,14 @@ struct MjcfComposer::Impl {
     } catch (const MujocoError& e) {
       internal::ThrowCompileError(e.what(), roots);
     }
-    if (!m) internal::ThrowCompileError(mjs_getError(spec.get()), roots);
+    if (!m) internal::ThrowCompileError(SpecError(spec.get()), roots);
     ModelPtr model(m);
-    if (mjs_isWarning(spec.get()) && *mjs_getError(spec.get())) {
-      warnings.push_back("MuJoCo: " + internal::OneLine(mjs_getError(spec.get())));
+    if (mjs_isWarning(spec.get()) && !SpecError(spec.get()).empty()) {
+      warnings.push_back("MuJoCo: " + internal::OneLine(SpecError(spec.get())));
     }
     for (std::string& w : TakeMujocoWarnings()) warnings.push_back("MuJoCo: " + w);
     return model;
   }
-
-  mutable std::mutex mutex;
 
   mjsBody* Parent(std::string_view parent_body) const {
     const std::string parent_name =
@@ -314,7 +318,7 @@ struct MjcfComposer::Impl {
     if (!attached) {
       std::vector<SourceRoot> with_child = roots;
       with_child.push_back(root);
-      internal::ThrowCompileError(error.empty() ? std::string(mjs_getError(s)) : error,
+      internal::ThrowCompileError(error.empty() ? SpecError(s) : error,
                                   with_child);
     }
     roots.push_back(std::move(root));

@@ -47,7 +47,8 @@ struct ComposeOptions {
   bool physics_only = false;
 };
 
-/// A composed model (an mjSpec). Copying copies the spec (mj_copySpec), cheap next to a compile.
+/// A composed model (an mjSpec). Copying copies the spec (mj_copySpec), cheap next to a
+/// compile; a copy of a model with a reference MuJoCo cannot resolve throws its Error.
 class MjcfComposer {
  public:
   /// Composes an MJCF file. @throws Error naming the file, line and element.

@@ -12,7 +12,8 @@ PACKAGES=(
   nlohmann-json3-dev libsimdjson-dev zlib1g-dev libyaml-cpp-dev libcli11-dev
   # tests and benchmarks (numpy, h5py, pytest come from the venv)
   libgtest-dev libgmock-dev libbenchmark-dev hyperfine
-  # sim: MJCF (MuJoCo itself comes from the venv's mujoco wheel)
+  # sim: reading MJCF sources to locate MuJoCo's errors (MuJoCo itself comes from the venv's
+  # mujoco wheel)
   libpugixml-dev
   # datagen: HDF5 trajectories
   libhdf5-dev

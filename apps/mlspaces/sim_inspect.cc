@@ -127,6 +127,7 @@ int Run(const InspectFlags& flags) {
     const std::string& n = item["name"].get_ref<const std::string&>();
     return n.empty() ? std::string("(unnamed)") : n;
   };
+  // MuJoCo 3's sizes are mjtSize (64-bit).
   std::printf("%s: %lld bodies, %lld joints, %lld geoms, %lld actuators, %lld cameras\n",
               flags.file.c_str(), static_cast<long long>(m->nbody),
               static_cast<long long>(m->njnt), static_cast<long long>(m->ngeom),
@@ -169,7 +170,7 @@ void AddInspect(CLI::App& app, Action& action) {
   sub->add_option("FILE", flags->file, "MJCF file (MuJoCo 3 <frame>/<attach> allowed)")
       ->required();
   sub->add_flag("--json", flags->json, "Print JSON for scripts");
-  sub->add_flag("--emit-mjcf", flags->emit, "Print the flat MJCF handed to MuJoCo");
+  sub->add_flag("--emit-mjcf", flags->emit, "Print the flat MJCF handed to MuJoCo 2.2.2");
   sub->callback([&action, flags] { action = [flags] { return Run(*flags); }; });
 }
 

@@ -3,8 +3,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-
-#include <unistd.h>
+#include <filesystem>
 #include <string>
 #include <utility>
 
@@ -102,7 +101,7 @@ Env Env::Load(const std::filesystem::path& scene_xml, const RobotSpec& robot) {
 namespace {
 
 // The robot standing on a box pedestal: a wrapper model whose mocap base holds the box and
-// the robot's arm subtree mounted on top, written to a temp file for the composer.
+// the robot's arm subtree mounted on top (MuJoCo's <attach> of the robot's <model>).
 void InsertRobotOnPedestal(sim::Scene& scene, const RobotSpec& robot) {
   const std::array<double, 3>& size = *robot.pedestal_size;
   char buf[128];
@@ -125,20 +124,9 @@ void InsertRobotOnPedestal(sim::Scene& scene, const RobotSpec& robot) {
       "    </body>\n"
       "  </worldbody>\n"
       "</mujoco>\n";
-  std::string tmpl = (std::filesystem::temp_directory_path() / "mlspaces_pedestal_XXXXXX").string();
-  const int fd = ::mkstemp(tmpl.data());
-  if (fd < 0) throw Error("cannot create a temp file for the robot pedestal", tmpl);
-  const bool written = ::write(fd, xml.data(), xml.size()) == static_cast<ssize_t>(xml.size());
-  ::close(fd);
-  const std::filesystem::path file = tmpl;
-  try {
-    if (!written) throw Error("cannot write the robot pedestal model", tmpl);
-    scene.InsertRobot(file, robot.prefix, robot.base);
-  } catch (...) {
-    std::filesystem::remove(file);
-    throw;
-  }
-  std::filesystem::remove(file);
+  scene.InsertRobotString(xml, std::filesystem::absolute(robot.xml).parent_path() /
+                                   "robot_on_pedestal.xml",
+                          robot.prefix, robot.base);
 }
 
 // robot_config.gravcomp on the compiled model: body_gravcomp 1 (or 0) on the arm root's

@@ -178,13 +178,13 @@ GraspCollisionChecker::GraspCollisionChecker(const sim::MjcfComposer& scene, con
   for (const std::string& g : geoms) body += g;
   body += "</body>";
 
-  std::string xml = scene.Emit();
-  const size_t at = xml.rfind("</worldbody>");
-  if (at == std::string::npos) {
-    throw std::invalid_argument("GraspCollisionChecker: the scene has no <worldbody> element");
-  }
-  xml.insert(at, body);
-  model_ = sim::LoadModelFromMemory(xml, "grasp_probe.xml");
+  // The scene with the probe attached last (so its body, joint and geoms come after the
+  // sim model's), compiled from the scene's spec.
+  sim::MjcfComposer with_probe = scene;
+  with_probe.AttachString("<mujoco model=\"grasp_probe\"><worldbody>" + body +
+                              "</worldbody></mujoco>",
+                          scene.path().parent_path() / "grasp_probe.xml", "world", "", sim::Pose{});
+  model_ = with_probe.Compile();
   mjModel* m = model_.get();
 
   nq_sim_ = sim->nq;

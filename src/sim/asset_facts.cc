@@ -5,11 +5,8 @@
 #include <cstring>
 #include <limits>
 #include <memory>
-#include <sstream>
 #include <string>
 #include <vector>
-
-#include <pugixml.hpp>
 
 #include "mlspaces/core/error.h"
 #include "mlspaces/core/files.h"
@@ -131,55 +128,6 @@ void AddGeom(const mjModel* m, const mjData* d, int g, Box* box) {
   }
 }
 
-// mj_loadXML of files.back() with `files` in an in-memory VFS. Null when MuJoCo rejects the
-// model.
-ModelPtr LoadFromVfs(const std::vector<VfsFile>& files) {
-  struct Vfs {
-    mjVFS vfs;
-    Vfs() { mj_defaultVFS(&vfs); }
-    ~Vfs() { mj_deleteVFS(&vfs); }
-  } holder;
-  for (const VfsFile& f : files) {
-    if (mj_addBufferVFS(&holder.vfs, f.name.c_str(), f.data.data(),
-                        static_cast<int>(f.data.size())) != 0) {
-      return nullptr;
-    }
-  }
-  char error[1024] = "";
-  mjModel* m = nullptr;
-  try {
-    m = mj_loadXML(files.back().name.c_str(), &holder.vfs, error, sizeof error);
-  } catch (const MujocoError&) {
-    m = nullptr;
-  }
-  TakeMujocoWarnings();
-  return ModelPtr(m);
-}
-
-// The physics-only path: the composed model (physics_only: no textures, materials or lights,
-// whose decoding costs more than the rest for a textured asset) without constraint buffers.
-// (Turning collisions off to spare MuJoCo the convex hulls was measured too: no gain on
-// 3.5, so the model keeps its geoms as they are.) Null when MuJoCo rejected the model: the
-// caller then compiles the composer's model, which reports MuJoCo's error against the source
-// file and line.
-ModelPtr CompilePhysicsOnly(const MjcfComposer& composer) {
-  const std::string text = composer.Emit();
-  pugi::xml_document doc;
-  if (!doc.load_buffer(text.data(), text.size())) return nullptr;
-  pugi::xml_node root = doc.child("mujoco");
-  // Only masses and poses are read from this model: no constraint rows, so MuJoCo's own
-  // mj_makeData in the compile and ours stay small.
-  pugi::xml_node size = root.child("size");
-  if (!size) size = root.prepend_child("size");
-  for (const char* a : {"njmax", "nconmax"}) {
-    if (!size.attribute(a)) size.append_attribute(a);
-    size.attribute(a).set_value("1");
-  }
-  std::ostringstream os;
-  doc.save(os, "", pugi::format_raw | pugi::format_no_declaration);
-  return LoadFromVfs({{"__mlspaces_model.xml", os.str()}});
-}
-
 }  // namespace
 
 bool BodyGeomBox(const mjModel* m, const mjData* d, int body, std::array<double, 3>* lo,
@@ -224,11 +172,11 @@ AssetFacts ComputeAssetFacts(const mjModel* m, const std::filesystem::path& path
 AssetFacts ComputeAssetFacts(const std::filesystem::path& xml, bool physics_only) {
   ComposeOptions options;
   options.physics_only = physics_only;
+  // physics_only: the composer drops textures, materials, skins and lights, whose decoding
+  // costs more than the rest of a textured asset's compile; masses, inertias and geometry
+  // equal a full compile's (tests/sim/physics_only_test.cc checks it bitwise).
   MjcfComposer composer(xml, options);
   const std::filesystem::path abs = std::filesystem::absolute(xml).lexically_normal();
-  if (physics_only) {
-    if (ModelPtr m = CompilePhysicsOnly(composer)) return ComputeAssetFacts(m.get(), abs);
-  }
   ModelPtr m = composer.Compile();
   return ComputeAssetFacts(m.get(), abs);
 }

@@ -9,7 +9,7 @@ Scene Scene::Load(const std::filesystem::path& xml, ComposeOptions options) {
   MjcfComposer composer(xml, options);
   std::optional<Json> meta = LoadSceneMetadata(xml);
   Json m = meta ? std::move(*meta) : Json{{"objects", Json::object()}};
-  return Scene(std::move(composer), std::move(m));
+  return Scene(std::move(composer), std::move(m), options);
 }
 
 std::string Scene::InsertAsset(const Registry& registry, std::string_view uid, const Pose& pose,
@@ -23,12 +23,14 @@ std::string Scene::InsertAsset(const Registry& registry, std::string_view uid, c
   Json entry = MakeInsertedObjectEntry(*annotation, loc.mjcf_path);
   std::string p = prefix.empty() ? std::string(uid) + "_" + std::to_string(inserted_) + "/"
                                  : std::string(prefix);
-  std::vector<std::string> bodies = composer_.Attach(loc.mjcf_path, parent_body, p, pose);
-  if (bodies.size() != 1) {
+  // Parsed and checked first, so that a bad asset leaves the scene as it was.
+  const MjcfComposer asset(loc.mjcf_path, options_);
+  if (const size_t n = asset.TopLevelBodies().size(); n != 1) {
     throw Error("an inserted asset must have exactly one top-level body, found " +
-                    std::to_string(bodies.size()),
+                    std::to_string(n),
                 loc.mjcf_path.string(), "", std::string(uid));
   }
+  std::vector<std::string> bodies = composer_.Attach(asset, parent_body, p, pose);
   ++inserted_;
   AddSceneObject(metadata_, bodies[0], std::move(entry));
   return bodies[0];
@@ -37,6 +39,12 @@ std::string Scene::InsertAsset(const Registry& registry, std::string_view uid, c
 std::vector<std::string> Scene::InsertRobot(const std::filesystem::path& robot_xml,
                                             std::string_view prefix, const Pose& base) {
   return composer_.Attach(robot_xml, "world", prefix, base);
+}
+
+std::vector<std::string> Scene::InsertRobotString(std::string_view xml,
+                                                  const std::filesystem::path& path_for_errors,
+                                                  std::string_view prefix, const Pose& base) {
+  return composer_.AttachString(xml, path_for_errors, "world", prefix, base);
 }
 
 }  // namespace mlspaces::sim

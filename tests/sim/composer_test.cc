@@ -1,4 +1,5 @@
-// MJCF composer: compiled poses, masses and counts against values worked out by hand.
+// MJCF composer (MuJoCo's parser and mjSpec): what users see of a composed model (poses, masses,
+// names, keyframes, errors) against values worked out by hand.
 #include "mlspaces/sim/mjcf_composer.h"
 
 #include <cmath>
@@ -10,6 +11,8 @@
 #include <gtest/gtest.h>
 
 #include "mlspaces/core/error.h"
+#include "mlspaces/core/files.h"
+#include "test_util.h"
 
 namespace mlspaces::sim {
 namespace {
@@ -136,7 +139,7 @@ TEST(Composer, SeedTutorialScene) {
   EXPECT_NEAR(c.m->qpos0[2], 0.025, kEps);
   EXPECT_EQ(c.m->nmat, 1);
   EXPECT_EQ(c.m->ntex, 1);
-  // No MuJoCo 3 syntax survives in the flat model.
+  // Emit writes plain MJCF: attachments expanded, frames folded into the bodies.
   std::string flat = composer.Emit();
   EXPECT_THAT(flat, ::testing::Not(HasSubstr("<frame")));
   EXPECT_THAT(flat, ::testing::Not(HasSubstr("<attach")));
@@ -194,6 +197,199 @@ TEST(Composer, AttachOneBodyOfAModel) {
   EXPECT_EQ(c.m->nsensor, 1);
 }
 
+TEST(Composer, AttachedKeyframesArePrefixedAndPaddedDefaultsStayPerModel) {
+  Compiled c = Load(MjcfComposer(kData / "compose/keyed_scene.xml"));
+  ASSERT_EQ(c.m->nkey, 3);
+  ASSERT_EQ(c.m->nq, 7 + 2 + 2);
+  const int start = mj_name2id(c.m.get(), mjOBJ_KEY, "start");
+  const int a = mj_name2id(c.m.get(), mjOBJ_KEY, "a/home");
+  const int b = mj_name2id(c.m.get(), mjOBJ_KEY, "b/home");
+  ASSERT_GE(start, 0);
+  ASSERT_GE(a, 0);
+  ASSERT_GE(b, 0);
+  const double* ka = c.m->key_qpos + a * c.m->nq;
+  const double* kb = c.m->key_qpos + b * c.m->nq;
+  // a/home: the arm's own values on a's joints (degrees file: qpos is not converted), the
+  // rest of the model at qpos0 (the box's free joint at its body pose).
+  EXPECT_NEAR(ka[2], 1.0, kEps);
+  EXPECT_NEAR(ka[7], 0.5, kEps);
+  EXPECT_NEAR(ka[8], 0.01, kEps);
+  EXPECT_NEAR(ka[9], 0.0, kEps);
+  EXPECT_NEAR(kb[7], 0.0, kEps);
+  EXPECT_NEAR(kb[9], 0.5, kEps);
+  EXPECT_NEAR(c.m->key_qpos[start * c.m->nq + 10], 0.4, kEps);
+  // Each arm keeps its own defaults: density 300 (not the scene's 1), class "soft" damping 3
+  // (not the scene's class of that name, 99), its degrees.
+  EXPECT_NEAR(c.m->body_mass[c.Body("a/base")], 300 * 0.008, 1e-9);
+  EXPECT_NEAR(c.m->body_mass[c.Body("box")], 0.008, 1e-12);
+  const int slide = mj_name2id(c.m.get(), mjOBJ_JOINT, "b/slide");
+  ASSERT_GE(slide, 0);
+  EXPECT_NEAR(c.m->dof_damping[c.m->jnt_dofadr[slide]], 3.0, 1e-12);
+  const int swing = mj_name2id(c.m.get(), mjOBJ_JOINT, "a/swing");
+  EXPECT_NEAR(c.m->jnt_range[2 * swing + 1], std::numbers::pi / 2, 1e-12);
+  ExpectPos(c, "b/tip", 2.2, 0, 0.1);
+}
+
+TEST(Composer, CompileLeavesTheComposerAsItWasAndCopiesAreIndependent) {
+  MjcfComposer scene(kData / "custom_assets/scene.xml");
+  ModelPtr first = scene.Compile();
+  ModelPtr again = scene.Compile();
+  EXPECT_EQ(first->nbody, 2);
+  EXPECT_EQ(again->nbody, 2);
+  MjcfComposer copy = scene;
+  copy.Attach(kData / "compose/keyed_arm.xml", "world", "arm/", Pose{});
+  EXPECT_TRUE(copy.HasBody("arm/base"));
+  EXPECT_FALSE(scene.HasBody("arm/base"));
+  EXPECT_EQ(copy.Compile()->nbody, 4);
+  EXPECT_EQ(scene.Compile()->nbody, 2);
+  // Attaching after a compile still works; the same prefix twice is a name clash naming the
+  // attached file twice.
+  copy.Attach(kData / "compose/keyed_arm.xml", "red_block", "arm2/", Pose{});
+  EXPECT_EQ(copy.Compile()->nbody, 6);
+  copy.Attach(kData / "compose/keyed_arm.xml", "world", "arm/", Pose{});
+  try {
+    copy.Compile();
+    FAIL() << "no error for a repeated name";
+  } catch (const Error& e) {
+    EXPECT_THAT(e.message(), HasSubstr("'arm/base'"));
+    EXPECT_THAT(e.message(), HasSubstr("keyed_arm.xml line 11 and "));
+    EXPECT_EQ(fs::path(e.path()).filename(), "keyed_arm.xml");
+    EXPECT_EQ(e.field(), "line 11, element <body>");
+  }
+}
+
+TEST(Composer, AParsedModelAttachesAsOftenAsWanted) {
+  const MjcfComposer arm(kData / "two_link_arm.xml");
+  EXPECT_EQ(arm.TopLevelBodies(), std::vector<std::string>{"base"});
+  MjcfComposer scene(kData / "custom_assets/scene.xml");
+  EXPECT_EQ(scene.TopLevelBodies(), std::vector<std::string>{"red_block"});
+  Pose left, right;
+  left.pos = {0, 1, 0};
+  right.pos = {0, -1, 0};
+  EXPECT_EQ(scene.Attach(arm, "world", "l/", left), std::vector<std::string>{"l/base"});
+  EXPECT_EQ(scene.Attach(arm, "world", "r/", right), std::vector<std::string>{"r/base"});
+  Compiled c = Load(scene);
+  EXPECT_EQ(c.m->nu, 4);
+  ExpectPos(c, "l/base", 0, 1, 0.05);
+  ExpectPos(c, "r/base", 0, -1, 0.05);
+  EXPECT_EQ(arm.Compile()->nbody, 5);  // the attached model is unchanged
+  const MjcfComposer physics(kData / "two_link_arm.xml", ComposeOptions{.physics_only = true});
+  EXPECT_THROW(scene.Attach(physics, "world", "p/", Pose{}), Error);
+  EXPECT_THROW(scene.Attach(scene, "world", "self/", Pose{}), Error);
+  // Text attached at run time: errors name the path it was given for.
+  try {
+    scene.AttachString(
+        "<mujoco>\n<worldbody>\n<body><geom size=\"x\"/></body>\n</worldbody>\n</mujoco>",
+        kData / "generated.xml", "world", "g/", Pose{});
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_EQ(fs::path(e.path()).filename(), "generated.xml");
+    EXPECT_EQ(e.field(), "line 3, element <geom>");
+  }
+}
+
+TEST(Composer, RuntimeAttachErrorsNameTheFileAndLine) {
+  MjcfComposer scene(kData / "custom_assets/scene.xml");
+  try {
+    scene.Attach(kData / "two_link_arm.xml", "no_such_body", "r/", Pose{});
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_THAT(e.message(), HasSubstr("no body named 'no_such_body'"));
+    EXPECT_EQ(fs::path(e.path()).filename(), "scene.xml");
+  }
+  try {
+    scene.Attach(kData / "bad/unknown_element.xml", "world", "r/", Pose{});
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_EQ(fs::path(e.path()).filename(), "unknown_element.xml");
+    EXPECT_EQ(e.field(), "line 5, element <gizmo>");
+  }
+  EXPECT_THROW(scene.Attach(kData / "no_such_file.xml", "world", "r/", Pose{}), Error);
+  EXPECT_THROW(scene.Attach(kData / "two_link_arm.xml", "world", "r/", Pose{}, "no_body"), Error);
+  // A model with a dangling reference (which MuJoCo's attach would silently leave out) is an
+  // error at Attach, against its own file; the scene is unchanged.
+  try {
+    scene.Attach(kData / "bad/dangling_ref.xml", "world", "d/", Pose{});
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_EQ(fs::path(e.path()).filename(), "dangling_ref.xml");
+    EXPECT_EQ(e.field(), "line 8, element <motor>");
+    EXPECT_THAT(e.message(), HasSubstr("no_such_joint"));
+    EXPECT_EQ(std::string(e.what()).find('\n'), std::string::npos) << e.what();
+  }
+  EXPECT_FALSE(scene.HasBody("d/b"));
+  EXPECT_EQ(scene.Compile()->nbody, 2);
+}
+
+TEST(Composer, EmitLoadsFromAnyFolderAndAttachStringResolvesBesideItsPath) {
+  MjcfComposer scene(kData / "custom_assets/scene.xml");
+  scene.Attach(kData / "facts/neg_tet/neg_tet.xml", "world", "tet/", Pose{});
+  const char* probe = R"(<mujoco><worldbody><body name="probe" pos="0 0 2">
+      <geom type="sphere" size="0.1" mass="3"/></body></worldbody></mujoco>)";
+  auto bodies = scene.AttachString(probe, kData / "facts/probe.xml", "world", "", Pose{});
+  ASSERT_EQ(bodies, std::vector<std::string>{"probe"});
+  ModelPtr direct = scene.Compile();
+  // The emitted MJCF names the mesh and texture files absolutely: it loads from memory.
+  ModelPtr reloaded = LoadModelFromMemory(scene.Emit(), "elsewhere.xml");
+  EXPECT_EQ(reloaded->nbody, direct->nbody);
+  EXPECT_EQ(reloaded->nmesh, 1);
+  EXPECT_EQ(reloaded->ntex, 2);
+  const int p = mj_name2id(reloaded.get(), mjOBJ_BODY, "probe");
+  ASSERT_EQ(p, direct->nbody - 1);  // attached last: the last body
+  EXPECT_NEAR(reloaded->body_mass[p], 3.0, 1e-12);
+  const int t = mj_name2id(direct.get(), mjOBJ_BODY, "tet/neg_tet");
+  ASSERT_GE(t, 0);
+  EXPECT_NEAR(reloaded->body_mass[t], direct->body_mass[t], 1e-6 * direct->body_mass[t]);
+}
+
+TEST(Composer, CopyOfAModelWithADanglingReferenceIsAnError) {
+  // MuJoCo's mj_copySpec drops the motor on a missing joint; the copy must not hide the error.
+  const MjcfComposer bad(kData / "bad/dangling_ref.xml");
+  try {
+    MjcfComposer copy = bad;
+    FAIL() << "copied without an error";
+  } catch (const Error& e) {
+    EXPECT_EQ(fs::path(e.path()).filename(), "dangling_ref.xml");
+    EXPECT_EQ(e.field(), "line 8, element <motor>");
+  }
+}
+
+TEST(Composer, EmitOfAModelWithIncludesNamesItsMeshFilesAbsolutely) {
+  // MuJoCo reads an included file's mesh relative to the including model and its meshdir.
+  const mlspaces::testing::TempDir tmp;
+  fs::create_directories(tmp / "meshes");
+  fs::create_directories(tmp / "parts");
+  fs::copy_file(kData / "facts/neg_tet/neg_tet.obj", tmp / "meshes/neg_tet.obj");
+  WriteFileAtomic(tmp / "parts/assets.xml",
+                  "<mujoco><asset><mesh file=\"neg_tet.obj\"/></asset></mujoco>\n");
+  WriteFileAtomic(tmp / "main.xml",
+                  "<mujoco><compiler meshdir=\"meshes\"/><include file=\"parts/assets.xml\"/>\n"
+                  "<worldbody><body name=\"t\"><geom type=\"mesh\" mesh=\"neg_tet\"/></body>"
+                  "</worldbody></mujoco>\n");
+  MjcfComposer c(tmp / "main.xml");
+  const double mass = c.Compile()->body_mass[1];
+  ModelPtr reloaded = LoadModelFromMemory(c.Emit(), "elsewhere.xml");
+  EXPECT_NEAR(reloaded->body_mass[1], mass, 1e-6 * mass);
+}
+
+TEST(Composer, SpecEditsAndVfsFilesReachTheCompile) {
+  MjcfComposer c(kData / "facts/neg_tet/neg_tet.xml", ComposeOptions{.physics_only = true});
+  const double mass = c.Compile()->body_mass[1];
+  // The same tetrahedron at twice the size, handed over in memory: 8 times the mass.
+  const std::string obj =
+      "v 0 0 0\nv -0.2 0 0\nv 0 -0.2 0\nv 0 0 -0.2\nf 1 2 3\nf 1 4 2\nf 1 3 4\nf 2 4 3\n";
+  mjsElement* mesh = mjs_firstElement(c.spec(), mjOBJ_MESH);
+  ASSERT_NE(mesh, nullptr);
+  mjs_setString(mjs_asMesh(mesh)->file, "in_memory_tet.obj");
+  mjVFS vfs;
+  mj_defaultVFS(&vfs);
+  ASSERT_EQ(mj_addBufferVFS(&vfs, "in_memory_tet.obj", obj.data(), static_cast<int>(obj.size())),
+            0);
+  ModelPtr big = c.Compile(&vfs);
+  mj_deleteVFS(&vfs);
+  EXPECT_NEAR(big->body_mass[1], 8 * mass, 1e-9 * mass);
+}
+
 struct BadCase {
   const char* file;
   const char* where_file;
@@ -227,14 +423,23 @@ INSTANTIATE_TEST_SUITE_P(
         BadCase{"missing_mesh.xml", "missing_mesh.xml", "line 3, element <mesh>",
                 "file not found"},
         BadCase{"bad_number.xml", "bad_number.xml", "line 3, element <body>",
-                "bad number in attribute 'pos'"},
+                "bad format in attribute 'pos'"},
         BadCase{"dangling_ref.xml", "dangling_ref.xml", "line 8, element <motor>",
                 "no_such_joint"},
         BadCase{"unknown_model.xml", "unknown_model.xml", "line 4, element <attach>",
-                "unknown model 'nope'"},
+                "could not find model 'nope'"},
         BadCase{"bad_nested_attach.xml", "unknown_element.xml", "line 5, element <gizmo>",
                 "unrecognized element"},
-        BadCase{"bad_xml.xml", "bad_xml.xml", "line 4", "XML parse error"}),
+        BadCase{"bad_xml.xml", "bad_xml.xml", "line 3", "XML parse error"},
+        // MuJoCo gives elements of an included file line 0; the error names that file.
+        BadCase{"include_bad_element.xml", "inc_gizmo.xml", "line 6, element <gizmo>",
+                "unrecognized element"},
+        BadCase{"include_malformed.xml", "inc_malformed.xml", "line 3", "XML parse error"},
+        BadCase{"missing_model.xml", "missing_model.xml", "line 4, element <model>",
+                "no_such_model.xml"},
+        // A compile error in an attached model: that model's file and line.
+        BadCase{"attached_dangling.xml", "dangling_arm.xml", "line 11, element <motor>",
+                "no_such_joint"}),
     // The file's stem: Cases/BadMjcf.OneLineWithFileLineAndElement/unknown_element.
     [](const ::testing::TestParamInfo<BadCase>& info) {
       std::string name = fs::path(info.param.file).stem().string();

@@ -45,13 +45,14 @@ TEST(InspectCli, JsonIsMachineReadable) {
   EXPECT_NEAR((*block)["pos"][2].get<double>(), 0.025, 1e-12);
 }
 
-TEST(InspectCli, EmitMjcfIsFlatFor222) {
+TEST(InspectCli, EmitMjcfIsPlainMjcfThatMujocoLoads) {
   auto r = RunCli({"inspect", kScene, "--emit-mjcf"});
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_THAT(r.out, HasSubstr("<mujoco"));
   EXPECT_THAT(r.out, Not(HasSubstr("<frame")));
   EXPECT_THAT(r.out, Not(HasSubstr("<attach")));
   EXPECT_THAT(r.out, Not(HasSubstr("<model")));
+  EXPECT_THAT(r.out, HasSubstr("name=\"red_block\" pos=\"0.4 0 0.025\""));
 }
 
 TEST(InspectCli, BadMjcfIsOneLineWithFileLineAndElement) {
@@ -62,6 +63,15 @@ TEST(InspectCli, BadMjcfIsOneLineWithFileLineAndElement) {
   auto r = RunCli({"inspect", bad.string()});
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_THAT(r.err, HasSubstr(bad.string() + ": line 3, element <geom>"));
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+
+  // An error in an included file names that file and its line.
+  WriteText(tmp.path() / "part.xml",
+            "<mujoco>\n  <worldbody>\n\n    <gizmo/>\n  </worldbody>\n</mujoco>\n");
+  WriteText(tmp.path() / "main.xml", "<mujoco>\n  <include file=\"part.xml\"/>\n</mujoco>\n");
+  r = RunCli({"inspect", (tmp.path() / "main.xml").string()});
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(r.err, HasSubstr((tmp.path() / "part.xml").string() + ": line 4, element <gizmo>"));
   EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
 
   r = RunCli({"inspect", (tmp.path() / "missing.xml").string()});

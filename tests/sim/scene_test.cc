@@ -3,6 +3,7 @@
 
 #include <filesystem>
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include "mlspaces/core/asset_index.h"
@@ -54,6 +55,46 @@ TEST(Scene, InsertsRobotAndUserLibraryAssetsWithMetadata) {
   EXPECT_NEAR(d->xpos[3 * b + 0], 0.5, 1e-12);  // block (0.4, 0, 0.025) + (0.1, 0.2, 0.3)
   EXPECT_NEAR(d->xpos[3 * b + 2], 0.325, 1e-12);
   EXPECT_THROW(scene.InsertAsset(registry, "no_such_uid", p), Error);
+  // The inserted asset keeps its own mesh and material, and the composed scene's keyframe-free
+  // model compiles again after more insertions (Compile leaves the scene unchanged).
+  EXPECT_EQ(m->nmesh, 1);
+  EXPECT_EQ(scene.Compile()->nbody, m->nbody);
+}
+
+TEST(Scene, BadInsertionsAreErrorsAndLeaveTheSceneAsItWas) {
+  const mlspaces::testing::TempDir tmp;
+  const fs::path lib = tmp / "library";
+  fs::copy(kData / "library", lib, fs::copy_options::recursive);
+  // "twin": an asset with metadata but two top-level bodies.
+  fs::create_directories(lib / "twin");
+  fs::copy_file(lib / "multi/multi.xml", lib / "twin/twin.xml");
+  WriteFileAtomic(lib / "twin/twin.json", R"({"assetId": "twin", "category": "pair"})");
+  WriteFileAtomic(lib / "assets_index.json",
+                  BuildAssetIndex(lib, AssetIndexOptions{}, nullptr).Serialize());
+  Registry registry;
+  registry.RegisterAssetLibrary("custom_assets", lib);
+  Scene scene = Scene::Load(kData / "custom_assets/scene.xml");
+  const size_t objects = scene.metadata()["objects"].size();
+  try {
+    scene.InsertAsset(registry, "given", Pose{}, "no_such_body");
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_THAT(e.message(), ::testing::HasSubstr("no_such_body"));
+  }
+  EXPECT_EQ(scene.metadata()["objects"].size(), objects);
+  EXPECT_FALSE(scene.composer().HasBody("given_0/given"));
+  EXPECT_EQ(scene.Compile()->nbody, 2);
+  // An inserted object must have one top-level body.
+  try {
+    scene.InsertAsset(registry, "twin", Pose{});
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_THAT(e.message(), ::testing::HasSubstr("exactly one top-level body"));
+    EXPECT_EQ(fs::path(e.path()).filename(), "twin.xml");
+  }
+  EXPECT_FALSE(scene.composer().HasBody("twin_0/a"));
+  EXPECT_EQ(scene.Compile()->nbody, 2);
+  EXPECT_EQ(scene.metadata()["objects"].size(), objects);
 }
 
 }  // namespace

@@ -3,8 +3,8 @@
 // original's 128 proxy bodies out of the simulated model.
 //
 // Collision test design (GraspCollisionChecker). A separate *probe model* is compiled once per
-// scene: the scene's flat MJCF (MjcfComposer::Emit() of the composed scene, robot and objects
-// included) plus one free-floating probe body appended last to the worldbody. The probe body's
+// scene: a copy of the composed scene (robot and objects included) with one free-floating probe
+// body attached last to the worldbody (MjcfComposer::AttachString), compiled. The probe body's
 // frame is the TCP frame; its geoms are either
 //  - kGripperGeoms (default): the collision geoms of the robot's own gripper subtree, read from
 //    the compiled sim model at the model's reference pose qpos0 (franka_droid: drivers at 0 =

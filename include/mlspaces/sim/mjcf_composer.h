@@ -1,27 +1,26 @@
-// The MJCF composer: MuJoCo 3 scene syntax (<model> assets, <attach>, <frame>, <include>)
-// flattened into one model that MuJoCo 2.2.2 compiles.
+// The MJCF composer: a scene file and the models attached to it at run time, composed by
+// MuJoCo 3's own parser and model-editing API (mjSpec).
 //
-// What it does to each model file (a "model instance": the scene, or one <attach>):
-//  - expands <include> (paths relative to the instance's main file, as MuJoCo does);
-//  - reads the instance's <compiler> (angle, eulerseq, meshdir/texturedir/assetdir) and puts
-//    every angle in radians and every orientation (quat, euler + eulerseq, axisangle, xyaxes,
-//    zaxis) in `quat` form, so instances with different compiler settings can share one model;
-//  - gives every element that takes a default class its effective class explicitly, under a
-//    name unique to the instance ("__mK__" for the instance's root default, "__mK__/name" for
-//    its classes; the scene keeps its class names), so each instance keeps its own defaults
-//    and never inherits another's, as with MuJoCo 3's attach;
-//  - rebases mesh/texture/hfield/skin files to absolute paths (names default to file stems);
-//  - expands each <attach model=... [body=...] prefix=...>: the model's worldbody (or the named
-//    body's subtree) goes where the <attach> stands, and its assets, defaults, contact,
-//    equality, tendon, actuator, sensor and custom sections are merged, with the prefix put on
-//    every name and every reference (keyframes of attached models are dropped, with a warning);
-//  - folds every <frame> (nested too) into its children's poses (pos, quat, fromto, light dir).
-// The emitted model uses <compiler angle="radian" autolimits="true"> (autolimits is MuJoCo 3's
-// default) unless the scene's own compiler says otherwise for autolimits; mesh inertia is
-// MuJoCo's default (each <mesh inertia=...> as the source says).
+// MuJoCo does the composing: mj_parseXML reads the file with its <include>s, <default>s,
+// <frame>s, <model> assets and <attach>es (each attached model keeps its own compiler
+// settings and defaults, its names get the attach prefix, its keyframes come along, prefixed
+// and padded to the whole model); Attach parses another model file and mjs_attach-es it (its
+// whole worldbody, or one body's subtree) into a new frame under a body of this one;
+// Compile is mj_compile of the spec (which leaves it as it was: compiling again, attaching
+// more, copying all still work); Emit compiles and writes the spec with mj_saveXMLString
+// (plain MJCF: frames folded into the bodies, attachments expanded, angles in radians; MuJoCo
+// writes numbers with 6 significant digits, so re-parsing Emit's text is not the same model:
+// edit spec() and Compile instead). Asset file paths of a model without <model>/<include>
+// are made absolute at parse time, so the emitted MJCF of such models loads from any folder.
 //
-// Errors are mlspaces::Error with path = the source file and field = "line N, element <tag>",
-// also for errors MuJoCo reports on the flat model (its line is mapped back to the source).
+// MuJoCo 3.5's attach and mj_copySpec silently drop an element whose reference does not
+// resolve (an actuator on a joint the model lacks); the composer checks every attached model
+// and every copy for that and reports MuJoCo's error for the model on its own instead.
+//
+// Errors are mlspaces::Error on one line with path = the source file and field = "line N,
+// element <tag>": MuJoCo's message, located in the file it is about (the scene, an included
+// file, an attached model's file; see src/sim/mjcf_source_map.h for how), and for a name
+// defined twice, both places.
 #pragma once
 
 #include <array>
@@ -48,7 +47,8 @@ struct ComposeOptions {
   bool physics_only = false;
 };
 
-/// A composed model. Cheap to copy relative to a compile (the XML tree is deep-copied).
+/// A composed model (an mjSpec). Copying copies the spec (mj_copySpec), cheap next to a
+/// compile; a copy of a model with a reference MuJoCo cannot resolve throws its Error.
 class MjcfComposer {
  public:
   /// Composes an MJCF file. @throws Error naming the file, line and element.
@@ -72,17 +72,40 @@ class MjcfComposer {
                                   std::string_view prefix, const Pose& pose,
                                   std::string_view body = {});
 
-  /// True when a body of that name exists (before compiling).
+  /// Attach for a model given as MJCF text; its relative paths resolve against
+  /// `path_for_errors`'s folder, and errors name that path.
+  std::vector<std::string> AttachString(std::string_view xml,
+                                        const std::filesystem::path& path_for_errors,
+                                        std::string_view parent_body, std::string_view prefix,
+                                        const Pose& pose, std::string_view body = {});
+
+  /// Attach for a model composed already (parsed once, attached as often as wanted; `model`
+  /// must have the same ComposeOptions). @throws Error as Attach.
+  std::vector<std::string> Attach(const MjcfComposer& model, std::string_view parent_body,
+                                  std::string_view prefix, const Pose& pose,
+                                  std::string_view body = {});
+
+  /// The names of the worldbody's child bodies ("" for an unnamed one), in order.
+  std::vector<std::string> TopLevelBodies() const;
+
+  /// True when a body of that name exists (mjs_findBody; names as prefixed).
   bool HasBody(std::string_view name) const;
 
-  /// The flat MJCF handed to MuJoCo. @throws Error for a name defined twice (naming both
-  /// files and lines).
+  /// The composed model as plain MJCF (compiled, then written by MuJoCo). @throws Error as
+  /// Compile.
   std::string Emit() const;
 
-  /// Emits and compiles with MuJoCo. @throws Error with the source file, line and element.
-  ModelPtr Compile() const;
+  /// Compiles the composed model (the spec stays as it was). @throws Error with the source
+  /// file, line and element; for a name defined twice, naming both files and lines.
+  ModelPtr Compile() const { return Compile(nullptr); }
+  /// Compile where files in `vfs` take precedence over the disk (e.g. meshes given in memory).
+  ModelPtr Compile(const mjVFS* vfs) const;
 
-  /// Composition warnings (dropped keyframes, ...) and MuJoCo compile warnings.
+  /// The composed model's mjSpec, for edits with MuJoCo's API before compiling (owned by the
+  /// composer; edits show in Compile, Emit and copies).
+  mjSpec* spec();
+
+  /// MuJoCo's compile warnings, of every Compile/Emit so far.
   const std::vector<std::string>& warnings() const;
 
   /// The file this composer was built from.

@@ -15,7 +15,8 @@ namespace mlspaces::sim {
 
 class Scene {
  public:
-  /// Composes `xml` (MuJoCo 3 syntax allowed) and loads its scene metadata
+  /// Composes `xml` (MuJoCo's parser: <include>, <frame>, <model>, <attach>, ...) and loads
+  /// its scene metadata
   /// (<scene>_metadata.json rules of FindSceneMetadataFile); {"objects": {}} when it has none.
   /// @throws Error for bad MJCF or bad metadata.
   static Scene Load(const std::filesystem::path& xml, ComposeOptions options = {});
@@ -34,6 +35,12 @@ class Scene {
   std::vector<std::string> InsertRobot(const std::filesystem::path& robot_xml,
                                        std::string_view prefix, const Pose& base);
 
+  /// InsertRobot for a robot model given as MJCF text; its relative paths resolve against
+  /// `path_for_errors`'s folder, and errors name that path.
+  std::vector<std::string> InsertRobotString(std::string_view xml,
+                                             const std::filesystem::path& path_for_errors,
+                                             std::string_view prefix, const Pose& base);
+
   /// Compiles the composed scene. @throws Error with file, line and element.
   ModelPtr Compile() const { return composer_.Compile(); }
 
@@ -41,11 +48,12 @@ class Scene {
   const MjcfComposer& composer() const { return composer_; }
 
  private:
-  Scene(MjcfComposer composer, Json metadata)
-      : composer_(std::move(composer)), metadata_(std::move(metadata)) {}
+  Scene(MjcfComposer composer, Json metadata, ComposeOptions options)
+      : composer_(std::move(composer)), metadata_(std::move(metadata)), options_(options) {}
 
   MjcfComposer composer_;
   Json metadata_;
+  ComposeOptions options_;
   int inserted_ = 0;
 };
 

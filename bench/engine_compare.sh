@@ -82,12 +82,16 @@ gbench() {  # build label, binary, filter: records each benchmark's figure
   local label="$1" bin="$2" filter="$3"
   "$bin" --benchmark_filter="$filter" --benchmark_format=json 2>/dev/null |
     python3 -c '
-import json, sys
-text, pos, dec = sys.stdin.read(), 0, json.JSONDecoder()
-while True:
-    while pos < len(text) and text[pos] not in "{": pos += 1
-    if pos >= len(text): break
-    doc, pos = dec.raw_decode(text, pos)
+import json, re, sys
+# One JSON document per benchmark process (the render bench forks one per GL backend);
+# programs may print other lines around them.
+text, dec = sys.stdin.read(), json.JSONDecoder()
+starts = [m.start() for m in re.finditer("^\\{\\s*\"context\"", text, re.M)]
+for start in starts:
+    try:
+        doc, _ = dec.raw_decode(text, start)
+    except ValueError:  # a benchmark that failed: its error went to stderr
+        continue
     for b in doc.get("benchmarks", []):
         if b.get("error_occurred"): continue
         v = b["items_per_second"] if "items_per_second" in b else b["real_time"]

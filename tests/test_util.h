@@ -113,13 +113,20 @@ struct CliResult {
   bool sigkilled = false;  // ended by SIGKILL (directly, or as the shell's exit code 137)
 };
 
+/// `prefix` (shell words) followed by `program` and `args`, each quoted: one /bin/sh command.
+inline std::string ShellCommand(const std::string& program, const std::vector<std::string>& args,
+                                const std::string& prefix) {
+  std::string cmd = prefix + ShellQuote(program);
+  for (const std::string& a : args) cmd += " " + ShellQuote(a);
+  return cmd;
+}
+
 /// Runs `program` with `args`; `prefix` (shell words, e.g. "env -u X") goes before it.
 /// stdout and stderr go to files in a temp folder of their own.
 inline CliResult RunProgram(const std::string& program, const std::vector<std::string>& args,
                             const std::string& prefix = "") {
   TempDir io;
-  std::string cmd = prefix + ShellQuote(program);
-  for (const std::string& a : args) cmd += " " + ShellQuote(a);
+  std::string cmd = ShellCommand(program, args, prefix);
   cmd += " >" + ShellQuote((io / "out").string()) + " 2>" + ShellQuote((io / "err").string());
   const int status = std::system(cmd.c_str());
   CliResult r;
@@ -140,8 +147,7 @@ inline CliResult RunCli(const std::vector<std::string>& args, const std::string&
 /// waitpid. `prefix` as for RunProgram; stdout goes to /dev/null, stderr to `err` (or there).
 inline pid_t SpawnCli(const std::vector<std::string>& args, const std::string& prefix = "",
                       const std::filesystem::path& err = {}) {
-  std::string cmd = "exec " + prefix + ShellQuote(MLSPACES_CLI_PATH);
-  for (const std::string& a : args) cmd += " " + ShellQuote(a);
+  std::string cmd = "exec " + ShellCommand(MLSPACES_CLI_PATH, args, prefix);
   cmd += " >/dev/null 2>" + (err.empty() ? std::string("/dev/null") : ShellQuote(err.string()));
   const pid_t pid = ::fork();
   if (pid == 0) {

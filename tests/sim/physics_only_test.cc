@@ -251,6 +251,11 @@ TEST_F(PhysicsOnly, MeshAttributesAndMassFeatures) {
       {"two meshes", mesh + "/><mesh name=\"copy\" file=\"blob.obj\" scale=\"0.5 0.5 0.5\"/>",
        geom + "/><geom type=\"mesh\" mesh=\"copy\" pos=\"0.3 0 0\"/>", ""},
       {"box fitted to mesh", mesh + "/>", "<geom type=\"box\" mesh=\"blob\"/>", ""},
+      // The hull-based and other inertias: with collisions off MuJoCo still builds the hull
+      // where the inertia needs it.
+      {"convex inertia", mesh + " inertia=\"convex\"/>", geom + "/>", ""},
+      {"shell inertia", mesh + " inertia=\"shell\"/>", geom + "/>", ""},
+      {"maxhullvert", mesh + " maxhullvert=\"12\" inertia=\"convex\"/>", geom + "/>", ""},
   };
   for (const Case& c : cases) ExpectSame(Asset(c.assets, c.body, c.top), c.what);
 }

@@ -42,8 +42,8 @@ struct Pose {
 
 struct ComposeOptions {
   /// Keep only what body masses and geometry need: drop textures, materials, skins and
-  /// lights. Masses, inertias and geom/mesh vertex data equal a full compile's; rendering
-  /// does not.
+  /// lights, and turn collisions off (no convex hulls to build). Masses, inertias and
+  /// geom/mesh vertex data equal a full compile's; rendering and contacts do not.
   bool physics_only = false;
 };
 

@@ -28,7 +28,7 @@
 #include <algorithm>
 #include <system_error>
 
-#include "mlspaces/core/registry.h"
+#include "mlspaces/library/registry.h"
 #include "mlspaces/datagen/config.h"
 #include "mlspaces/datagen/env.h"
 #include "mlspaces/datagen/episode_runner.h"

@@ -5,7 +5,7 @@
 //     (steady_clock; the clock's own cost is printed beside it);
 //   - resident memory (VmRSS) added by Open + 10,000 lookups;
 //   - Google Benchmark: Open, Find (hit / miss), LoadAnnotation, ReadGrasps (50 rows / all),
-//     and the JSON decoders the metadata encoding was chosen between (src/core/packed_store.cc).
+//     and the JSON decoders the metadata encoding was chosen between (src/library/packed_store.cc).
 //
 //   build/bench/packed_store_bench --benchmark_min_time=0.5
 #include <benchmark/benchmark.h>
@@ -20,10 +20,10 @@
 #include <string>
 #include <vector>
 
-#include "mlspaces/core/annotation.h"
+#include "mlspaces/library/annotation.h"
 #include "mlspaces/core/files.h"
 #include "mlspaces/core/json.h"
-#include "mlspaces/core/packed_store.h"
+#include "mlspaces/library/packed_store.h"
 
 namespace mlspaces {
 namespace {

@@ -13,7 +13,7 @@
 #include "mlspaces/core/files.h"
 #include "mlspaces/core/json.h"
 #include "mlspaces/core/npz.h"
-#include "mlspaces/core/registry.h"
+#include "mlspaces/library/registry.h"
 #include "mlspaces/core/rng.h"
 
 namespace mlspaces {

@@ -17,8 +17,8 @@
 #include <string>
 #include <vector>
 
-#include "mlspaces/core/packed_store.h"
-#include "mlspaces/core/registry.h"
+#include "mlspaces/library/packed_store.h"
+#include "mlspaces/library/registry.h"
 #include "mlspaces/core/rng.h"
 
 namespace {

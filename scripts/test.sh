@@ -14,4 +14,4 @@ MLSPACES_BUILD_DIR="$ROOT/build-asan" "$ROOT/scripts/build.sh" -DMLSPACES_SANITI
   -DMLSPACES_BUILD_BENCH=OFF -DMLSPACES_BUILD_SIM=ON
 ASAN_OPTIONS=detect_leaks=1:abort_on_error=0 UBSAN_OPTIONS=print_stacktrace=1 \
   LSAN_OPTIONS="suppressions=$ROOT/scripts/lsan-suppressions.txt" \
-  ctest --test-dir "$ROOT/build-asan" --output-on-failure -j "$(nproc)" -L 'core|resources|datagen'
+  ctest --test-dir "$ROOT/build-asan" --output-on-failure -j "$(nproc)" -L 'core|library|resources|datagen'

@@ -11,8 +11,8 @@
 
 #include <CLI/CLI.hpp>
 
-#include "mlspaces/core/library_config.h"
-#include "mlspaces/core/registry.h"
+#include "mlspaces/library/library_config.h"
+#include "mlspaces/library/registry.h"
 #ifdef MLSPACES_HAVE_DATAGEN
 #include "mlspaces/datagen/config.h"
 #endif

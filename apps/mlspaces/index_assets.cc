@@ -5,7 +5,7 @@
 #include <string>
 
 #include "commands.h"
-#include "mlspaces/core/asset_index.h"
+#include "mlspaces/library/asset_index.h"
 #include "mlspaces/core/error.h"
 #include "mlspaces/core/progress.h"
 #ifdef MLSPACES_HAVE_SIM

@@ -5,7 +5,7 @@
 #include <string>
 
 #include "commands.h"
-#include "mlspaces/core/grasp_index.h"
+#include "mlspaces/library/grasp_index.h"
 
 namespace mlspaces::cli {
 namespace {

@@ -4,7 +4,7 @@
 #include <string>
 
 #include "commands.h"
-#include "mlspaces/core/validate.h"
+#include "mlspaces/library/validate.h"
 
 namespace mlspaces::cli {
 namespace {

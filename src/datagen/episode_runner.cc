@@ -8,7 +8,7 @@
 #include <utility>
 
 #include "mlspaces/core/error.h"
-#include "mlspaces/core/scene_metadata.h"
+#include "mlspaces/library/scene_metadata.h"
 #include "mlspaces/core/version.h"
 #include "mlspaces/datagen/action_noise.h"
 #include "mlspaces/datagen/se3.h"

@@ -5,7 +5,7 @@
 #include <cmath>
 #include <utility>
 
-#include "mlspaces/core/registry.h"
+#include "mlspaces/library/registry.h"
 #include "mlspaces/datagen/se3.h"
 
 namespace mlspaces::datagen {

@@ -25,7 +25,7 @@
 #include "mlspaces/core/file_lock.h"
 #include "mlspaces/core/files.h"
 #include "mlspaces/core/progress.h"
-#include "mlspaces/core/registry.h"
+#include "mlspaces/library/registry.h"
 #include "mlspaces/datagen/env.h"
 #include "mlspaces/datagen/episode_runner.h"
 #include "mlspaces/datagen/recorder.h"

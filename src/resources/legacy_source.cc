@@ -15,7 +15,7 @@
 #include "mlspaces/core/error.h"
 #include "mlspaces/core/files.h"
 #include "mlspaces/core/json.h"
-#include "mlspaces/core/packed_store.h"
+#include "mlspaces/library/packed_store.h"
 #include "mlspaces/resources/package.h"
 
 namespace mlspaces {

@@ -20,15 +20,15 @@
 #include <set>
 #include <thread>
 
-#include "mlspaces/core/annotation.h"
-#include "mlspaces/core/asset_index.h"
+#include "mlspaces/library/annotation.h"
+#include "mlspaces/library/asset_index.h"
 #include "mlspaces/core/crash_point.h"
 #include "mlspaces/core/error.h"
 #include "mlspaces/core/files.h"
-#include "mlspaces/core/grasp_index.h"
+#include "mlspaces/library/grasp_index.h"
 #include "mlspaces/core/json.h"
-#include "mlspaces/core/packed_store.h"
-#include "mlspaces/core/registry.h"
+#include "mlspaces/library/packed_store.h"
+#include "mlspaces/library/registry.h"
 #include "mlspaces/core/version.h"
 #include "mlspaces/resources/archive.h"
 #include "mlspaces/resources/package.h"

@@ -1,7 +1,7 @@
 #include "mlspaces/sim/scene.h"
 
 #include "mlspaces/core/error.h"
-#include "mlspaces/core/scene_metadata.h"
+#include "mlspaces/library/scene_metadata.h"
 
 namespace mlspaces::sim {
 

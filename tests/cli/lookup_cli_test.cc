@@ -11,7 +11,7 @@
 #include "mlspaces/core/files.h"
 #include "mlspaces/core/json.h"
 #include "mlspaces/core/npz.h"
-#include "mlspaces/core/registry.h"
+#include "mlspaces/library/registry.h"
 #include "test_util.h"
 
 namespace mlspaces {

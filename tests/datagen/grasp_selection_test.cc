@@ -15,7 +15,7 @@
 #include <gtest/gtest.h>
 #include <mujoco/mujoco.h>
 
-#include "mlspaces/core/registry.h"
+#include "mlspaces/library/registry.h"
 #include "mlspaces/datagen/se3.h"
 #include "mlspaces/sim/mujoco_handlers.h"
 #include "mlspaces/sim/scene.h"

@@ -9,8 +9,8 @@
 #include <string>
 #include <vector>
 
-#include "mlspaces/core/asset_index.h"
-#include "mlspaces/core/grasp_index.h"
+#include "mlspaces/library/asset_index.h"
+#include "mlspaces/library/grasp_index.h"
 #include "mlspaces/core/npz.h"
 #include "mlspaces/core/rng.h"
 #include "test_util.h"

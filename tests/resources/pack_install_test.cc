@@ -16,7 +16,7 @@
 
 #include "http_test_server.h"
 #include "library_fixture.h"
-#include "mlspaces/core/registry.h"
+#include "mlspaces/library/registry.h"
 #include "mlspaces/resources/archive.h"
 #include "mlspaces/resources/installer.h"
 #include "mlspaces/resources/pack.h"

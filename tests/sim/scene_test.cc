@@ -6,7 +6,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include "mlspaces/core/asset_index.h"
+#include "mlspaces/library/asset_index.h"
 #include "mlspaces/core/error.h"
 #include "mlspaces/core/files.h"
 #include "test_util.h"

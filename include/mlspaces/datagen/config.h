@@ -19,7 +19,7 @@
 #include <utility>
 #include <vector>
 
-#include "mlspaces/core/library_config.h"
+#include "mlspaces/library/library_config.h"
 
 namespace mlspaces::datagen {
 

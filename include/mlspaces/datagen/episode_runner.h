@@ -15,7 +15,7 @@
 #include <optional>
 #include <string>
 
-#include "mlspaces/core/registry.h"
+#include "mlspaces/library/registry.h"
 #include "mlspaces/datagen/camera_recorder.h"
 #include "mlspaces/datagen/config.h"
 #include "mlspaces/datagen/env.h"

@@ -13,7 +13,7 @@
 #include <string>
 #include <vector>
 
-#include "mlspaces/core/packed_store.h"
+#include "mlspaces/library/packed_store.h"
 #include "mlspaces/resources/package.h"
 #include "mlspaces/resources/sources.h"
 

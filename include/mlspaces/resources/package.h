@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "mlspaces/core/packed_store.h"  // ExtractFlagName
+#include "mlspaces/library/packed_store.h"  // ExtractFlagName
 
 namespace mlspaces {
 

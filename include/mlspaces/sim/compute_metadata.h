@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "mlspaces/core/asset_index.h"
+#include "mlspaces/library/asset_index.h"
 #include "mlspaces/core/json.h"
 #include "mlspaces/sim/asset_facts.h"
 

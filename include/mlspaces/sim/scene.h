@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "mlspaces/core/json.h"
-#include "mlspaces/core/registry.h"
+#include "mlspaces/library/registry.h"
 #include "mlspaces/sim/mjcf_composer.h"
 
 namespace mlspaces::sim {

@@ -1,4 +1,4 @@
-#include "mlspaces/core/annotation.h"
+#include "mlspaces/library/annotation.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>

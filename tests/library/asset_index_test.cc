@@ -1,4 +1,4 @@
-#include "mlspaces/core/asset_index.h"
+#include "mlspaces/library/asset_index.h"
 
 #include <sys/stat.h>
 #include <unistd.h>
@@ -14,7 +14,7 @@
 
 #include "mlspaces/core/error.h"
 #include "mlspaces/core/files.h"
-#include "mlspaces/core/grasp_index.h"
+#include "mlspaces/library/grasp_index.h"
 #include "mlspaces/core/npz.h"
 #include "test_util.h"
 

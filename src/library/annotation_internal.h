@@ -5,7 +5,7 @@
 #include <string>
 #include <string_view>
 
-#include "mlspaces/core/annotation.h"
+#include "mlspaces/library/annotation.h"
 
 namespace mlspaces::internal {
 

@@ -1,4 +1,4 @@
-#include "mlspaces/core/library_config.h"
+#include "mlspaces/library/library_config.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -7,7 +7,7 @@
 
 #include "mlspaces/core/error.h"
 #include "mlspaces/core/files.h"
-#include "mlspaces/core/registry.h"
+#include "mlspaces/library/registry.h"
 #include "test_util.h"
 
 namespace mlspaces {

@@ -7,7 +7,7 @@
 //   so Locate is one hash lookup for user UIDs;
 // - built-in thor/objaverse are scanned once, lazily, into their own maps.
 // Registration builds everything into temporaries and commits at the end (transactional).
-#include "mlspaces/core/registry.h"
+#include "mlspaces/library/registry.h"
 
 #include <fcntl.h>
 #include <unistd.h>

@@ -26,7 +26,7 @@
 #include <string_view>
 #include <vector>
 
-#include "mlspaces/core/annotation.h"
+#include "mlspaces/library/annotation.h"
 #include "mlspaces/core/npy.h"
 #include "mlspaces/core/transform.h"
 

@@ -1,4 +1,4 @@
-#include "mlspaces/core/asset_index.h"
+#include "mlspaces/library/asset_index.h"
 
 #include <string_view>
 #include <system_error>

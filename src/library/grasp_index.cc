@@ -1,4 +1,4 @@
-#include "mlspaces/core/grasp_index.h"
+#include "mlspaces/library/grasp_index.h"
 
 #include <set>
 #include <string_view>

@@ -1,4 +1,4 @@
-#include "mlspaces/core/scene_metadata.h"
+#include "mlspaces/library/scene_metadata.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>

@@ -1,5 +1,5 @@
 // Asset annotations (spec 3.3, 3.4, 8.3): metadata JSON plus NPZ arrays at '/'-paths.
-#include "mlspaces/core/annotation.h"
+#include "mlspaces/library/annotation.h"
 
 #include <fcntl.h>
 

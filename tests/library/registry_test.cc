@@ -1,4 +1,4 @@
-#include "mlspaces/core/registry.h"
+#include "mlspaces/library/registry.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>

@@ -7,7 +7,7 @@
 #include <string>
 #include <string_view>
 
-#include "mlspaces/core/annotation.h"
+#include "mlspaces/library/annotation.h"
 #include "mlspaces/core/json.h"
 
 namespace mlspaces {

@@ -5,7 +5,7 @@
 #include <map>
 #include <string>
 
-#include "mlspaces/core/asset_index.h"
+#include "mlspaces/library/asset_index.h"
 
 namespace mlspaces {
 

@@ -1,4 +1,4 @@
-#include "mlspaces/core/validate.h"
+#include "mlspaces/library/validate.h"
 
 #include <algorithm>
 #include <cmath>

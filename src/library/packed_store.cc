@@ -1,4 +1,4 @@
-// Packed stores (include/mlspaces/core/packed_store.h; byte layout in docs/formats.md,
+// Packed stores (include/mlspaces/library/packed_store.h; byte layout in docs/formats.md,
 // "Packed stores"): uid_index.mlsx, metadata.mlsm and the per-archive grasp shards .mlsg.
 //
 // How the metadata JSON is stored, chosen by measurement. Decoding the 303-byte compact form
@@ -22,7 +22,7 @@
 // (checksum, UID check, decode) at 0.9 us (BM_LoadAnnotation, 150,000-asset store; same run:
 // simdjson text 1.33 us, nlohmann msgpack 2.10 us, Json copy 0.47 us), under the 2 us target.
 #include "mlspaces/core/crash_point.h"
-#include "mlspaces/core/packed_store.h"
+#include "mlspaces/library/packed_store.h"
 
 #include <fcntl.h>
 #include <sys/mman.h>

@@ -1,6 +1,6 @@
 // Scene metadata (spec 10), with the original's naming bugs fixed: only the XML's file name
 // is looked at, so "ceiling" or ".xml" in a folder name changes nothing.
-#include "mlspaces/core/scene_metadata.h"
+#include "mlspaces/library/scene_metadata.h"
 
 #include <vector>
 

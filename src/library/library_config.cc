@@ -1,6 +1,6 @@
 // Library lists from YAML files and CLI flags. Strict: unknown keys and wrong types are
 // errors naming the file and line.
-#include "mlspaces/core/library_config.h"
+#include "mlspaces/library/library_config.h"
 
 #include <yaml-cpp/yaml.h>
 
@@ -8,7 +8,7 @@
 #include <set>
 
 #include "mlspaces/core/error.h"
-#include "mlspaces/core/registry.h"
+#include "mlspaces/library/registry.h"
 
 namespace mlspaces {
 namespace fs = std::filesystem;

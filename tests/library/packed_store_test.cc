@@ -1,6 +1,6 @@
 // Packed stores: writer -> reader round trips, hashing, grasp shards, annotations, determinism,
 // and damaged files (every truncation, byte flips) giving an Error, never a crash.
-#include "mlspaces/core/packed_store.h"
+#include "mlspaces/library/packed_store.h"
 
 #define XXH_INLINE_ALL
 #include <xxhash.h>
@@ -13,7 +13,7 @@
 #include <random>
 #include <thread>
 
-#include "mlspaces/core/annotation.h"
+#include "mlspaces/library/annotation.h"
 #include "mlspaces/core/npz.h"
 #include "test_util.h"
 

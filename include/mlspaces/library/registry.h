@@ -15,10 +15,10 @@
 #include <string_view>
 #include <vector>
 
-#include "mlspaces/core/annotation.h"
-#include "mlspaces/core/asset_index.h"
-#include "mlspaces/core/grasp_index.h"
-#include "mlspaces/core/packed_store.h"
+#include "mlspaces/library/annotation.h"
+#include "mlspaces/library/asset_index.h"
+#include "mlspaces/library/grasp_index.h"
+#include "mlspaces/library/packed_store.h"
 #include "mlspaces/core/transform.h"
 
 namespace mlspaces {

@@ -8,6 +8,8 @@ set -euo pipefail
 PACKAGES=(
   # toolchain
   build-essential cmake ninja-build pkg-config ccache git
+  # style: .clang-format (ctest format_check), .clang-tidy (scripts/lint.sh --tidy)
+  clang-format clang-tidy
   # core: JSON, zlib (NPZ), YAML, CLI
   nlohmann-json3-dev libsimdjson-dev zlib1g-dev libyaml-cpp-dev libcli11-dev
   # tests and benchmarks (numpy, h5py, pytest come from the venv)

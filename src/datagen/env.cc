@@ -72,7 +72,11 @@ std::filesystem::path RobotsDir() {
   if (const char* dir = std::getenv("MLSPACES_ROBOTS_DIR"); dir != nullptr && *dir != 0) {
     return dir;
   }
-  return MLSPACES_DEFAULT_ROBOTS_DIR;
+  // The source tree's copy while it exists (a build tree); an installed package's copy
+  // (`cmake --install`: <prefix>/share/mlspaces/robots) once the sources are gone.
+  const std::filesystem::path source = MLSPACES_DEFAULT_ROBOTS_DIR;
+  if (std::filesystem::is_directory(source)) return source;
+  return MLSPACES_INSTALLED_ROBOTS_DIR;
 }
 
 RobotSpec RobotSpecFromConfig(const RobotConfig& config) {

@@ -81,7 +81,7 @@ RobotSpec FrankaDroidSpec(const std::filesystem::path& source_dir, const sim::Po
                           std::string prefix = "robot_0/");
 
 /// Where bundled robots live: $MLSPACES_ROBOTS_DIR when set, else the source tree's
-/// assets/robots.
+/// assets/robots, else the installed package's <prefix>/share/mlspaces/robots.
 std::filesystem::path RobotsDir();
 
 struct RobotConfig;

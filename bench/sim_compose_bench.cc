@@ -16,11 +16,11 @@ const fs::path kExample = kRoot / "examples/custom_assets";
 
 mlspaces::sim::MjcfComposer Compose() {
   mlspaces::sim::MjcfComposer scene(kExample / "scene.xml");
-  mlspaces::sim::Pose base;
+  mlspaces::Pose base;
   base.pos = {-0.5, 0, 0};
   scene.Attach(kRoot / "assets/robots/franka_droid/franka_droid.xml", "world", "robot_0/", base);
   for (int i = 0; i < 10; ++i) {
-    mlspaces::sim::Pose p;
+    mlspaces::Pose p;
     p.pos = {0.1 * i, 0.3, 0.025};
     scene.Attach(kExample / "asset_library/red_block/red_block.xml", "world",
                  "obj_" + std::to_string(i) + "/", p);

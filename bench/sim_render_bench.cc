@@ -37,7 +37,7 @@ World LoadWorld() {
   const fs::path root = MLSPACES_SOURCE_DIR;
   auto scene =
       mlspaces::sim::Scene::Load(fs::path(MLSPACES_EXAMPLES_DIR) / "custom_assets/scene.xml");
-  mlspaces::sim::Pose base;
+  mlspaces::Pose base;
   base.pos = {-0.5, 0, 0};
   scene.InsertRobot(root / "assets/robots/franka_droid/franka_droid.xml", "robot_0/", base);
   World w;

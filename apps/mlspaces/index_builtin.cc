@@ -1,17 +1,13 @@
 // mlspaces index-builtin [NAME...]: builds our UID index for object sources installed by
 // MolmoSpaces' own resource manager (tries file, no stores), so lookups never scan them.
-#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "commands.h"
-#include "mlspaces/core/error.h"
-#include "mlspaces/core/files.h"
-#include "mlspaces/library/packed_store.h"
-#include "mlspaces/library/registry.h"
 #include "mlspaces/resources/legacy_source.h"
 #include "mlspaces/resources/package.h"
 #include "mlspaces/resources/sources.h"
@@ -26,72 +22,28 @@ struct IndexBuiltinFlags {
 };
 
 int Run(const IndexBuiltinFlags& flags) {
-  fs::path assets;
-  if (!flags.assets_dir.empty()) {
-    assets = flags.assets_dir;
-  } else if (auto env = Registry::AssetsDirFromEnv()) {
-    assets = *env;
-  } else {
-    assets = DefaultAssetsDir();
-  }
-  const fs::path objects = assets / "objects";
-  const std::string tries_file(kOriginalTriesFile);
-
+  std::optional<fs::path> given;
+  if (!flags.assets_dir.empty()) given = fs::path(flags.assets_dir);
+  const fs::path assets = ResolveAssetsDir(given).dir;
   // Which sources: the NAMEs given (each must be a MolmoSpaces-format source or a package),
   // else every folder or link under <assets>/objects.
-  std::vector<std::string> names;
-  const bool named = !flags.names.empty();
-  if (named) {
-    for (const std::string& n : flags.names) {
-      if (n.empty() || n == "." || n == ".." || n.find('/') != std::string::npos) {
-        throw UsageError("bad source name '" + n + "' (a folder name under <assets>/objects)");
-      }
-      const fs::path root = objects / n;
-      std::error_code ec;
-      if (!fs::is_directory(root, ec)) {
-        throw Error("no such source (not a folder, or a dangling link)", root.string());
-      }
-      if (!IsFile(root / std::string(kUidIndexFile)) && !IsFile(root / tries_file)) {
-        throw Error("not a MolmoSpaces-format source: no " + tries_file, root.string());
-      }
-      names.push_back(n);
+  const std::vector<ObjectSource> sources = FindObjectSources(assets, flags.names);
+  for (const ObjectSource& source : sources) {
+    const char* n = source.name.c_str();
+    if (source.kind == ObjectSource::Kind::kPackage) {
+      std::printf("objects/%s: already an mlspaces package, skipped\n", n);
+    } else if (source.kind == ObjectSource::Kind::kOther) {
+      std::printf("objects/%s: no %s (not a MolmoSpaces-format source), skipped\n", n,
+                  std::string(kOriginalTriesFile).c_str());
+    } else {
+      const LegacyIndexReport report = BuildLegacySourceIndex(source);
+      std::printf("objects/%s: %zu assets in %zu archives indexed\n", n, report.assets,
+                  report.archives);
+      std::fflush(stdout);
+      for (const std::string& w : report.warnings) Warn("objects/" + source.name + ": " + w);
     }
-  } else {
-    std::error_code ec;
-    if (!fs::is_directory(objects, ec)) {
-      throw Error("no objects folder: nothing is installed here (set --assets-dir or "
-                  "MLSPACES_ASSETS_DIR)",
-                  objects.string());
-    }
-    for (const auto& entry : fs::directory_iterator(objects, ec)) {
-      std::error_code dir_ec;
-      if (fs::is_directory(entry.path(), dir_ec)) names.push_back(entry.path().filename().string());
-    }
-    if (ec) throw Error("cannot list: " + ec.message(), objects.string());
-    std::sort(names.begin(), names.end());
   }
-
-  for (const std::string& n : names) {
-    const fs::path root = objects / n;
-    if (IsFile(root / std::string(kUidIndexFile))) {
-      std::printf("objects/%s: already an mlspaces package, skipped\n", n.c_str());
-      continue;
-    }
-    if (!IsFile(root / tries_file)) {
-      std::printf("objects/%s: no %s (not a MolmoSpaces-format source), skipped\n", n.c_str(),
-                  tries_file.c_str());
-      continue;
-    }
-    std::error_code ec;
-    const fs::path version_dir = fs::canonical(root, ec);
-    if (ec) throw Error("cannot resolve: " + ec.message(), root.string());
-    const LegacyIndexReport report = BuildLegacyIndex(version_dir, n);
-    std::printf("objects/%s: %zu assets in %zu archives indexed\n", n.c_str(), report.assets,
-                report.archives);
-    std::fflush(stdout);
-    for (const std::string& w : report.warnings) Warn("objects/" + n + ": " + w);
-  }
-  if (names.empty()) std::printf("no sources under %s\n", objects.c_str());
+  if (sources.empty()) std::printf("no sources under %s\n", (assets / "objects").c_str());
   return 0;
 }
 

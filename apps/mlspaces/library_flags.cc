@@ -33,9 +33,11 @@ Registry LibraryFlags::Build() const {
   if (!yaml_file.empty()) config = LibraryConfig::LoadYaml(yaml_file);
 
   Registry::Options options;
-  options.assets_dir = config.assets_dir ? config.assets_dir : Registry::AssetsDirFromEnv();
-  if (!options.assets_dir && std::filesystem::is_directory(DefaultAssetsDir())) {
-    options.assets_dir = DefaultAssetsDir();  // where `mlspaces install` puts packages
+  // The default dir (where `mlspaces install` puts packages) only when it exists.
+  const AssetsDirChoice assets_dir = ResolveAssetsDir(config.assets_dir);
+  if (assets_dir.origin != AssetsDirOrigin::kDefault ||
+      std::filesystem::is_directory(assets_dir.dir)) {
+    options.assets_dir = assets_dir.dir;
   }
   Registry registry(options);
   config.ApplyTo(registry);

@@ -58,9 +58,9 @@ class MyBlockPickupSampler : public dg::TaskSampler {
     env.ForwardPosition();
     draft.pickup_obj_start_pose = env.GetBodyPose(block);
 
-    // Goal: lift it 5 cm (world z). Poses are x, y, z, qw, qx, qy, qz.
-    dg::Pose7 goal = *draft.pickup_obj_start_pose;
-    goal[2] += 0.05;
+    // Goal: lift it 5 cm (world z). Poses are a position and a quaternion qw, qx, qy, qz.
+    mlspaces::Pose goal = *draft.pickup_obj_start_pose;
+    goal.pos[2] += 0.05;
     draft.pickup_obj_goal_pose = goal;
   }
 };

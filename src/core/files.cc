@@ -142,4 +142,19 @@ void SyncFileSystem(const std::filesystem::path& dir) {
   ::close(fd);
 }
 
+std::string Errno(std::string_view what) {
+  const int e = errno;
+  return std::string(what) + ": " + std::strerror(e);
+}
+
+bool WriteAll(int fd, std::string_view data) {
+  while (!data.empty()) {
+    const ssize_t n = ::write(fd, data.data(), data.size());
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) return false;
+    data.remove_prefix(static_cast<size_t>(n));
+  }
+  return true;
+}
+
 }  // namespace mlspaces

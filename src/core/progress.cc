@@ -6,6 +6,10 @@
 
 namespace mlspaces {
 
+double Since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
 ProgressBar::ProgressBar(std::string label, size_t total, bool enabled)
     : label_(std::move(label)),
       total_(total),

@@ -15,7 +15,8 @@ std::vector<double> NoisyArmTarget(std::span<const double> q_cmd, std::span<cons
                                    Rng& rng) {
   const size_t n = q_cmd.size();
   if (q_now.size() != n || lower.size() != n || upper.size() != n || jac.size() != 6 * n) {
-    throw std::invalid_argument("NoisyArmTarget: sizes do not match");
+    // A bug check, not bad input: the caller sizes every span from the same robot.
+    throw std::logic_error("NoisyArmTarget: sizes do not match");
   }
   std::vector<double> q(q_cmd.begin(), q_cmd.end());
   if (config.enabled) {

@@ -6,6 +6,7 @@
 #include <utility>
 
 #include "mlspaces/core/error.h"
+#include "mlspaces/core/progress.h"
 #include "mlspaces/core/transform.h"
 
 namespace mlspaces::datagen {
@@ -15,21 +16,8 @@ namespace {
 using Clock = std::chrono::steady_clock;
 constexpr double kPi = 3.14159265358979323846;
 
-double Since(Clock::time_point t0) {
-  return std::chrono::duration<double>(Clock::now() - t0).count();
-}
-
 // Row-major rotation of a quaternion (w, x, y, z), normalised first (configs give 4 digits).
-std::array<double, 9> QuatToMat(const std::array<double, 4>& q) {
-  const double n = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
-  const std::array<double, 4> unit{q[0] / n, q[1] / n, q[2] / n, q[3] / n};
-  const Mat4 t = PoseToMat4({0, 0, 0}, unit);
-  std::array<double, 9> r;
-  for (int a = 0; a < 3; ++a) {
-    for (int b = 0; b < 3; ++b) r[3 * a + b] = t(a, b);
-  }
-  return r;
-}
+Rot3 QuatToMat(const Quat& q) { return QuatToRotation(QuatNormalized(q)); }
 
 }  // namespace
 

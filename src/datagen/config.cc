@@ -16,6 +16,7 @@
 
 #include "mlspaces/core/error.h"
 #include "mlspaces/core/rng.h"
+#include "mlspaces/core/strings.h"
 
 namespace mlspaces::datagen {
 namespace fs = std::filesystem;
@@ -96,12 +97,6 @@ struct IsMap<std::map<std::string, T>> : std::true_type {};
 
 // ---------------------------------------------------------------------------------------
 // Small helpers.
-
-std::string Lower(std::string_view s) {
-  std::string out(s);
-  for (char& c : out) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return out;
-}
 
 size_t EditDistance(std::string_view a, std::string_view b) {
   std::vector<size_t> prev(b.size() + 1), cur(b.size() + 1);

@@ -9,6 +9,7 @@
 
 #include "mlspaces/core/error.h"
 #include "mlspaces/datagen/config.h"
+#include "mlspaces/sim/mj_pose.h"
 
 namespace mlspaces::datagen {
 namespace {
@@ -43,19 +44,7 @@ std::vector<double> Numeric(const mjModel* m, const std::string& name, size_t si
 
 }  // namespace
 
-Pose7 ToPose7(const sim::Pose& pose) {
-  return {pose.pos[0],  pose.pos[1],  pose.pos[2], pose.quat[0],
-          pose.quat[1], pose.quat[2], pose.quat[3]};
-}
-
-sim::Pose FromPose7(const Pose7& pose) {
-  sim::Pose out;
-  out.pos = {pose[0], pose[1], pose[2]};
-  out.quat = {pose[3], pose[4], pose[5], pose[6]};
-  return out;
-}
-
-RobotSpec FrankaDroidSpec(const std::filesystem::path& source_dir, const sim::Pose& base,
+RobotSpec FrankaDroidSpec(const std::filesystem::path& source_dir, const Pose& base,
                           std::string prefix) {
   RobotSpec spec;
   spec.xml = source_dir / "assets/robots/franka_droid/franka_droid.xml";
@@ -217,7 +206,7 @@ void Env::Reset() {
   for (size_t i = 0; i < arm_actuators_.size(); ++i) {
     if (arm_actuators_[i] >= 0) d->ctrl[arm_actuators_[i]] = home_values_[i];
   }
-  SetRobotBasePose(ToPose7(robot_.base));
+  SetRobotBasePose(robot_.base);
   mj_forward(m, d);
 }
 
@@ -232,45 +221,41 @@ bool Env::IsMovable(std::string_view name) const {
   return model_->body_mocapid[body] >= 0 || FreeJointOf(model_.get(), body) >= 0;
 }
 
-Pose7 Env::GetBodyPose(std::string_view name) const {
+Pose Env::GetBodyPose(std::string_view name) const {
   const mjModel* m = model_.get();
   const mjData* d = data_.get();
   const int body = BodyId(name);
-  Pose7 out;
   if (const int mocap = m->body_mocapid[body]; mocap >= 0) {
-    for (int i = 0; i < 3; ++i) out[i] = d->mocap_pos[3 * mocap + i];
-    for (int i = 0; i < 4; ++i) out[3 + i] = d->mocap_quat[4 * mocap + i];
-  } else if (const int j = FreeJointOf(m, body); j >= 0) {
-    for (int i = 0; i < 7; ++i) out[i] = d->qpos[m->jnt_qposadr[j] + i];
-  } else {
-    for (int i = 0; i < 3; ++i) out[i] = d->xpos[3 * body + i];
-    for (int i = 0; i < 4; ++i) out[3 + i] = d->xquat[4 * body + i];
+    return sim::PoseFromMj(d->mocap_pos + 3 * mocap, d->mocap_quat + 4 * mocap);
   }
-  return out;
+  if (const int j = FreeJointOf(m, body); j >= 0) {
+    const mjtNum* qpos = d->qpos + m->jnt_qposadr[j];
+    return sim::PoseFromMj(qpos, qpos + 3);
+  }
+  return sim::BodyPose(d, body);
 }
 
-void Env::SetBodyPose(std::string_view name, const Pose7& pose) {
+void Env::SetBodyPose(std::string_view name, const Pose& pose) {
   const mjModel* m = model_.get();
   mjData* d = data_.get();
   const int body = BodyId(name);
-  for (double v : pose) {
+  for (double v : ToArray7(pose)) {
     if (!std::isfinite(v)) {
       throw Error("pose of body '" + std::string(name) + "' has a non-finite value");
     }
   }
-  double norm =
-      std::sqrt(pose[3] * pose[3] + pose[4] * pose[4] + pose[5] * pose[5] + pose[6] * pose[6]);
+  const Quat& q = pose.quat;
+  double norm = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
   if (norm < 1e-9) {
     throw Error("pose of body '" + std::string(name) + "' has a zero quaternion");
   }
   if (std::abs(norm - 1.0) < 1e-12) norm = 1.0;  // unit already: stored bit for bit
+  const Pose unit{pose.pos, {q[0] / norm, q[1] / norm, q[2] / norm, q[3] / norm}};
   if (const int mocap = m->body_mocapid[body]; mocap >= 0) {
-    for (int i = 0; i < 3; ++i) d->mocap_pos[3 * mocap + i] = pose[i];
-    for (int i = 0; i < 4; ++i) d->mocap_quat[4 * mocap + i] = pose[3 + i] / norm;
+    sim::PoseToMj(unit, d->mocap_pos + 3 * mocap, d->mocap_quat + 4 * mocap);
   } else if (const int j = FreeJointOf(m, body); j >= 0) {
     const int adr = m->jnt_qposadr[j];
-    for (int i = 0; i < 3; ++i) d->qpos[adr + i] = pose[i];
-    for (int i = 0; i < 4; ++i) d->qpos[adr + 3 + i] = pose[3 + i] / norm;
+    sim::PoseToMj(unit, d->qpos + adr, d->qpos + adr + 3);
     for (int i = 0; i < 6; ++i) d->qvel[m->jnt_dofadr[j] + i] = 0;
   } else {
     throw Error("body '" + std::string(name) +

@@ -8,10 +8,12 @@
 #include <utility>
 
 #include "mlspaces/core/error.h"
+#include "mlspaces/core/progress.h"
 #include "mlspaces/library/scene_metadata.h"
 #include "mlspaces/core/version.h"
 #include "mlspaces/datagen/action_noise.h"
-#include "mlspaces/datagen/se3.h"
+#include "mlspaces/core/se3.h"
+#include "mlspaces/sim/mj_pose.h"
 #include "mlspaces/datagen/success.h"
 
 namespace mlspaces::datagen {
@@ -19,22 +21,12 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-double Since(Clock::time_point t0) {
-  return std::chrono::duration<double>(Clock::now() - t0).count();
+std::vector<double> PoseRow(const Pose& pose) {
+  const Array7 row = ToArray7(pose);
+  return {row.begin(), row.end()};
 }
 
-std::vector<double> PoseRow(const Mat4& pose) {
-  const Vec3 p = Translation(pose);
-  const Quat q = QuatFromMat4(pose);
-  return {p[0], p[1], p[2], q[0], q[1], q[2], q[3]};
-}
-
-std::vector<double> PoseRow(const Pose7& pose) { return {pose.begin(), pose.end()}; }
-
-Mat4 Pose7ToMat4(const Pose7& p) {
-  return PoseToMat4(std::array<double, 3>{p[0], p[1], p[2]},
-                    std::array<double, 4>{p[3], p[4], p[5], p[6]});
-}
+std::vector<double> PoseRow(const Mat4& pose) { return PoseRow(ToPose(pose)); }
 
 // SE(3) log of a rigid transform as [v; w] (the twist that reaches it in unit time).
 std::vector<double> Se3Log(const Mat4& t) {
@@ -188,8 +180,8 @@ EpisodeResult EpisodeRunner::Run(int64_t episode) {
   const bool record = options_.record;
   EpisodeRecord rec;
   const Mat4 grasp_world = planner_.grasp_pose();
-  const double start_z = task.pickup_obj_start_pose[2];
-  const Mat4 goal = Pose7ToMat4(task.pickup_obj_goal_pose);
+  const double start_z = task.pickup_obj_start_pose.pos[2];
+  const Mat4 goal = ToMat4(task.pickup_obj_goal_pose);
   const size_t n_arm = robot_.num_arm();
   const size_t n_grip = robot_.num_gripper();
   const std::string& artic = env_.robot().articulation_name;
@@ -271,10 +263,7 @@ EpisodeResult EpisodeRunner::Run(int64_t episode) {
       rec.env_states["actors/" + name].Append(row);
     }
 
-    const Mat4 obj = Pose7ToMat4({d->xpos[3 * object], d->xpos[3 * object + 1],
-                                  d->xpos[3 * object + 2], d->xquat[4 * object],
-                                  d->xquat[4 * object + 1], d->xquat[4 * object + 2],
-                                  d->xquat[4 * object + 3]});
+    const Mat4 obj = ToMat4(sim::BodyPose(d, object));
     rec.extra_json["task_info"].steps.push_back(
         Json{{"episode_step", step},
              {"position_error", TranslationDistance(obj, goal)},
@@ -482,9 +471,9 @@ EpisodeResult EpisodeRunner::Run(int64_t episode) {
                          {"policy_phases", PolicyPhaseMap()},
                          {"frozen_config",
                           Json{{"pickup_obj_name", task.pickup_obj_name},
-                               {"robot_base_pose", task.robot_base_pose},
-                               {"pickup_obj_start_pose", task.pickup_obj_start_pose},
-                               {"pickup_obj_goal_pose", task.pickup_obj_goal_pose},
+                               {"robot_base_pose", ToArray7(task.robot_base_pose)},
+                               {"pickup_obj_start_pose", ToArray7(task.pickup_obj_start_pose)},
+                               {"pickup_obj_goal_pose", ToArray7(task.pickup_obj_goal_pose)},
                                {"config_hash", meta.config_hash}}},
                          {"text", "pick " + task.pickup_obj_name},
                          {"object_name", task.pickup_obj_name}};

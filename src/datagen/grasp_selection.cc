@@ -4,10 +4,11 @@
 #include <cmath>
 #include <cstdio>
 #include <numeric>
-#include <stdexcept>
 #include <string>
 
-#include "mlspaces/datagen/se3.h"
+#include "mlspaces/core/error.h"
+#include "mlspaces/core/se3.h"
+#include "mlspaces/sim/mj_pose.h"
 
 namespace mlspaces::datagen {
 namespace {
@@ -30,33 +31,25 @@ std::string Vec(std::initializer_list<double> vs) {
   return s;
 }
 
-bool InSubtree(const mjModel* m, int body, int root) {
-  while (body > 0 && body != root) body = m->body_parentid[body];
-  return body == root;
-}
-
-// World pose of a geom / site from xpos + xmat.
-Mat4 FramePose(const mjtNum* p, const mjtNum* r) {
-  return PoseToMat4({p[0], p[1], p[2]}, {r[0], r[1], r[2], r[3], r[4], r[5], r[6], r[7], r[8]});
-}
-
 // The probe geoms (MJCF <geom> elements in the TCP frame) for the gripper subtree of `sim`.
 std::vector<std::string> GripperProbeGeoms(const mjModel* sim, const GraspProbeOptions& opt,
                                            const std::string& common) {
   const int root = mj_name2id(sim, mjOBJ_BODY, opt.gripper_body.c_str());
   if (root < 0) {
-    throw std::invalid_argument("GraspCollisionChecker: no gripper body " + opt.gripper_body);
+    throw Error("grasp collision probe: the model has no gripper body '" + opt.gripper_body + "'");
   }
   const int site = mj_name2id(sim, mjOBJ_SITE, opt.tcp_site.c_str());
-  if (site < 0) throw std::invalid_argument("GraspCollisionChecker: no TCP site " + opt.tcp_site);
+  if (site < 0) {
+    throw Error("grasp collision probe: the model has no TCP site '" + opt.tcp_site + "'");
+  }
   sim::DataPtr d = sim::MakeData(sim);  // qpos = qpos0: the gripper's reference (open) pose
   mj_kinematics(sim, d.get());
-  const Mat4 tcp_inv = InverseRigid(FramePose(d->site_xpos + 3 * site, d->site_xmat + 9 * site));
+  const Mat4 tcp_inv = InverseRigid(sim::SiteMat4(d.get(), site));
   std::vector<std::string> geoms;
   for (int g = 0; g < sim->ngeom; ++g) {
-    if (!InSubtree(sim, sim->geom_bodyid[g], root)) continue;
+    if (!sim::InSubtree(sim, sim->geom_bodyid[g], root)) continue;
     if (sim->geom_contype[g] == 0 && sim->geom_conaffinity[g] == 0) continue;  // visual only
-    Mat4 rel = tcp_inv * FramePose(d->geom_xpos + 3 * g, d->geom_xmat + 9 * g);
+    Mat4 rel = tcp_inv * sim::GeomMat4(d.get(), g);
     const mjtNum* size = sim->geom_size + 3 * g;
     std::string type, size_attr;
     switch (sim->geom_type[g]) {
@@ -101,8 +94,8 @@ std::vector<std::string> GripperProbeGeoms(const mjModel* sim, const GraspProbeO
                     Vec({q[0], q[1], q[2], q[3]}) + "\"" + common + "/>");
   }
   if (geoms.empty()) {
-    throw std::invalid_argument("GraspCollisionChecker: gripper body " + opt.gripper_body +
-                                " has no collision geoms");
+    throw Error("grasp collision probe: gripper body '" + opt.gripper_body +
+                "' has no collision geoms");
   }
   return geoms;
 }
@@ -183,7 +176,7 @@ GraspCollisionChecker::GraspCollisionChecker(const sim::MjcfComposer& scene, con
   sim::MjcfComposer with_probe = scene;
   with_probe.AttachString("<mujoco model=\"grasp_probe\"><worldbody>" + body +
                               "</worldbody></mujoco>",
-                          scene.path().parent_path() / "grasp_probe.xml", "world", "", sim::Pose{});
+                          scene.path().parent_path() / "grasp_probe.xml", "world", "", Pose{});
   model_ = with_probe.Compile();
   mjModel* m = model_.get();
 
@@ -196,8 +189,8 @@ GraspCollisionChecker::GraspCollisionChecker(const sim::MjcfComposer& scene, con
   if (m->nq != sim->nq + 7 || m->nmocap != sim->nmocap || m->nbody != sim->nbody + 1 ||
       m->ngeom != sim->ngeom + num_probe_geoms_ || probe_body != sim->nbody || probe_joint < 0 ||
       m->jnt_qposadr[probe_joint] != sim->nq || m->body_geomadr[probe_body] != first_probe_geom_) {
-    throw std::invalid_argument(
-        "GraspCollisionChecker: the scene does not compile to the sim model's layout");
+    throw Error("grasp collision probe: the scene does not compile to the sim model's layout",
+                scene.path().string());
   }
   probe_qpos_ = m->jnt_qposadr[probe_joint];
 

@@ -5,7 +5,9 @@
 #include <random>
 #include <stdexcept>
 
-#include "mlspaces/datagen/se3.h"
+#include "mlspaces/core/error.h"
+#include "mlspaces/core/se3.h"
+#include "mlspaces/sim/mj_pose.h"
 
 namespace mlspaces::datagen {
 namespace {
@@ -50,7 +52,8 @@ double Uniform01(std::mt19937_64& rng) {
 
 std::vector<double> DampedLeastSquares(std::span<const double> jac, size_t n,
                                        const std::array<double, 6>& b, double lambda) {
-  if (jac.size() != 6 * n) throw std::invalid_argument("DampedLeastSquares: jac is not 6 x n");
+  // A bug check, not bad input: callers build jac from the same n joints.
+  if (jac.size() != 6 * n) throw std::logic_error("DampedLeastSquares: jac is not 6 x n");
   double a[36];
   for (int r = 0; r < 6; ++r) {
     for (int c = 0; c < 6; ++c) {
@@ -73,12 +76,13 @@ IkSolver::IkSolver(const mjModel* m, std::string_view site, std::span<const std:
                    std::span<const double> rest, IkOptions options)
     : m_(m), d_(sim::MakeData(m)), options_(options) {
   site_ = mj_name2id(m, mjOBJ_SITE, std::string(site).c_str());
-  if (site_ < 0) throw std::invalid_argument("IkSolver: unknown site " + std::string(site));
+  // (mlspaces::Error: inside IkSolver, Error names the member function.)
+  if (site_ < 0) throw mlspaces::Error("IK: the model has no site '" + std::string(site) + "'");
   for (const std::string& name : joints) {
     const int j = mj_name2id(m, mjOBJ_JOINT, name.c_str());
-    if (j < 0) throw std::invalid_argument("IkSolver: unknown joint " + name);
+    if (j < 0) throw mlspaces::Error("IK: the model has no joint '" + name + "'");
     if (m->jnt_type[j] != mjJNT_HINGE && m->jnt_type[j] != mjJNT_SLIDE) {
-      throw std::invalid_argument("IkSolver: joint " + name + " is not a hinge or slide joint");
+      throw mlspaces::Error("IK: joint '" + name + "' is not a hinge or slide joint");
     }
     qpos_adr_.push_back(m->jnt_qposadr[j]);
     dof_adr_.push_back(m->jnt_dofadr[j]);
@@ -92,7 +96,8 @@ IkSolver::IkSolver(const mjModel* m, std::string_view site, std::span<const std:
       rest_.push_back(limited_[i] ? 0.5 * (lower_[i] + upper_[i]) : 0.0);
     }
   } else if (rest.size() != qpos_adr_.size()) {
-    throw std::invalid_argument("IkSolver: rest pose has the wrong size");
+    throw mlspaces::Error("IK: the rest pose has " + std::to_string(rest.size()) +
+                          " values for " + std::to_string(qpos_adr_.size()) + " joints");
   } else {
     rest_.assign(rest.begin(), rest.end());
   }
@@ -130,11 +135,10 @@ void IkSolver::Error(const Mat4& target, double e[6]) const {
 }
 
 Mat4 IkSolver::Forward(std::span<const double> q) {
-  if (q.size() != qpos_adr_.size()) throw std::invalid_argument("IkSolver: q has the wrong size");
+  // A bug check, not bad input: callers size q from this solver's joints.
+  if (q.size() != qpos_adr_.size()) throw std::logic_error("IkSolver: q has the wrong size");
   SetJoints(q);
-  const mjtNum* p = d_->site_xpos + 3 * site_;
-  const mjtNum* r = d_->site_xmat + 9 * site_;
-  return PoseToMat4({p[0], p[1], p[2]}, {r[0], r[1], r[2], r[3], r[4], r[5], r[6], r[7], r[8]});
+  return sim::SiteMat4(d_.get(), site_);
 }
 
 bool IkSolver::Iterate(const Mat4& target, std::vector<double>& q, int& iterations) {
@@ -238,7 +242,8 @@ void IkSolver::Step(const std::vector<double>& jac, const double e[6], const std
 
 IkResult IkSolver::Solve(const Mat4& target, std::span<const double> seed) {
   if (seed.size() != qpos_adr_.size()) {
-    throw std::invalid_argument("IkSolver: seed has the wrong size");
+    // A bug check, not bad input: callers size the seed from this solver's joints.
+    throw std::logic_error("IkSolver: seed has the wrong size");
   }
   const size_t n = seed.size();
   IkResult result;

@@ -24,8 +24,6 @@ namespace fs = std::filesystem;
 constexpr std::array<std::string_view, kOutcomeCount> kOutcomeNames = {
     "sampler_reject", "no_grasp", "ik_fail", "collision", "grasp_slip", "timeout", "success"};
 
-std::string Errno(const std::string& what) { return what + ": " + std::strerror(errno); }
-
 void CheckTiming(const std::string& stage, double seconds, const std::string& path,
                  const std::string& field) {
   if (!std::isfinite(seconds) || seconds < 0) {

@@ -6,7 +6,8 @@
 #include <utility>
 
 #include "mlspaces/library/registry.h"
-#include "mlspaces/datagen/se3.h"
+#include "mlspaces/core/se3.h"
+#include "mlspaces/sim/mj_pose.h"
 
 namespace mlspaces::datagen {
 namespace {
@@ -21,13 +22,7 @@ Mat4 RaisedBy(const Mat4& pose, double dz) {
   return out;
 }
 
-Mat4 BodyPose(const mjData* d, int body) {
-  std::array<double, 3> pos;
-  std::array<double, 4> quat;
-  std::copy_n(d->xpos + 3 * body, 3, pos.begin());
-  std::copy_n(d->xquat + 4 * body, 4, quat.begin());
-  return PoseToMat4(pos, quat);
-}
+Mat4 BodyPose(const mjData* d, int body) { return ToMat4(sim::BodyPose(d, body)); }
 
 }  // namespace
 

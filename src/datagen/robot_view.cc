@@ -5,6 +5,7 @@
 #include <limits>
 
 #include "mlspaces/core/error.h"
+#include "mlspaces/sim/mj_pose.h"
 
 namespace mlspaces::datagen {
 namespace {
@@ -97,19 +98,11 @@ void RobotView::SetGripperCtrl(mjData* d, double ctrl) const {
 }
 
 Mat4 RobotView::TcpPose(const mjData* d) const {
-  std::array<double, 3> pos;
-  std::array<double, 9> rot;
-  std::copy_n(d->site_xpos + 3 * tcp_site_, 3, pos.begin());
-  std::copy_n(d->site_xmat + 9 * tcp_site_, 9, rot.begin());
-  return PoseToMat4(pos, rot);
+  return sim::SiteMat4(d, tcp_site_);
 }
 
 Mat4 RobotView::BasePose(const mjData* d) const {
-  std::array<double, 3> pos;
-  std::array<double, 4> quat;
-  std::copy_n(d->mocap_pos + 3 * base_mocap_, 3, pos.begin());
-  std::copy_n(d->mocap_quat + 4 * base_mocap_, 4, quat.begin());
-  return PoseToMat4(pos, quat);
+  return ToMat4(sim::PoseFromMj(d->mocap_pos + 3 * base_mocap_, d->mocap_quat + 4 * base_mocap_));
 }
 
 double RobotView::InterFingerDistance(const mjData* d) const {

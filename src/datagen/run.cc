@@ -36,10 +36,6 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-double Since(Clock::time_point t0) {
-  return std::chrono::duration<double>(Clock::now() - t0).count();
-}
-
 // Python's round(): halves to even.
 int64_t RoundHalfEven(double x) {
   const double f = std::floor(x);
@@ -242,18 +238,6 @@ class ItemRunner {
   std::unique_ptr<EpisodeRunner> runner_;
   int64_t env_house_ = -1;
 };
-
-// Writes all of `text` to fd. Returns false on failure (the parent is gone).
-bool WriteAll(int fd, const std::string& text) {
-  size_t done = 0;
-  while (done < text.size()) {
-    const ssize_t n = ::write(fd, text.data() + done, text.size() - done);
-    if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) return false;
-    done += static_cast<size_t>(n);
-  }
-  return true;
-}
 
 // A forked worker: runs its items, reports through `fd`, never returns.
 [[noreturn]] void WorkerMain(int fd, pid_t parent, const ExperimentConfig& config,

@@ -4,18 +4,11 @@
 #include <string>
 
 #include "mlspaces/core/error.h"
+#include "mlspaces/sim/mujoco_handlers.h"
 
 namespace mlspaces::datagen {
 namespace {
 
-// True when `body` is `ancestor` or lies below it.
-bool InSubtree(const mjModel* m, int body, int ancestor) {
-  while (body > 0) {
-    if (body == ancestor) return true;
-    body = m->body_parentid[body];
-  }
-  return body == ancestor;
-}
 
 std::string GeomName(const mjModel* m, int geom) {
   const char* name = mj_id2name(m, mjOBJ_GEOM, geom);
@@ -30,7 +23,7 @@ bool IsRobotBody(const mjModel* m, int body, std::string_view robot_prefix) {
   if (name != nullptr && std::string_view(name).starts_with(robot_prefix)) return true;
   const std::string root_name = std::string(robot_prefix) + "base";
   const int root = mj_name2id(m, mjOBJ_BODY, root_name.c_str());
-  return root > 0 && InSubtree(m, body, root);
+  return root > 0 && sim::InSubtree(m, body, root);
 }
 
 PickSuccess EvaluatePickSuccess(const mjModel* m, const mjData* d, int object_body,
@@ -49,8 +42,8 @@ PickSuccess EvaluatePickSuccess(const mjModel* m, const mjData* d, int object_bo
   double best_support = 0.5;  // normal z below this is a side contact, not support
   for (int i = 0; i < d->ncon; ++i) {
     const mjContact& c = d->contact[i];
-    const bool in1 = InSubtree(m, m->geom_bodyid[c.geom1], object_body);
-    const bool in2 = InSubtree(m, m->geom_bodyid[c.geom2], object_body);
+    const bool in1 = sim::InSubtree(m, m->geom_bodyid[c.geom1], object_body);
+    const bool in2 = sim::InSubtree(m, m->geom_bodyid[c.geom2], object_body);
     if (in1 == in2) continue;  // not the object's, or inside the object
     const int other = in1 ? c.geom2 : c.geom1;
     // frame[0..2] is the normal, pointing from geom1 to geom2; flip it to point into the object.

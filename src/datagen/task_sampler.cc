@@ -7,31 +7,25 @@
 #include <utility>
 
 #include "mlspaces/core/error.h"
+#include "mlspaces/core/strings.h"
 #include "mlspaces/core/transform.h"
-#include "mlspaces/datagen/se3.h"
 
 namespace mlspaces::datagen {
 namespace {
-
-std::string Lower(std::string_view s) {
-  std::string out(s);
-  for (char& c : out) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return out;
-}
 
 std::string SamplerLabel(const std::string& name) {
   return name.empty() ? std::string("task sampler") : "task sampler '" + name + "'";
 }
 
-void CheckPose(const std::string& sampler, const char* field, const std::optional<Pose7>& pose) {
+void CheckPose(const std::string& sampler, const char* field, const std::optional<Pose>& pose) {
   if (!pose) throw Error(SamplerLabel(sampler) + " did not set " + field, "", field);
-  for (double v : *pose) {
+  for (double v : ToArray7(*pose)) {
     if (!std::isfinite(v)) {
       throw Error(SamplerLabel(sampler) + " set " + field + " to a non-finite value", "", field);
     }
   }
-  const double norm = std::sqrt((*pose)[3] * (*pose)[3] + (*pose)[4] * (*pose)[4] +
-                                (*pose)[5] * (*pose)[5] + (*pose)[6] * (*pose)[6]);
+  const Quat& q = pose->quat;
+  const double norm = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
   if (std::abs(norm - 1.0) > 1e-6) {
     throw Error(SamplerLabel(sampler) + " set " + field +
                     " with a quaternion that is not unit (norm " + std::to_string(norm) + ")",
@@ -120,15 +114,14 @@ std::vector<std::string> TaskSampler::CandidateObjects(const Env& env) {
   return out;
 }
 
-Pose7 ComposePlanar(const Pose7& pose, double dx, double dy, double yaw) {
-  const Mat4 base = MakePose({pose[0], pose[1], pose[2]}, {pose[3], pose[4], pose[5], pose[6]});
+Pose ComposePlanar(const Pose& pose, double dx, double dy, double yaw) {
+  const Mat4 base = ToMat4(Pose{pose.pos, QuatNormalized(pose.quat)});
   Mat4 local = RotZ(yaw);
   local(0, 3) = dx;
   local(1, 3) = dy;
   const Mat4 moved = base * local;
   const double c = std::cos(yaw / 2), s = std::sin(yaw / 2);
-  const Quat q = QuatNormalized(QuatMul({pose[3], pose[4], pose[5], pose[6]}, {c, 0, 0, s}));
-  return {moved(0, 3), moved(1, 3), moved(2, 3), q[0], q[1], q[2], q[3]};
+  return {Translation(moved), QuatNormalized(QuatMul(pose.quat, {c, 0, 0, s}))};
 }
 
 void BlockPickupTaskSampler::SampleAndPlaceRobot(Env& env, Rng& rng, TaskDraft& draft) {
@@ -153,8 +146,8 @@ void BlockPickupTaskSampler::SampleAndPlaceRobot(Env& env, Rng& rng, TaskDraft& 
   env.SetBodyPose(object, ComposePlanar(env.GetBodyPose(object), ox, oy, oyaw));
   env.ForwardPosition();
   draft.pickup_obj_start_pose = env.GetBodyPose(object);
-  Pose7 goal = *draft.pickup_obj_start_pose;
-  goal[2] += cfg.goal_offset_z;
+  Pose goal = *draft.pickup_obj_start_pose;
+  goal.pos[2] += cfg.goal_offset_z;
   draft.pickup_obj_goal_pose = goal;
 }
 

@@ -479,12 +479,6 @@ Registry::~Registry() = default;
 Registry::Registry(Registry&&) noexcept = default;
 Registry& Registry::operator=(Registry&&) noexcept = default;
 
-std::optional<fs::path> Registry::AssetsDirFromEnv() {
-  const char* value = std::getenv("MLSPACES_ASSETS_DIR");
-  if (value == nullptr || *value == '\0') return std::nullopt;
-  return fs::path(value);
-}
-
 void Registry::RegisterAssetLibrary(const std::string& name, const fs::path& dir) {
   Impl& impl = *impl_;
   if (name.empty()) throw UsageError("User library name must not be empty");

@@ -35,8 +35,6 @@ namespace mlspaces {
 namespace fs = std::filesystem;
 namespace {
 
-std::string Errno(const char* what) { return std::string(what) + ": " + std::strerror(errno); }
-
 /// Closes a descriptor on scope exit.
 struct Fd {
   int fd = -1;
@@ -58,20 +56,6 @@ struct Fd {
     fd = -1;
   }
 };
-
-bool WriteAll(int fd, const void* data, size_t size) {
-  const char* p = static_cast<const char*>(data);
-  while (size > 0) {
-    const ssize_t n = ::write(fd, p, size);
-    if (n < 0) {
-      if (errno == EINTR) continue;
-      return false;
-    }
-    p += n;
-    size -= static_cast<size_t>(n);
-  }
-  return true;
-}
 
 /// Splits a '/'-separated path; empty components are kept so callers can reject them.
 std::vector<std::string> SplitPath(std::string_view path) {
@@ -126,7 +110,7 @@ struct WriteState {
         error = std::string("zstd: ") + ZSTD_getErrorName(left);
         return false;
       }
-      if (!WriteAll(fd, out.data(), o.pos)) {
+      if (!WriteAll(fd, std::string_view(out.data(), o.pos))) {
         error = Errno("write failed");
         return false;
       }

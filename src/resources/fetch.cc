@@ -31,7 +31,7 @@ void GlobalInit() {
   static std::once_flag once;
   std::call_once(once, [] {
     if (curl_global_init(CURL_GLOBAL_DEFAULT) != CURLE_OK) {
-      throw std::runtime_error("curl_global_init failed");
+      throw Error("curl_global_init failed");
     }
   });
 }
@@ -252,7 +252,7 @@ Attempt RunOnce(const std::string& url, uint64_t offset, uint64_t expected_total
                 const FetchOptions& options) {
   GlobalInit();
   std::unique_ptr<CURL, void (*)(CURL*)> curl(curl_easy_init(), curl_easy_cleanup);
-  if (!curl) throw std::runtime_error("curl_easy_init failed");
+  if (!curl) throw Error("curl_easy_init failed");
   CURL* c = curl.get();
   Transfer t;
   t.curl = c;

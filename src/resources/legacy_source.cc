@@ -242,4 +242,57 @@ LegacyIndexReport BuildLegacyIndex(const fs::path& version_dir, const std::strin
   return report;
 }
 
+std::vector<ObjectSource> FindObjectSources(const fs::path& assets_dir,
+                                            const std::vector<std::string>& names) {
+  const fs::path objects = assets_dir / "objects";
+  const std::string tries_file(kOriginalTriesFile);
+  const std::string index_file(kUidIndexFile);
+  auto kind_of = [&](const fs::path& root) {
+    if (IsFile(root / index_file)) return ObjectSource::Kind::kPackage;
+    if (IsFile(root / tries_file)) return ObjectSource::Kind::kLegacy;
+    return ObjectSource::Kind::kOther;
+  };
+  std::vector<ObjectSource> out;
+  if (!names.empty()) {
+    for (const std::string& n : names) {
+      if (n.empty() || n == "." || n == ".." || n.find('/') != std::string::npos) {
+        throw UsageError("bad source name '" + n + "' (a folder name under <assets>/objects)");
+      }
+      const fs::path root = objects / n;
+      std::error_code ec;
+      if (!fs::is_directory(root, ec)) {
+        throw Error("no such source (not a folder, or a dangling link)", root.string());
+      }
+      const ObjectSource::Kind kind = kind_of(root);
+      if (kind == ObjectSource::Kind::kOther) {
+        throw Error("not a MolmoSpaces-format source: no " + tries_file, root.string());
+      }
+      out.push_back({n, root, kind});
+    }
+    return out;
+  }
+  std::error_code ec;
+  if (!fs::is_directory(objects, ec)) {
+    throw Error("no objects folder: nothing is installed here (set --assets-dir or "
+                "MLSPACES_ASSETS_DIR)",
+                objects.string());
+  }
+  std::vector<std::string> found;
+  for (const auto& entry : fs::directory_iterator(objects, ec)) {
+    std::error_code dir_ec;
+    if (fs::is_directory(entry.path(), dir_ec)) found.push_back(entry.path().filename().string());
+  }
+  if (ec) throw Error("cannot list: " + ec.message(), objects.string());
+  std::sort(found.begin(), found.end());
+  for (const std::string& n : found) out.push_back({n, objects / n, kind_of(objects / n)});
+  return out;
+}
+
+LegacyIndexReport BuildLegacySourceIndex(const ObjectSource& source) {
+  std::error_code ec;
+  const fs::path version_dir = fs::canonical(source.root, ec);
+  if (ec) throw Error("cannot resolve: " + ec.message(), source.root.string());
+  return BuildLegacyIndex(version_dir, source.name);
+}
+
 }  // namespace mlspaces

@@ -94,7 +94,7 @@ std::string ParentOf(const std::string& rel) {
 std::string Gzip(const std::string& data) {
   z_stream zs{};
   if (deflateInit2(&zs, 6, Z_DEFLATED, 15 + 16, 8, Z_DEFAULT_STRATEGY) != Z_OK) {
-    throw std::runtime_error("zlib: deflateInit2 failed");
+    throw Error("zlib: deflateInit2 failed");
   }
   std::string out(deflateBound(&zs, data.size()) + 64, '\0');
   zs.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(data.data()));
@@ -104,7 +104,7 @@ std::string Gzip(const std::string& data) {
   const int rc = deflate(&zs, Z_FINISH);
   out.resize(zs.total_out);
   deflateEnd(&zs);
-  if (rc != Z_STREAM_END) throw std::runtime_error("zlib: deflate failed");
+  if (rc != Z_STREAM_END) throw Error("zlib: deflate failed");
   return out;
 }
 

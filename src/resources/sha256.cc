@@ -21,25 +21,27 @@ struct Sha256::Impl {
 Sha256::Sha256() : impl_(std::make_unique<Impl>()) {
   impl_->ctx = EVP_MD_CTX_new();
   if (impl_->ctx == nullptr || EVP_DigestInit_ex(impl_->ctx, EVP_sha256(), nullptr) != 1) {
-    throw std::runtime_error("OpenSSL: cannot initialise SHA-256");
+    throw Error("OpenSSL: cannot initialise SHA-256");
   }
 }
 
 Sha256::~Sha256() { EVP_MD_CTX_free(impl_->ctx); }
 
 void Sha256::Update(const void* data, size_t size) {
+  // A bug check, not bad input: a finished hash is not fed again.
   if (impl_->done) throw std::logic_error("Sha256::Update after HexDigest");
   if (size > 0 && EVP_DigestUpdate(impl_->ctx, data, size) != 1) {
-    throw std::runtime_error("OpenSSL: SHA-256 update failed");
+    throw Error("OpenSSL: SHA-256 update failed");
   }
 }
 
 std::string Sha256::HexDigest() {
+  // A bug check, not bad input: the digest is taken once.
   if (impl_->done) throw std::logic_error("Sha256::HexDigest called twice");
   unsigned char digest[EVP_MAX_MD_SIZE];
   unsigned int length = 0;
   if (EVP_DigestFinal_ex(impl_->ctx, digest, &length) != 1) {
-    throw std::runtime_error("OpenSSL: SHA-256 final failed");
+    throw Error("OpenSSL: SHA-256 final failed");
   }
   impl_->done = true;
   static constexpr char kHex[] = "0123456789abcdef";

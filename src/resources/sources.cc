@@ -97,13 +97,19 @@ void MergePinFile(SourceVersions& versions, const fs::path& pin_file) {
 
 fs::path DefaultAssetsDir() { return Home() / ".cache" / "mlspaces" / "assets"; }
 
+AssetsDirChoice ResolveAssetsDir(const std::optional<fs::path>& given) {
+  if (given) return {*given, AssetsDirOrigin::kGiven};
+  const std::string env = Env("MLSPACES_ASSETS_DIR");
+  if (!env.empty()) return {fs::path(env), AssetsDirOrigin::kEnvironment};
+  return {DefaultAssetsDir(), AssetsDirOrigin::kDefault};
+}
+
 ResourceSettings ResourceSettings::FromEnvironment(const std::string& remote_override,
                                                    const fs::path& pin_override) {
   ResourceSettings s;
   const std::string cache = Env("MLSPACES_CACHE_DIR");
   s.cache_dir = cache.empty() ? Home() / ".cache" / "molmo-spaces-resources" : fs::path(cache);
-  const std::string assets = Env("MLSPACES_ASSETS_DIR");
-  s.assets_dir = assets.empty() ? DefaultAssetsDir() : fs::path(assets);
+  s.assets_dir = ResolveAssetsDir().dir;
   s.cache_dir = fs::absolute(s.cache_dir).lexically_normal();
   s.assets_dir = fs::absolute(s.assets_dir).lexically_normal();
   if (Inside(s.cache_dir, s.assets_dir) && Inside(s.assets_dir, s.cache_dir)) {

@@ -76,4 +76,9 @@ std::string MjName(const mjModel* m, mjtObj type, int id) {
   return name ? name : "";
 }
 
+bool InSubtree(const mjModel* m, int body, int root) {
+  while (body > 0 && body != root) body = m->body_parentid[body];
+  return body == root;
+}
+
 }  // namespace mlspaces::sim

@@ -22,8 +22,8 @@ TEST(TransformTest, DefaultIsIdentityAndRowMajor) {
 }
 
 TEST(TransformTest, MultiplyComposes) {
-  Mat4 a = PoseToMat4({1, 2, 3}, std::array<double, 9>{0, -1, 0, 1, 0, 0, 0, 0, 1});
-  Mat4 b = PoseToMat4({0.5, 0, 0}, std::array<double, 9>{1, 0, 0, 0, 1, 0, 0, 0, 1});
+  Mat4 a = ToMat4({1, 2, 3}, Rot3{0, -1, 0, 1, 0, 0, 0, 0, 1});
+  Mat4 b = ToMat4({0.5, 0, 0}, Rot3{1, 0, 0, 0, 1, 0, 0, 0, 1});
   Mat4 ab = a * b;
   // Rotating (0.5, 0, 0) by +90 deg about z gives (0, 0.5, 0).
   EXPECT_EQ(ab(0, 3), 1);
@@ -35,8 +35,8 @@ TEST(TransformTest, MultiplyComposes) {
 TEST(TransformTest, QuaternionMatchesMujocoOrder) {
   // (w, x, y, z) = (cos 45, 0, 0, sin 45): +90 deg about z.
   const double h = std::sqrt(0.5);
-  Mat4 q = PoseToMat4({1, 2, 3}, std::array<double, 4>{h, 0, 0, h});
-  ExpectNear(q, PoseToMat4({1, 2, 3}, std::array<double, 9>{0, -1, 0, 1, 0, 0, 0, 0, 1}));
+  Mat4 q = ToMat4(Pose{{1, 2, 3}, {h, 0, 0, h}});
+  ExpectNear(q, ToMat4({1, 2, 3}, Rot3{0, -1, 0, 1, 0, 0, 0, 0, 1}));
   ExpectNear(q, [] {
     Mat4 r = RotZ(std::numbers::pi / 2);
     r(0, 3) = 1;
@@ -48,7 +48,7 @@ TEST(TransformTest, QuaternionMatchesMujocoOrder) {
 
 TEST(TransformTest, InverseRigid) {
   const double h = std::sqrt(0.5);
-  Mat4 t = PoseToMat4({0.3, -1, 2}, std::array<double, 4>{h, h, 0, 0});
+  Mat4 t = ToMat4(Pose{{0.3, -1, 2}, {h, h, 0, 0}});
   ExpectNear(t * InverseRigid(t), Mat4{});
   ExpectNear(InverseRigid(t) * t, Mat4{});
   ExpectNear(InverseRigid(InverseRigid(t)), t);
@@ -65,6 +65,49 @@ TEST(TransformTest, RotZ) {
   EXPECT_EQ(flip(0, 0), -1);
   EXPECT_NE(flip(1, 0), 0);
   EXPECT_NEAR(flip(1, 0), 0, 1e-15);
+}
+
+TEST(TransformTest, PoseMatrixAndArray7RoundTrips) {
+  const Pose pose{{0.5, -0.25, 1.5}, QuatNormalized({0.3, -0.2, 0.9, 0.1})};
+  const Mat4 t = ToMat4(pose);
+  EXPECT_EQ(Translation(t), pose.pos);
+  const Pose back = ToPose(t);
+  EXPECT_EQ(back.pos, pose.pos);
+  for (int i = 0; i < 4; ++i) EXPECT_NEAR(back.quat[i], pose.quat[i], 1e-14) << i;
+  // w < 0 comes back as the same rotation with w >= 0.
+  const Pose flipped{{0, 0, 0}, {-pose.quat[0], -pose.quat[1], -pose.quat[2], -pose.quat[3]}};
+  for (int i = 0; i < 4; ++i) EXPECT_NEAR(ToPose(ToMat4(flipped)).quat[i], pose.quat[i], 1e-14);
+  // [x, y, z, qw, qx, qy, qz], taken as given (not normalised).
+  const Array7 a{1, 2, 3, 2, 0, 0, 0};
+  EXPECT_EQ(FromArray7(a), (Pose{{1, 2, 3}, {2, 0, 0, 0}}));
+  EXPECT_EQ(ToArray7(FromArray7(a)), a);
+  EXPECT_EQ(ToArray7(pose)[3], pose.quat[0]);
+  EXPECT_EQ(ToArray7(pose)[2], 1.5);
+  // The xmat form and the quaternion form give the same matrix.
+  ExpectNear(ToMat4(pose.pos, QuatToRotation(pose.quat)), t, 0);
+  ExpectNear(ToMat4(pose.pos, Rotation(t)), t, 0);
+}
+
+TEST(TransformTest, QuaternionAlgebra) {
+  const double h = std::sqrt(0.5);
+  const Quat z90{h, 0, 0, h}, x90{h, h, 0, 0};
+  // q * conj(q) is the identity; multiplication composes like the matrices.
+  const Quat id = QuatMul(z90, QuatConjugate(z90));
+  EXPECT_NEAR(id[0], 1, 1e-15);
+  for (int i = 1; i < 4; ++i) EXPECT_NEAR(id[i], 0, 1e-15);
+  ExpectNear(ToMat4(Pose{{}, QuatMul(z90, x90)}), ToMat4(Pose{{}, z90}) * ToMat4(Pose{{}, x90}));
+  EXPECT_EQ(QuatNormalized({0, 0, 0, 0}), (Quat{1, 0, 0, 0}));
+  EXPECT_EQ(QuatNormalized({0, 0, 0, 2}), (Quat{0, 0, 0, 1}));
+  // Rotation matrix round trip through every branch of Shepperd's method.
+  for (const Quat& q : {Quat{1, 0, 0, 0}, Quat{0, 1, 0, 0}, Quat{0, 0, 1, 0}, Quat{0, 0, 0, 1},
+                        QuatNormalized({0.1, 0.7, -0.2, 0.3})}) {
+    const Quat back = QuatFromRotation(QuatToRotation(q));
+    for (int i = 0; i < 4; ++i) EXPECT_NEAR(back[i], q[i], 1e-14) << i;
+  }
+  // Slerp halfway between identity and z90 is z45.
+  const Quat mid = Slerp({1, 0, 0, 0}, z90, 0.5);
+  EXPECT_NEAR(mid[0], std::cos(std::numbers::pi / 8), 1e-14);
+  EXPECT_NEAR(mid[3], std::sin(std::numbers::pi / 8), 1e-14);
 }
 
 }  // namespace

@@ -92,7 +92,7 @@ TEST(ActionNoiseTest, MismatchedSizesThrow) {
   Rng rng(1);
   EXPECT_THROW(NoisyArmTarget(std::vector<double>(7, 0), std::vector<double>(6, 0), Jacobian(),
                               kLower, kUpper, config, rng),
-               std::invalid_argument);
+               std::logic_error);  // a bug check
 }
 
 }  // namespace

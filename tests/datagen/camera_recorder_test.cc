@@ -58,7 +58,7 @@ TEST_F(CameraRecorderTest, DroidCamerasSitWhereTheSpecPutsThem) {
   EXPECT_LT(-exo.xmat[8], -0.3);
   EXPECT_LT(-exo.xmat[5], -0.3);
   // Moving the base moves the exo camera with it.
-  env_.SetRobotBasePose({1.0, 0, 0, 1, 0, 0, 0});
+  env_.SetRobotBasePose({{1.0, 0, 0}, {1, 0, 0, 0}});
   env_.ForwardPosition();
   EXPECT_NEAR(cams.View(1, env_.data()).pos[0], 1.1, 1e-12);
 }

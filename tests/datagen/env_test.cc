@@ -16,8 +16,8 @@ namespace {
 const std::filesystem::path kScene =
     std::filesystem::path(MLSPACES_EXAMPLES_DIR) / "custom_assets" / "scene.xml";
 
-sim::Pose Base() {
-  sim::Pose base;
+Pose Base() {
+  Pose base;
   base.pos = {0.1, -0.2, 0.0};
   base.quat = {std::cos(0.25), 0, 0, std::sin(0.25)};
   return base;
@@ -48,9 +48,9 @@ TEST_F(EnvTest, ComposedSceneHasRobotAndObjectAtHome) {
   }
   EXPECT_EQ(Qpos("robot_0/gripper/left_driver_joint"), 0.00296);
   EXPECT_EQ(Qpos("robot_0/gripper/left_follower_joint"), -0.00296);
-  const Pose7 base = env_.GetRobotBasePose();
-  for (int i = 0; i < 7; ++i) EXPECT_NEAR(base[i], ToPose7(Base())[i], 1e-15) << i;
-  const Pose7 block = env_.GetBodyPose("red_block");
+  const Array7 base = ToArray7(env_.GetRobotBasePose());
+  for (int i = 0; i < 7; ++i) EXPECT_NEAR(base[i], ToArray7(Base())[i], 1e-15) << i;
+  const Array7 block = ToArray7(env_.GetBodyPose("red_block"));
   EXPECT_NEAR(block[0], 0.4, 1e-12);
   EXPECT_NEAR(block[1], 0.0, 1e-12);
   EXPECT_NEAR(block[2], 0.025, 1e-12);
@@ -63,9 +63,9 @@ TEST_F(EnvTest, ComposedSceneHasRobotAndObjectAtHome) {
 TEST_F(EnvTest, ResetRestoresHomeAndObjectPosesExactly) {
   const std::vector<double> qpos0(env_.data()->qpos, env_.data()->qpos + env_.model()->nq);
   const std::vector<double> ctrl0(env_.data()->ctrl, env_.data()->ctrl + env_.model()->nu);
-  const Pose7 base0 = env_.GetRobotBasePose();
-  env_.SetBodyPose("red_block", {0.6, 0.3, 0.4, 0, 0, 0, 1});
-  env_.SetRobotBasePose({1, 1, 0, 0, 0, 0, 1});
+  const Pose base0 = env_.GetRobotBasePose();
+  env_.SetBodyPose("red_block", {{0.6, 0.3, 0.4}, {0, 0, 0, 1}});
+  env_.SetRobotBasePose({{1, 1, 0}, {0, 0, 0, 1}});
   env_.data()->ctrl[0] = 0.5;
   for (int i = 0; i < 200; ++i) mj_step(env_.model(), env_.data());
   ASSERT_NE(std::vector<double>(env_.data()->qpos, env_.data()->qpos + env_.model()->nq), qpos0);
@@ -81,36 +81,35 @@ TEST_F(EnvTest, ResetRestoresHomeAndObjectPosesExactly) {
 
 TEST_F(EnvTest, SetGetPoseRoundTrip) {
   const double h = std::sqrt(0.5);
-  const Pose7 block = {0.55, -0.1, 0.3, h, 0, 0, h};
-  env_.SetBodyPose("red_block", block);
-  Pose7 got = env_.GetBodyPose("red_block");
+  const Array7 block = {0.55, -0.1, 0.3, h, 0, 0, h};
+  env_.SetBodyPose("red_block", FromArray7(block));
+  Array7 got = ToArray7(env_.GetBodyPose("red_block"));
   for (int i = 0; i < 7; ++i) EXPECT_NEAR(got[i], block[i], 1e-15) << i;
   env_.ForwardPosition();
   const int id = env_.BodyId("red_block");
   EXPECT_NEAR(env_.data()->xpos[3 * id + 2], 0.3, 1e-12);
 
-  const Pose7 base = {-0.3, 0.2, 0.05, 0, 0, 0, 2};  // normalised on write
+  const Pose base{{-0.3, 0.2, 0.05}, {0, 0, 0, 2}};  // normalised on write
   env_.SetRobotBasePose(base);
-  got = env_.GetRobotBasePose();
-  EXPECT_EQ(got, (Pose7{-0.3, 0.2, 0.05, 0, 0, 0, 1}));
+  EXPECT_EQ(env_.GetRobotBasePose(), (Pose{{-0.3, 0.2, 0.05}, {0, 0, 0, 1}}));
   env_.ForwardPosition();
   const int link0 = env_.BodyId("robot_0/fr3_link0");
   EXPECT_NEAR(env_.data()->xpos[3 * link0], -0.3, 1e-12);
   // A non-movable body reports its forward-kinematics pose.
-  const Pose7 link = env_.GetBodyPose("robot_0/fr3_link0");
-  EXPECT_NEAR(link[1], 0.2, 1e-12);
+  const Pose link = env_.GetBodyPose("robot_0/fr3_link0");
+  EXPECT_NEAR(link.pos[1], 0.2, 1e-12);
 }
 
 TEST_F(EnvTest, ErrorsNameTheBody) {
   EXPECT_THAT([&] { env_.GetBodyPose("blue_block"); },
               ::testing::ThrowsMessage<Error>(::testing::HasSubstr("'blue_block'")));
-  EXPECT_THAT([&] { env_.SetBodyPose("no_such", {0, 0, 0, 1, 0, 0, 0}); },
+  EXPECT_THAT([&] { env_.SetBodyPose("no_such", Pose{}); },
               ::testing::ThrowsMessage<Error>(::testing::HasSubstr("'no_such'")));
-  EXPECT_THAT([&] { env_.SetBodyPose("robot_0/fr3_link4", {0, 0, 0, 1, 0, 0, 0}); },
+  EXPECT_THAT([&] { env_.SetBodyPose("robot_0/fr3_link4", Pose{}); },
               ::testing::ThrowsMessage<Error>(::testing::AllOf(
                   ::testing::HasSubstr("'robot_0/fr3_link4'"),
                   ::testing::HasSubstr("cannot be moved"))));
-  EXPECT_THAT([&] { env_.SetBodyPose("red_block", {0, 0, 0, 0, 0, 0, 0}); },
+  EXPECT_THAT([&] { env_.SetBodyPose("red_block", {{0, 0, 0}, {0, 0, 0, 0}}); },
               ::testing::ThrowsMessage<Error>(::testing::HasSubstr("zero quaternion")));
 }
 
@@ -179,7 +178,7 @@ TEST(EnvPedestalTest, RobotStandsOnABoxAndTheBaseStaysOnTheFloor) {
   EXPECT_NEAR(m->geom_size[3 * box + 2], 0.29, 1e-12);
   EXPECT_EQ(m->geom_bodyid[box], env.BodyId("robot_0/base"));
   // The base pose is the floor pose; the arm root sits on the pedestal's top.
-  EXPECT_NEAR(env.GetRobotBasePose()[2], 0.0, 1e-12);
+  EXPECT_NEAR(env.GetRobotBasePose().pos[2], 0.0, 1e-12);
   const int link0 = env.BodyId("robot_0/fr3_link0");
   EXPECT_NEAR(env.data()->xpos[3 * link0 + 2], 0.58, 1e-12);
   EXPECT_NEAR(env.data()->xpos[3 * link0 + 0], 0.1, 1e-12);

@@ -16,7 +16,8 @@
 #include <mujoco/mujoco.h>
 
 #include "mlspaces/library/registry.h"
-#include "mlspaces/datagen/se3.h"
+#include "mlspaces/core/se3.h"
+#include "mlspaces/sim/mj_pose.h"
 #include "mlspaces/sim/mujoco_handlers.h"
 #include "mlspaces/sim/scene.h"
 
@@ -111,7 +112,7 @@ class GraspProbeTest : public ::testing::Test {
  protected:
   void SetUp() override {
     scene_.emplace(sim::Scene::Load(kExample / "scene.xml"));
-    scene_->InsertRobot(kRobot, "robot_0/", sim::Pose{});
+    scene_->InsertRobot(kRobot, "robot_0/", Pose{});
     model_ = scene_->Compile();
     data_ = sim::MakeData(model_.get());
     for (int i = 0; i < 7; ++i) {
@@ -128,9 +129,7 @@ class GraspProbeTest : public ::testing::Test {
   }
 
   Mat4 BlockPose() const {
-    const mjtNum* p = data_->xpos + 3 * block_;
-    const mjtNum* q = data_->xquat + 4 * block_;
-    return PoseToMat4({p[0], p[1], p[2]}, std::array<double, 4>{q[0], q[1], q[2], q[3]});
+    return ToMat4(sim::BodyPose(data_.get(), block_));
   }
 
   std::vector<Mat4> LibraryGraspsInWorld() const {
@@ -212,10 +211,7 @@ TEST_F(GraspProbeTest, FollowsTheEpisodeStateAfterSync) {
 TEST_F(GraspProbeTest, RobotGeomsOptional) {
   // A probe at the current TCP overlaps the robot's own gripper.
   const int site = mj_name2id(model_.get(), mjOBJ_SITE, "robot_0/gripper/grasp_site");
-  const mjtNum* p = data_->site_xpos + 3 * site;
-  const mjtNum* r = data_->site_xmat + 9 * site;
-  const Mat4 tcp =
-      PoseToMat4({p[0], p[1], p[2]}, {r[0], r[1], r[2], r[3], r[4], r[5], r[6], r[7], r[8]});
+  const Mat4 tcp = sim::SiteMat4(data_.get(), site);
   GraspCollisionChecker with_robot(scene_->composer(), model_.get());
   with_robot.SyncState(data_.get());
   const auto contacts = with_robot.Contacts(tcp);
@@ -237,7 +233,7 @@ TEST_F(GraspProbeTest, ClearanceAndErrors) {
   EXPECT_TRUE(checker.Collides(LibraryGraspsInWorld()[0]));
   GraspProbeOptions bad;
   bad.gripper_body = "robot_0/no_such_body";
-  EXPECT_THROW(GraspCollisionChecker(scene_->composer(), model_.get(), bad), std::invalid_argument);
+  EXPECT_THROW(GraspCollisionChecker(scene_->composer(), model_.get(), bad), Error);
 }
 
 TEST_F(GraspProbeTest, MicrosecondsPerCandidate) {

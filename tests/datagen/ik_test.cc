@@ -15,7 +15,8 @@
 #include <gtest/gtest.h>
 #include <mujoco/mujoco.h>
 
-#include "mlspaces/datagen/se3.h"
+#include "mlspaces/core/error.h"
+#include "mlspaces/core/se3.h"
 #include "mlspaces/sim/mjcf_composer.h"
 #include "mlspaces/sim/mujoco_handlers.h"
 
@@ -43,7 +44,7 @@ class IkTest : public ::testing::Test {
     sim::MjcfComposer composer =
         sim::MjcfComposer::FromString(kScene, fs::path(MLSPACES_SOURCE_DIR) / "ik_scene.xml");
     // A raised, yawed base so the world frame is not the base frame.
-    sim::Pose base;
+    Pose base;
     base.pos = {0.1, -0.2, 0.05};
     base.quat = {std::cos(0.15), 0, 0, std::sin(0.15)};
     composer.Attach(kRobot, "world", "robot_0/", base);
@@ -212,12 +213,12 @@ TEST_F(IkTest, DeterministicAndLeavesEpisodeDataAlone) {
 
 TEST_F(IkTest, RejectsBadArguments) {
   const auto joints = ArmJoints();
-  EXPECT_THROW(IkSolver(model_.get(), "no_site", joints), std::invalid_argument);
+  EXPECT_THROW(IkSolver(model_.get(), "no_site", joints), Error);
   const std::vector<std::string> bad = {"robot_0/fr3_joint1", "nope"};
-  EXPECT_THROW(IkSolver(model_.get(), "robot_0/gripper/grasp_site", bad), std::invalid_argument);
+  EXPECT_THROW(IkSolver(model_.get(), "robot_0/gripper/grasp_site", bad), Error);
   IkSolver solver = MakeSolver();
   const std::vector<double> short_seed = {0, 0};
-  EXPECT_THROW(solver.Solve(Mat4{}, short_seed), std::invalid_argument);
+  EXPECT_THROW(solver.Solve(Mat4{}, short_seed), std::logic_error);  // a bug check
 }
 
 }  // namespace

@@ -10,7 +10,7 @@
 
 #include "mlspaces/library/registry.h"
 #include "mlspaces/datagen/config.h"
-#include "mlspaces/datagen/se3.h"
+#include "mlspaces/core/se3.h"
 #include "test_util.h"
 
 namespace mlspaces::datagen {
@@ -111,7 +111,7 @@ TEST_F(PickPlannerTest, GraspsInsideTheFloorAreRejectedByTheProbe) {
 }
 
 TEST_F(PickPlannerTest, UnreachableObjectHasNoFeasibleGrasp) {
-  env_.SetBodyPose("red_block", {2.5, 0, 0.025, 1, 0, 0, 0});
+  env_.SetBodyPose("red_block", {{2.5, 0, 0.025}, {1, 0, 0, 0}});
   env_.Forward();
   EXPECT_EQ(planner_.Reset(env_.data(), block_, grasps_), PlanFailure::kNoGrasp);
   EXPECT_THAT(planner_.message(), HasSubstr("IK failed"));
@@ -134,7 +134,7 @@ TEST_F(PickPlannerTest, ObjectMovedAwayBeforeTheCloseIsRetriedAndPickedWhereItIs
   bool moved = false;
   const int steps = Drive(400, [&](PlannerAction&, int) {
     if (!moved && planner_.phase() == PolicyPhase::kGripperClose) {
-      env_.SetBodyPose("red_block", {0.45, 0.15, 0.025, 1, 0, 0, 0});
+      env_.SetBodyPose("red_block", {{0.45, 0.15, 0.025}, {1, 0, 0, 0}});
       env_.Forward();
       moved = true;
     }

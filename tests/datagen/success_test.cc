@@ -29,12 +29,12 @@ class SuccessTest : public ::testing::Test {
  protected:
   void SetUp() override {
     sim::MjcfComposer composer(fs::path(MLSPACES_EXAMPLES_DIR) / "custom_assets/scene.xml");
-    sim::Pose base;
+    Pose base;
     base.pos = {-0.2, 0, 0};
     composer.Attach(fs::path(MLSPACES_SOURCE_DIR) / "assets/robots/franka_droid/franka_droid.xml",
                     "world", "robot_0/", base);
     // A second block, parked far away until a test moves it.
-    sim::Pose far;
+    Pose far;
     far.pos = {1.5, 1.5, 0.5};
     composer.Attach(
         fs::path(MLSPACES_EXAMPLES_DIR) / "custom_assets/asset_library/red_block/red_block.xml",

@@ -8,7 +8,7 @@
 #include <gtest/gtest.h>
 
 #include "mlspaces/core/error.h"
-#include "mlspaces/datagen/se3.h"
+#include "mlspaces/core/se3.h"
 #include "test_util.h"
 
 namespace mlspaces::datagen {
@@ -22,7 +22,7 @@ const std::filesystem::path kScene =
     std::filesystem::path(MLSPACES_EXAMPLES_DIR) / "custom_assets" / "scene.xml";
 
 // Yaw (about world z) of a quaternion that only rotates about z.
-double Yaw(const Pose7& p) { return 2.0 * std::atan2(p[6], p[3]); }
+double Yaw(const Array7& p) { return 2.0 * std::atan2(p[6], p[3]); }
 
 double WrapAngle(double a) { return std::remainder(a, 2.0 * std::numbers::pi); }
 
@@ -66,7 +66,7 @@ TEST_F(TaskSamplerTest, BlockPickupNoiseWithinBoundsAndGoalAboveStart) {
   for (int64_t ep = 0; ep < 200; ++ep) {
     const Task t = sampler->SampleTask(env_, ep);
     // Base starts at the identity: the noise is the pose itself.
-    const Pose7& b = t.robot_base_pose;
+    const Array7 b = ToArray7(t.robot_base_pose);
     EXPECT_LE(std::abs(b[0]), cfg.robot_base_noise.x);
     EXPECT_LE(std::abs(b[1]), cfg.robot_base_noise.y);
     EXPECT_EQ(b[2], 0.0);
@@ -75,19 +75,19 @@ TEST_F(TaskSamplerTest, BlockPickupNoiseWithinBoundsAndGoalAboveStart) {
     const double ryaw = Yaw(b) * 180 / std::numbers::pi;
     EXPECT_LE(std::abs(ryaw), cfg.robot_base_noise.yaw_deg + 1e-9);
     // Block starts at (0.4, 0, 0.025), unrotated: offsets are in its own (identity) frame.
-    const Pose7& s = t.pickup_obj_start_pose;
+    const Array7 s = ToArray7(t.pickup_obj_start_pose);
     EXPECT_LE(std::abs(s[0] - 0.4), cfg.object_noise.x + 1e-12);
     EXPECT_LE(std::abs(s[1]), cfg.object_noise.y + 1e-12);
     EXPECT_NEAR(s[2], 0.025, 1e-12);
     const double oyaw = WrapAngle(Yaw(s)) * 180 / std::numbers::pi;
     EXPECT_LE(std::abs(oyaw), cfg.object_noise.yaw_deg + 1e-9);
     // The env holds the sampled state.
-    EXPECT_EQ(env_.GetBodyPose("red_block"), s);
-    EXPECT_EQ(env_.GetRobotBasePose(), b);
+    EXPECT_EQ(env_.GetBodyPose("red_block"), t.pickup_obj_start_pose);
+    EXPECT_EQ(env_.GetRobotBasePose(), t.robot_base_pose);
     // Goal = start + offset along world z.
-    Pose7 goal = s;
+    Array7 goal = s;
     goal[2] += 0.07;
-    EXPECT_EQ(t.pickup_obj_goal_pose, goal);
+    EXPECT_EQ(ToArray7(t.pickup_obj_goal_pose), goal);
     max_rx = std::max(max_rx, std::abs(b[0]));
     max_ryaw = std::max(max_ryaw, std::abs(ryaw));
     max_ox = std::max(max_ox, std::abs(s[0] - 0.4));
@@ -103,7 +103,7 @@ TEST_F(TaskSamplerTest, BlockPickupNoiseWithinBoundsAndGoalAboveStart) {
 TEST(ComposePlanarTest, MovesInThePoseFrame) {
   const double h = std::sqrt(0.5);
   // Rotated 90 deg about z: a local +x step is a world +y step.
-  const Pose7 p = ComposePlanar({1, 2, 3, h, 0, 0, h}, 0.1, 0, std::numbers::pi / 2);
+  const Array7 p = ToArray7(ComposePlanar({{1, 2, 3}, {h, 0, 0, h}}, 0.1, 0, std::numbers::pi / 2));
   EXPECT_NEAR(p[0], 1.0, 1e-12);
   EXPECT_NEAR(p[1], 2.1, 1e-12);
   EXPECT_NEAR(p[2], 3.0, 1e-12);
@@ -118,15 +118,15 @@ class FixedBaseSampler : public TaskSampler {
 
  protected:
   void SampleAndPlaceRobot(Env& env, Rng& rng, TaskDraft& draft) override {
-    env.SetRobotBasePose({-0.1, 0, 0, 1, 0, 0, 0});
-    const Pose7 start = env.GetBodyPose(*draft.pickup_obj_name);
-    Pose7 moved = start;
-    moved[1] += rng.Uniform(-0.01, 0.01);
+    env.SetRobotBasePose({{-0.1, 0, 0}, {1, 0, 0, 0}});
+    const Pose start = env.GetBodyPose(*draft.pickup_obj_name);
+    Pose moved = start;
+    moved.pos[1] += rng.Uniform(-0.01, 0.01);
     env.SetBodyPose(*draft.pickup_obj_name, moved);
     draft.robot_base_pose = env.GetRobotBasePose();
     draft.pickup_obj_start_pose = moved;
-    Pose7 goal = moved;
-    goal[2] += 0.1;
+    Pose goal = moved;
+    goal.pos[2] += 0.1;
     draft.pickup_obj_goal_pose = goal;
   }
 };
@@ -152,8 +152,8 @@ class BadSampler : public TaskSampler {
  protected:
   std::string SelectPickupObject(Env&, Rng&) override { return object; }
   void SampleAndPlaceRobot(Env&, Rng&, TaskDraft& draft) override {
-    const Pose7 p{0, 0, 0, 1, 0, 0, 0};
-    draft.robot_base_pose = Pose7{0, 0, 0, 2, 0, 0, 0};
+    const Pose p;
+    draft.robot_base_pose = Pose{{0, 0, 0}, {2, 0, 0, 0}};
     draft.pickup_obj_start_pose = p;
     draft.pickup_obj_goal_pose = p;
   }
@@ -169,10 +169,10 @@ TEST_F(TaskSamplerTest, CustomSubclassRegisteredByName) {
   auto sampler = registry_.Create(config_, 1);
   EXPECT_EQ(sampler->name(), "FixedBase");
   const Task t = sampler->SampleTask(env_, 0);
-  EXPECT_EQ(t.robot_base_pose, (Pose7{-0.1, 0, 0, 1, 0, 0, 0}));
+  EXPECT_EQ(t.robot_base_pose, (Pose{{-0.1, 0, 0}, {1, 0, 0, 0}}));
   EXPECT_EQ(t.pickup_obj_name, "red_block");
-  EXPECT_NEAR(t.pickup_obj_goal_pose[2] - t.pickup_obj_start_pose[2], 0.1, 1e-15);
-  EXPECT_LE(std::abs(t.pickup_obj_start_pose[1]), 0.01);
+  EXPECT_NEAR(t.pickup_obj_goal_pose.pos[2] - t.pickup_obj_start_pose.pos[2], 0.1, 1e-15);
+  EXPECT_LE(std::abs(t.pickup_obj_start_pose.pos[1]), 0.01);
   EXPECT_EQ(env_.GetBodyPose("red_block"), t.pickup_obj_start_pose);
 
   EXPECT_THROW(registry_.Register("FIXEDBASE", [](const ExperimentConfig& c, uint64_t s) {

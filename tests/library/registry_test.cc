@@ -348,15 +348,6 @@ TEST(RegistryTest, WithoutAssetsDirBuiltinsAnswerNothing) {
   EXPECT_FALSE(registry.Locate("Bowl_1").has_value());
 }
 
-TEST(RegistryTest, AssetsDirFromEnv) {
-  ::setenv("MLSPACES_ASSETS_DIR", "/some/where", 1);
-  EXPECT_EQ(Registry::AssetsDirFromEnv(), fs::path("/some/where"));
-  ::setenv("MLSPACES_ASSETS_DIR", "", 1);
-  EXPECT_FALSE(Registry::AssetsDirFromEnv().has_value());
-  ::unsetenv("MLSPACES_ASSETS_DIR");
-  EXPECT_FALSE(Registry::AssetsDirFromEnv().has_value());
-}
-
 // ---- grasp lookups --------------------------------------------------------------------------
 
 class GraspLookupTest : public ::testing::Test {

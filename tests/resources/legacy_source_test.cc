@@ -200,6 +200,56 @@ TEST_F(LegacySourceTest, ThorComesFirstAheadOfOtherSourcesAndUserLibraries) {
   }
 }
 
+TEST(ObjectSources, AllFoldersSortedWithTheirKind) {
+  TempDir tmp;
+  const fs::path objects = tmp / "assets" / "objects";
+  WriteText(objects / "b_legacy" / std::string(kOriginalTriesFile), "x");
+  WriteText(objects / "a_package" / std::string(kUidIndexFile), "x");
+  fs::create_directories(objects / "c_other");
+  WriteText(tmp / "elsewhere" / std::string(kOriginalTriesFile), "x");
+  fs::create_directory_symlink(tmp / "elsewhere", objects / "d_link");
+  WriteText(objects / "e_file.txt", "not a folder");
+  fs::create_directory_symlink(tmp / "gone", objects / "f_dangling");
+
+  const std::vector<ObjectSource> all = FindObjectSources(tmp / "assets", {});
+  std::vector<std::string> names;
+  for (const ObjectSource& s : all) names.push_back(s.name);
+  EXPECT_THAT(names, ElementsAre("a_package", "b_legacy", "c_other", "d_link"));
+  EXPECT_EQ(all[0].kind, ObjectSource::Kind::kPackage);
+  EXPECT_EQ(all[1].kind, ObjectSource::Kind::kLegacy);
+  EXPECT_EQ(all[2].kind, ObjectSource::Kind::kOther);
+  EXPECT_EQ(all[3].kind, ObjectSource::Kind::kLegacy);
+  EXPECT_EQ(all[3].root, objects / "d_link");
+
+  // Named: in the order given; each must be a source.
+  const std::vector<ObjectSource> named =
+      FindObjectSources(tmp / "assets", {"d_link", "a_package"});
+  ASSERT_EQ(named.size(), 2u);
+  EXPECT_EQ(named[0].name, "d_link");
+  EXPECT_EQ(named[1].kind, ObjectSource::Kind::kPackage);
+  ExpectError([&] { FindObjectSources(tmp / "assets", {"c_other"}); },
+              {(objects / "c_other").string(), "not a MolmoSpaces-format source"});
+  ExpectError([&] { FindObjectSources(tmp / "assets", {"f_dangling"}); },
+              {(objects / "f_dangling").string(), "no such source"});
+  EXPECT_THROW(FindObjectSources(tmp / "assets", {"../x"}), UsageError);
+  EXPECT_THROW(FindObjectSources(tmp / "assets", {""}), UsageError);
+  ExpectError([&] { FindObjectSources(tmp / "nowhere", {}); },
+              {(tmp / "nowhere" / "objects").string(), "no objects folder"});
+  fs::remove_all(objects);
+  fs::create_directories(objects);
+  EXPECT_TRUE(FindObjectSources(tmp / "assets", {}).empty());
+}
+
+TEST_F(LegacySourceTest, BuildLegacySourceIndexFollowsTheLink) {
+  const fs::path version_dir = AddOriginalSource("thor");
+  const std::vector<ObjectSource> sources = FindObjectSources(assets, {"thor"});
+  ASSERT_EQ(sources.size(), 1u);
+  const LegacyIndexReport report = BuildLegacySourceIndex(sources[0]);
+  EXPECT_EQ(report.assets, kAssets);
+  EXPECT_EQ(report.archives, 4u);
+  EXPECT_TRUE(IsFile(version_dir / ".mlspaces" / "index" / std::string(kUidIndexFile)));
+}
+
 TEST(LegacyIndex, CompactedKeysDuplicatesAndNonXmlLeaves) {
   TempDir tmp;
   const fs::path dir = tmp / "v";

@@ -43,6 +43,13 @@ size_t RemoveDeadTempFiles(const std::filesystem::path& dir);
 /// written without fsync durable. Best effort: an unopenable folder is ignored.
 void SyncFileSystem(const std::filesystem::path& dir);
 
+/// "<what>: <strerror(errno)>", for an Error after a failed POSIX call (reads errno first).
+std::string Errno(std::string_view what);
+
+/// Writes all of `data` to `fd`, retrying short writes and EINTR.
+/// @returns false when a write fails (errno says why) or writes nothing (e.g. a closed pipe).
+bool WriteAll(int fd, std::string_view data);
+
 /// fsync of a file, or of a folder (`directory`) after a rename into it.
 /// @throws Error naming `error_path` on failure.
 void FsyncPath(const std::filesystem::path& path, bool directory, const std::string& error_path);

@@ -8,6 +8,9 @@
 
 namespace mlspaces {
 
+/// Seconds on the steady clock since `t0`.
+double Since(std::chrono::steady_clock::time_point t0);
+
 class ProgressBar {
  public:
   /// `label` is printed before the bar; nothing is drawn when stderr is not a TTY

@@ -1,9 +1,26 @@
-// Small rigid-transform math: 4x4 homogeneous matrices, row-major, metres.
+// Rigid-transform math, one type per idea:
+//  - Pose: a position (m) and a unit quaternion (w, x, y, z), MuJoCo's order. What bodies,
+//    sites, robot bases and task poses are.
+//  - Mat4: the same rigid transform as a row-major 4x4 homogeneous matrix: what grasp arrays
+//    store and what composes (operator*, InverseRigid).
+//  - The 7-vector [x, y, z, qw, qx, qy, qz] of the original's Python API (`pose_mat_to_7d`),
+//    for datasets and configs: ToArray7 / FromArray7.
+// Quaternion helpers (multiply, conjugate, normalise, slerp, to/from rotation matrices) live
+// here too; SE(3) interpolation and timing in core/se3.h; MuJoCo's xpos/xquat/xmat arrays
+// convert in sim/mj_pose.h.
 #pragma once
 
 #include <array>
 
 namespace mlspaces {
+
+using Vec3 = std::array<double, 3>;
+/// Quaternion (w, x, y, z), MuJoCo's order.
+using Quat = std::array<double, 4>;
+/// Row-major 3x3 rotation (MuJoCo's xmat layout).
+using Rot3 = std::array<double, 9>;
+/// [x, y, z, qw, qx, qy, qz]: the original's 7-vector pose layout.
+using Array7 = std::array<double, 7>;
 
 /// Row-major 4x4 homogeneous transform: m[r*4 + c]. Default is the identity.
 struct Mat4 {
@@ -12,14 +29,52 @@ struct Mat4 {
   double operator()(int r, int c) const { return m[r * 4 + c]; }
 };
 
+/// A rigid pose: position (m) and unit quaternion (w, x, y, z). Default is the identity.
+struct Pose {
+  Vec3 pos{0, 0, 0};
+  Quat quat{1, 0, 0, 0};
+  bool operator==(const Pose&) const = default;
+};
+
+// ---- Quaternions ---------------------------------------------------------------------------
+
+Quat QuatMul(const Quat& a, const Quat& b);
+Quat QuatConjugate(const Quat& q);
+/// q / |q|; the identity for a zero (or non-finite-norm) quaternion.
+Quat QuatNormalized(const Quat& q);
+/// Spherical linear interpolation along the shorter arc; t in [0, 1]. Falls back to a
+/// normalised lerp when the quaternions are nearly equal. Always returns a unit quaternion.
+Quat Slerp(const Quat& a, Quat b, double t);
+/// Row-major rotation of a unit quaternion (not normalised here).
+Rot3 QuatToRotation(const Quat& q);
+/// Unit quaternion with w >= 0 of a row-major rotation (Shepperd's method).
+Quat QuatFromRotation(const Rot3& r);
+
+// ---- Mat4 ----------------------------------------------------------------------------------
+
 Mat4 operator*(const Mat4& a, const Mat4& b);
-/// Transform from a position and a unit quaternion (w, x, y, z), MuJoCo's order.
-Mat4 PoseToMat4(const std::array<double, 3>& pos, const std::array<double, 4>& quat_wxyz);
-/// Transform from a position and a row-major 3x3 rotation (MuJoCo's xmat layout).
-Mat4 PoseToMat4(const std::array<double, 3>& pos, const std::array<double, 9>& rot_rowmajor);
 /// Rotation of `angle` radians about the local z axis.
 Mat4 RotZ(double angle);
 /// Inverse of a rigid transform.
 Mat4 InverseRigid(const Mat4& t);
+/// Position part of a transform.
+Vec3 Translation(const Mat4& t);
+/// Rotation block of a transform, row-major.
+Rot3 Rotation(const Mat4& t);
+/// Rotation part of a transform as a unit quaternion with w >= 0 (Shepperd's method).
+Quat QuatFromMat4(const Mat4& t);
+
+// ---- Conversions ---------------------------------------------------------------------------
+
+/// The matrix of a pose (its quaternion taken as given: not normalised).
+Mat4 ToMat4(const Pose& pose);
+/// The matrix of a position and a row-major rotation (MuJoCo's xpos + xmat).
+Mat4 ToMat4(const Vec3& pos, const Rot3& rot);
+/// The pose of a matrix: its translation and QuatFromMat4 (w >= 0).
+Pose ToPose(const Mat4& t);
+/// [x, y, z, qw, qx, qy, qz].
+Array7 ToArray7(const Pose& pose);
+/// The pose of [x, y, z, qw, qx, qy, qz], taken as given (not normalised).
+Pose FromArray7(const Array7& a);
 
 }  // namespace mlspaces

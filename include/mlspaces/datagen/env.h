@@ -19,23 +19,18 @@
 #include <mujoco/mujoco.h>
 
 #include "mlspaces/core/json.h"
+#include "mlspaces/core/transform.h"
 #include "mlspaces/sim/mujoco_handlers.h"
 #include "mlspaces/sim/scene.h"
 
 namespace mlspaces::datagen {
-
-/// A world pose as 7 numbers: x, y, z, then the unit quaternion w, x, y, z.
-using Pose7 = std::array<double, 7>;
-
-Pose7 ToPose7(const sim::Pose& pose);
-sim::Pose FromPose7(const Pose7& pose);
 
 /// Which robot to insert and how to find its home pose.
 struct RobotSpec {
   std::filesystem::path xml;
   std::string prefix = "robot_0/";
   /// The base pose of every episode after Reset().
-  sim::Pose base;
+  Pose base;
   /// The top mocap body (after the prefix).
   std::string base_body = "base";
   /// Arm joints (after the prefix), in the order of the `home_arm` numeric; each has a
@@ -77,7 +72,7 @@ struct RobotSpec {
 
 /// franka_droid from assets/robots/franka_droid under `prefix` at `base`.
 /// `source_dir` is the mlspaces source tree (where assets/ lives).
-RobotSpec FrankaDroidSpec(const std::filesystem::path& source_dir, const sim::Pose& base = {},
+RobotSpec FrankaDroidSpec(const std::filesystem::path& source_dir, const Pose& base = {},
                           std::string prefix = "robot_0/");
 
 /// Where bundled robots live: $MLSPACES_ROBOTS_DIR when set, else the source tree's
@@ -116,16 +111,16 @@ class Env {
   /// World pose of a body: for movable bodies the state itself (mocap_pos/quat or free-joint
   /// qpos, exact), for others xpos/xquat of the last forward pass.
   /// @throws Error naming the body when unknown.
-  Pose7 GetBodyPose(std::string_view name) const;
+  Pose GetBodyPose(std::string_view name) const;
   /// Writes a movable body's pose into mocap_pos/quat or its free-joint qpos (quaternion
   /// normalised unless unit to 1e-12, free-joint velocity zeroed). Call ForwardPosition()
   /// before reading derived quantities.
   /// @throws Error naming the body when unknown, not movable, or a bad quaternion.
-  void SetBodyPose(std::string_view name, const Pose7& pose);
+  void SetBodyPose(std::string_view name, const Pose& pose);
 
   /// The robot's base pose (its mocap body).
-  Pose7 GetRobotBasePose() const { return GetBodyPose(robot_base_body_); }
-  void SetRobotBasePose(const Pose7& pose) { SetBodyPose(robot_base_body_, pose); }
+  Pose GetRobotBasePose() const { return GetBodyPose(robot_base_body_); }
+  void SetRobotBasePose(const Pose& pose) { SetBodyPose(robot_base_body_, pose); }
 
   /// mj_fwdPosition (kinematics, collisions) / full mj_forward.
   void ForwardPosition();

@@ -49,7 +49,7 @@
 #include "mlspaces/datagen/grasp_selection.h"
 #include "mlspaces/datagen/ik.h"
 #include "mlspaces/datagen/robot_view.h"
-#include "mlspaces/datagen/se3.h"
+#include "mlspaces/core/se3.h"
 
 namespace mlspaces::datagen {
 

@@ -47,17 +47,17 @@ class TaskRejected : public Error {
 /// What the hooks fill; every field is required after the hooks ran.
 struct TaskDraft {
   std::optional<std::string> pickup_obj_name;
-  std::optional<Pose7> robot_base_pose;
-  std::optional<Pose7> pickup_obj_start_pose;
-  std::optional<Pose7> pickup_obj_goal_pose;
+  std::optional<Pose> robot_base_pose;
+  std::optional<Pose> pickup_obj_start_pose;
+  std::optional<Pose> pickup_obj_goal_pose;
 };
 
 /// A sampled task (the original's frozen PickTaskConfig). Poses: world, xyz + quat wxyz.
 struct Task {
   std::string pickup_obj_name;
-  Pose7 robot_base_pose{};
-  Pose7 pickup_obj_start_pose{};
-  Pose7 pickup_obj_goal_pose{};
+  Pose robot_base_pose;
+  Pose pickup_obj_start_pose;
+  Pose pickup_obj_goal_pose;
   int64_t episode = 0;
   uint64_t seed = 0;
 };
@@ -98,7 +98,7 @@ class TaskSampler {
 
 /// `pose @ T(dx, dy, yaw)`: a planar move expressed in the frame of `pose` (the tutorial's
 /// `pose @ random_pose`): pos += R (dx, dy, 0), quat = quat * RotZ(yaw). yaw in radians.
-Pose7 ComposePlanar(const Pose7& pose, double dx, double dy, double yaw);
+Pose ComposePlanar(const Pose& pose, double dx, double dy, double yaw);
 
 /// The built-in config-driven sampler: the tutorial's BlockPickupTaskSampler. The robot base
 /// and then the pickup object move by task_sampler_config.robot_base_noise / object_noise

@@ -99,9 +99,6 @@ class Registry {
   Registry(Registry&&) noexcept;
   Registry& operator=(Registry&&) noexcept;
 
-  /// MLSPACES_ASSETS_DIR from the environment, if set and non-empty.
-  static std::optional<std::filesystem::path> AssetsDirFromEnv();
-
   /// Registers a user asset library: the name must be non-empty, without '/', not taken and
   /// not built-in; `dir`/assets_index.json must exist and parse. The path is made absolute
   /// now. UIDs already present in another library are recorded in duplicates().

@@ -31,4 +31,29 @@ struct LegacyIndexReport {
 LegacyIndexReport BuildLegacyIndex(const std::filesystem::path& version_dir,
                                    const std::string& name);
 
+/// One object source under <assets>/objects, as `index-builtin` finds it.
+struct ObjectSource {
+  enum class Kind {
+    kPackage,  ///< has our UID index already (an mlspaces package): nothing to do
+    kLegacy,   ///< has the original's tries file: BuildLegacySourceIndex indexes it
+    kOther,    ///< neither (skipped)
+  };
+  std::string name;            ///< the folder name
+  std::filesystem::path root;  ///< <assets>/objects/<name> (may be a link)
+  Kind kind = Kind::kOther;
+};
+
+/// The object sources under <assets_dir>/objects: the `names` given, in that order (each must
+/// be a folder, or a link to one, holding our UID index or the tries file), or, when `names`
+/// is empty, every folder or link to one there, sorted by name.
+/// @throws UsageError for a name that is not one folder name; Error naming the path for a
+/// named source that is missing or not a source, or a missing objects folder.
+std::vector<ObjectSource> FindObjectSources(const std::filesystem::path& assets_dir,
+                                            const std::vector<std::string>& names);
+
+/// BuildLegacyIndex of a kLegacy source: its root resolved (links followed) as the version
+/// dir, its name as the library name. @throws Error as BuildLegacyIndex, or naming the root
+/// when it cannot be resolved.
+LegacyIndexReport BuildLegacySourceIndex(const ObjectSource& source);
+
 }  // namespace mlspaces

@@ -52,4 +52,18 @@ struct ResourceSettings {
 /// The default install dir when MLSPACES_ASSETS_DIR is unset: ~/.cache/mlspaces/assets.
 std::filesystem::path DefaultAssetsDir();
 
+/// Where an assets dir came from.
+enum class AssetsDirOrigin { kGiven, kEnvironment, kDefault };
+
+struct AssetsDirChoice {
+  std::filesystem::path dir;
+  AssetsDirOrigin origin = AssetsDirOrigin::kDefault;
+};
+
+/// The one order for the install (assets) dir, used by every command and library: `given`
+/// when it has a value (a --assets-dir flag, a libraries YAML's assets_dir), else
+/// MLSPACES_ASSETS_DIR when set and non-empty, else DefaultAssetsDir(). The path is returned
+/// as it was given (not made absolute).
+AssetsDirChoice ResolveAssetsDir(const std::optional<std::filesystem::path>& given = {});
+
 }  // namespace mlspaces

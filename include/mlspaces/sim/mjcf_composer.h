@@ -30,15 +30,10 @@
 #include <string_view>
 #include <vector>
 
+#include "mlspaces/core/transform.h"
 #include "mlspaces/sim/mujoco_handlers.h"
 
 namespace mlspaces::sim {
-
-/// A rigid pose: position (m) and unit quaternion (w, x, y, z), MuJoCo's order.
-struct Pose {
-  std::array<double, 3> pos{0, 0, 0};
-  std::array<double, 4> quat{1, 0, 0, 0};
-};
 
 struct ComposeOptions {
   /// Keep only what body masses and geometry need: drop textures, materials, skins and

@@ -18,12 +18,15 @@
 
 #include <mujoco/mujoco.h>
 
+#include "mlspaces/core/error.h"
+
 namespace mlspaces::sim {
 
-/// An error reported by MuJoCo (its message, unchanged; may span lines).
-class MujocoError : public std::runtime_error {
+/// An error reported by MuJoCo: an mlspaces::Error whose message is MuJoCo's, unchanged
+/// (it may span lines; the layers above turn it into a located one-line Error where they can).
+class MujocoError : public Error {
  public:
-  using std::runtime_error::runtime_error;
+  explicit MujocoError(const std::string& message) : Error(message) {}
 };
 
 /// Installs mlspaces' global mju_user_error (throws MujocoError) and mju_user_warning
@@ -60,5 +63,8 @@ DataPtr MakeData(const mjModel* m);
 
 /// Name of object `id` of type `type`, or "" when unnamed.
 std::string MjName(const mjModel* m, mjtObj type, int id);
+
+/// True when `body` is `root` or lies below it (the world body 0 holds every body).
+bool InSubtree(const mjModel* m, int body, int root);
 
 }  // namespace mlspaces::sim

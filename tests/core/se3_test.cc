@@ -1,6 +1,7 @@
-// SE(3) helpers (src/datagen/se3.cc): quaternion round trips, rotation logs, pose
+// SE(3) helpers (src/core/se3.cc): quaternion round trips, rotation logs, pose
 // interpolation (linear position + slerp) and timed waypoints.
-#include "mlspaces/datagen/se3.h"
+#include "mlspaces/core/error.h"
+#include "mlspaces/core/se3.h"
 
 #include <algorithm>
 #include <cmath>
@@ -9,7 +10,7 @@
 
 #include <gtest/gtest.h>
 
-namespace mlspaces::datagen {
+namespace mlspaces {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
@@ -19,6 +20,9 @@ Quat AxisAngle(Vec3 axis, double angle) {
   const double s = std::sin(angle / 2) / n;
   return {std::cos(angle / 2), axis[0] * s, axis[1] * s, axis[2] * s};
 }
+
+// The matrix of a position and a (normalised) quaternion.
+Mat4 MakePose(const Vec3& pos, const Quat& quat) { return ToMat4(Pose{pos, QuatNormalized(quat)}); }
 
 double MaxDiff(const Mat4& a, const Mat4& b) {
   double e = 0;
@@ -131,10 +135,10 @@ TEST(Se3Test, PureRotationGetsAngularDurationAndZeroSegmentTwoPoints) {
   const auto w = Waypoints(a, b, timing, 10);
   ASSERT_EQ(w.size(), 2u);
   EXPECT_EQ(MaxDiff(w[1], b), 0.0);
-  EXPECT_THROW(Waypoints(a, b, timing, 0), std::invalid_argument);
+  EXPECT_THROW(Waypoints(a, b, timing, 0), Error);
   timing.speed = 0;
-  EXPECT_THROW(SegmentDuration(a, b, timing), std::invalid_argument);
+  EXPECT_THROW(SegmentDuration(a, b, timing), Error);
 }
 
 }  // namespace
-}  // namespace mlspaces::datagen
+}  // namespace mlspaces

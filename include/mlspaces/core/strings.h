@@ -1,0 +1,12 @@
+// Small string helpers shared by every layer.
+#pragma once
+
+#include <string>
+#include <string_view>
+
+namespace mlspaces {
+
+/// ASCII lower case of `s` (bytes >= 0x80 unchanged): for case-insensitive names.
+std::string Lower(std::string_view s);
+
+}  // namespace mlspaces

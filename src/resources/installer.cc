@@ -24,13 +24,13 @@
 #include <map>
 #include <mutex>
 #include <set>
-#include <thread>
 #include <tuple>
 
 #include "mlspaces/core/crash_point.h"
 #include "mlspaces/core/error.h"
 #include "mlspaces/core/files.h"
 #include "mlspaces/core/json.h"
+#include "mlspaces/core/parallel.h"
 #include "mlspaces/resources/archive.h"
 #include "mlspaces/resources/fetch.h"
 #include "mlspaces/core/file_lock.h"
@@ -335,35 +335,19 @@ struct Installer::Impl {
       fs::remove_all(src->dir / ".mlspaces" / "staging", ec);
       for (size_t begin = 0; begin < indexes.size(); begin += kBatch) {
         const size_t end = std::min(indexes.size(), begin + kBatch);
-        std::atomic<size_t> next{begin};
         std::mutex mu;
-        std::exception_ptr error;
         std::vector<uint32_t> placed;
-        auto work = [&] {
-          for (;;) {
-            const size_t i = next++;
-            if (i >= end) return;
-            {
+        std::exception_ptr error;
+        try {
+          ParallelFor(end - begin, std::max(1, options.parallel_downloads), [&](size_t k) {
+            if (PlaceArchive(*src, indexes[begin + k], done, plan.download_bytes)) {
               std::lock_guard<std::mutex> l(mu);
-              if (error) return;
+              placed.push_back(indexes[begin + k]);
             }
-            try {
-              if (PlaceArchive(*src, indexes[i], done, plan.download_bytes)) {
-                std::lock_guard<std::mutex> l(mu);
-                placed.push_back(indexes[i]);
-              }
-            } catch (...) {
-              std::lock_guard<std::mutex> l(mu);
-              if (!error) error = std::current_exception();
-            }
-          }
-        };
-        const int n = std::max(1, std::min<int>(options.parallel_downloads,
-                                                static_cast<int>(end - begin)));
-        std::vector<std::thread> pool;
-        for (int t = 1; t < n; ++t) pool.emplace_back(work);
-        work();
-        for (auto& t : pool) t.join();
+          });
+        } catch (...) {
+          error = std::current_exception();
+        }
         FlagArchives(*src, placed);  // what is complete keeps its work, even on an error
         if (error) std::rethrow_exception(error);
       }

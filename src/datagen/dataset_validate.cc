@@ -91,13 +91,6 @@ void Validator::MarkIncomplete(const fs::path& dir) {
 
 namespace mlspaces::datagen {
 
-std::string DatasetProblem::ToString() const {
-  std::string out = file;
-  if (!path.empty()) out += (out.empty() ? "" : ": ") + path;
-  if (!message.empty()) out += (out.empty() ? "" : ": ") + message;
-  return out;
-}
-
 DatasetReport ValidateDataset(const std::filesystem::path& dir) {
   std::error_code ec;
   if (!std::filesystem::is_directory(dir, ec)) {

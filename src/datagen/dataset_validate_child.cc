@@ -51,8 +51,8 @@ std::string Validator::Serialize(size_t first_problem, int64_t trajectories, int
   Put(out, std::to_string(report_.problems.size() - first_problem));
   for (size_t i = first_problem; i < report_.problems.size(); ++i) {
     const DatasetProblem& p = report_.problems[i];
-    Put(out, p.file);
     Put(out, p.path);
+    Put(out, p.field);
     Put(out, p.message);
   }
   Put(out, std::to_string(added_refs_.size()));
@@ -73,7 +73,7 @@ bool Validator::Deserialize(std::string_view in) {
   }
   for (int64_t i = 0; i < n; ++i) {
     DatasetProblem p;
-    if (!Get(in, p.file) || !Get(in, p.path) || !Get(in, p.message)) return false;
+    if (!Get(in, p.path) || !Get(in, p.field) || !Get(in, p.message)) return false;
     delta.problems.push_back(std::move(p));
   }
   std::vector<std::pair<std::string, std::string>> refs;

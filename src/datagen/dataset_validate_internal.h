@@ -17,6 +17,7 @@
 
 #include "hdf5_util.h"
 #include "mlspaces/core/json.h"
+#include "mlspaces/datagen/dataset_schema.h"
 #include "mlspaces/datagen/dataset_validate.h"
 
 namespace mlspaces::datagen::dataset_check {
@@ -27,11 +28,6 @@ using h5::Handle;
 // are a few MiB.
 constexpr double kMaxDatasetBytes = double{1 << 30};
 
-// The datasets every trajectory has (docs/dataset.md).
-const char* const kAgentDatasets[] = {"qpos", "qvel"};
-const char* const kActionDatasets[] = {"commanded_action", "joint_pos", "joint_pos_rel",
-                                       "ee_twist", "ee_pose"};
-const char* const kBoolDatasets[] = {"success", "fail", "terminated", "truncated"};
 
 inline bool StartsWith(std::string_view s, std::string_view prefix) {
   return s.substr(0, prefix.size()) == prefix;
@@ -188,8 +184,9 @@ class Validator {
     }
   }
 
-  template <size_t N>
-  void JsonGroup(const Traj& t, const std::string& rel, const char* const (&required)[N]) {
+  /// The datasets `required` exist below `rel` and every dataset there is JSON-object rows.
+  template <class Names>
+  void JsonGroup(const Traj& t, const std::string& rel, const Names& required) {
     for (const char* name : required) {
       if (!Exists(t.g, rel + "/" + name)) Add(t.name + "/" + rel + "/" + name, "missing");
     }

@@ -28,8 +28,8 @@ void Validator::File(const fs::path& p) {
   }
   std::map<int64_t, std::string> trajs;
   for (const std::string& name : *names) {
-    if (!StartsWith(name, "traj_")) continue;  // e.g. post-processing outputs
-    const std::string digits = name.substr(5);
+    if (!StartsWith(name, schema::kTrajPrefix)) continue;  // e.g. post-processing outputs
+    const std::string digits = name.substr(sizeof(schema::kTrajPrefix) - 1);
     const bool canonical = !digits.empty() && digits.size() <= 9 &&
                            digits.find_first_not_of("0123456789") == std::string::npos &&
                            (digits == "0" || digits[0] != '0');
@@ -77,9 +77,10 @@ void Validator::CheckTraj(hid_t file, const std::string& name, int64_t k) {
   // T: the rows of obs/agent/qpos (or, when that is unusable, of rewards, to go on checking).
   {
     h5::QuietErrors quiet;
-    for (const char* source : {"obs/agent/qpos", "rewards"}) {
+    const std::string qpos = std::string(schema::kAgent) + "/" + schema::kAgentDatasets[0];
+    for (const std::string& source : {qpos, std::string(schema::kRewards)}) {
       if (!Exists(t.g, source)) continue;
-      Handle ds(H5Dopen2(t.g, source, H5P_DEFAULT), H5Dclose);
+      Handle ds(H5Dopen2(t.g, source.c_str(), H5P_DEFAULT), H5Dclose);
       Handle space(ds.get() >= 0 ? H5Dget_space(ds.get()) : H5I_INVALID_HID, H5Sclose);
       if (space.get() < 0 || H5Sget_simple_extent_ndims(space.get()) < 1) continue;
       std::vector<hsize_t> dims(H5Sget_simple_extent_ndims(space.get()));
@@ -95,9 +96,9 @@ void Validator::CheckTraj(hid_t file, const std::string& name, int64_t k) {
             " rows: an episode needs at least one observation and one step (T >= 2)");
   }
 
-  JsonGroup(t, "obs/agent", kAgentDatasets);
-  JsonGroup(t, "actions", kActionDatasets);
-  if (auto ds = Open(t.g, name, "rewards", true)) {
+  JsonGroup(t, schema::kAgent, schema::kAgentDatasets);
+  JsonGroup(t, schema::kActions, schema::kActionDatasets);
+  if (auto ds = Open(t.g, name, schema::kRewards, true)) {
     const hid_t type = ds->type.get();
     if (H5Tget_class(type) != H5T_FLOAT || H5Tget_size(type) != 4 || ds->dims.size() != 1) {
       Add(ds->path, "expected float32 (T,), got " + TypeName(type) + " " + Shape(ds->dims));
@@ -105,13 +106,13 @@ void Validator::CheckTraj(hid_t file, const std::string& name, int64_t k) {
       ReadNumeric(*ds);
     }
   }
-  for (const char* flag : kBoolDatasets) Bools(t, flag);
+  for (const char* flag : schema::kFlagDatasets) Bools(t, flag);
   FlagConsistency(t);
   ObsScene(t);
   Provenance(t);
   // Per-step numeric (and JSON) datasets of any name.
-  for (const char* group : {"obs/extra", "env_states"}) {
-    const bool extra = std::strcmp(group, "obs/extra") == 0;
+  for (const char* group : {schema::kExtra, schema::kEnvStates}) {
+    const bool extra = std::strcmp(group, schema::kExtra) == 0;
     VisitDatasets(t, group, [&](const Ds& ds) {
       if (extra && IsUint8(ds.type.get()) && ds.dims.size() == 2) {
         JsonRows(ds, t, false);
@@ -151,8 +152,8 @@ void Validator::FlagConsistency(const Traj& t) {
     auto it = t.flags.find(name);
     return it == t.flags.end() ? nullptr : &it->second;
   };
-  const auto *success = get("success"), *fail = get("fail");
-  const auto *terminated = get("terminated"), *truncated = get("truncated");
+  const auto *success = get(schema::kSuccess), *fail = get(schema::kFail);
+  const auto *terminated = get(schema::kTerminated), *truncated = get(schema::kTruncated);
   if (success != nullptr && fail != nullptr && success->size() == fail->size()) {
     int64_t differ = 0;
     size_t first = 0;
@@ -189,7 +190,7 @@ void Validator::FlagConsistency(const Traj& t) {
 }
 
 void Validator::ObsScene(const Traj& t) {
-  auto ds = Open(t.g, t.name, "obs_scene", true);
+  auto ds = Open(t.g, t.name, schema::kObsScene, true);
   if (!ds) return;
   const auto text = ReadString(ds->id.get(), false, ds->path);
   if (!text) return;
@@ -202,13 +203,13 @@ void Validator::ObsScene(const Traj& t) {
 }
 
 void Validator::Provenance(const Traj& t) {
-  const std::string path = t.name + "@provenance";
-  const htri_t exists = H5Aexists(t.g, "provenance");
+  const std::string path = t.name + "@" + schema::kProvenance;
+  const htri_t exists = H5Aexists(t.g, schema::kProvenance);
   if (exists <= 0) {
     Add(path, exists == 0 ? "missing" : HdfMessage("cannot read"));
     return;
   }
-  Handle attr(H5Aopen(t.g, "provenance", H5P_DEFAULT), H5Aclose);
+  Handle attr(H5Aopen(t.g, schema::kProvenance, H5P_DEFAULT), H5Aclose);
   if (attr.get() < 0) {
     Add(path, HdfMessage("cannot open"));
     return;

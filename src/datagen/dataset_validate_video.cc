@@ -13,13 +13,15 @@ namespace mlspaces::datagen::dataset_check {
 void Validator::Cameras(const Traj& t) {
   // Camera parameters and image sizes.
   std::map<std::string, std::optional<std::pair<int, int>>> cams;  // name -> image W x H
-  const std::string param_base = t.name + "/obs/sensor_param";
-  if (Exists(t.g, "obs/sensor_param")) {
-    Handle g(H5Gopen2(t.g, "obs/sensor_param", H5P_DEFAULT), H5Gclose);
+  const std::string param_base = t.name + "/" + schema::kSensorParam;
+  // The camera whose row 0 gives the image size.
+  const char* const intrinsics = schema::kSensorParams[2].name;
+  if (Exists(t.g, schema::kSensorParam)) {
+    Handle g(H5Gopen2(t.g, schema::kSensorParam, H5P_DEFAULT), H5Gclose);
     const auto names = g.get() >= 0 ? ListLinks(g.get(), false) : std::nullopt;
     if (!names) Add(param_base, HdfMessage("expected a readable group"));
     for (const std::string& cam : names.value_or(std::vector<std::string>{})) {
-      const std::string rel = "obs/sensor_param/" + cam;
+      const std::string rel = std::string(schema::kSensorParam) + "/" + cam;
       Handle obj(H5Oopen(t.g, rel.c_str(), H5P_DEFAULT), H5Oclose);
       if (obj.get() < 0 || H5Iget_type(obj.get()) != H5I_GROUP) {
         Add(param_base + "/" + cam, obj.get() < 0 ? HdfMessage("cannot open")
@@ -30,18 +32,22 @@ void Validator::Cameras(const Traj& t) {
       VisitDatasets(t, rel, [&](const Ds& ds) {
         if (!Rows(ds, t)) return;
         const std::string key = ds.path.substr(ds.path.rfind('/') + 1);
-        static const std::map<std::string, std::vector<hsize_t>> kShapes = {
-            {"cam2world_gl", {4, 4}}, {"extrinsic_cv", {3, 4}}, {"intrinsic_cv", {3, 3}}};
-        auto shape = kShapes.find(key);
-        if (shape != kShapes.end() &&
-            !std::equal(ds.dims.begin() + 1, ds.dims.end(), shape->second.begin(),
-                        shape->second.end())) {
+        const auto shape =
+            std::find_if(schema::kSensorParams.begin(), schema::kSensorParams.end(),
+                         [&](const schema::SensorParam& p) { return key == p.name; });
+        const std::vector<hsize_t> expected =
+            shape == schema::kSensorParams.end()
+                ? std::vector<hsize_t>{}
+                : std::vector<hsize_t>{static_cast<hsize_t>(shape->rows),
+                                       static_cast<hsize_t>(shape->cols)};
+        if (shape != schema::kSensorParams.end() &&
+            !std::equal(ds.dims.begin() + 1, ds.dims.end(), expected.begin(), expected.end())) {
           Add(ds.path, "has shape " + Shape(ds.dims) + ", expected (T, " +
-                           std::to_string(shape->second[0]) + ", " +
-                           std::to_string(shape->second[1]) + ")");
+                           std::to_string(expected[0]) + ", " + std::to_string(expected[1]) +
+                           ")");
           return;
         }
-        if (key != "intrinsic_cv") {
+        if (key != intrinsics) {
           ReadNumeric(ds);
           return;
         }
@@ -59,16 +65,18 @@ void Validator::Cameras(const Traj& t) {
         }
         cams[cam] = std::pair{static_cast<int>(std::lround(w)), static_cast<int>(std::lround(h))};
       });
-      if (!Exists(t.g, rel + "/intrinsic_cv")) Add(param_base + "/" + cam + "/intrinsic_cv", "missing");
+      if (!Exists(t.g, rel + "/" + intrinsics)) {
+        Add(param_base + "/" + cam + "/" + intrinsics, "missing");
+      }
     }
   }
 
-  const std::string data_base = t.name + "/obs/sensor_data";
-  if (!Exists(t.g, "obs/sensor_data")) {
+  const std::string data_base = t.name + "/" + schema::kSensorData;
+  if (!Exists(t.g, schema::kSensorData)) {
     Add(data_base, "missing");
     return;
   }
-  Handle g(H5Gopen2(t.g, "obs/sensor_data", H5P_DEFAULT), H5Gclose);
+  Handle g(H5Gopen2(t.g, schema::kSensorData, H5P_DEFAULT), H5Gclose);
   const auto names = g.get() >= 0 ? ListLinks(g.get(), false) : std::nullopt;
   if (!names) {
     Add(data_base, HdfMessage("expected a readable group"));
@@ -97,7 +105,9 @@ void Validator::Cameras(const Traj& t) {
     }
     // The camera whose intrinsics give the size: <cam>, or <cam> for "<cam>_depth".
     std::string cam = entry;
-    if (cams.count(cam) == 0 && EndsWith(cam, "_depth")) cam.resize(cam.size() - 6);
+    if (cams.count(cam) == 0 && EndsWith(cam, schema::kDepthSuffix)) {
+      cam.resize(cam.size() - (sizeof(schema::kDepthSuffix) - 1));
+    }
     auto cam_it = cams.find(cam);
     if (cam_it == cams.end()) {
       Add(ds->path, "no camera obs/sensor_param/" + entry + " for this video");

@@ -490,22 +490,22 @@ std::vector<Installer::Problem> Installer::Verify(const std::vector<std::string>
       try {
         m = PackageManifest::Load(manifest_path);
       } catch (const Error& e) {
-        problems.push_back({manifest_path, e.message()});
+        problems.push_back({manifest_path.string(), "", e.message()});
         continue;
       }
       auto check = [&](const fs::path& file, uint64_t size, const std::string& sha) {
         ++checked;
         if (!IsFile(file)) {
-          problems.push_back({file, "missing"});
+          problems.push_back({file.string(), "", "missing"});
           return false;
         }
         const FileDigest d = Sha256File(file);
         if (d.size != size) {
-          problems.push_back({file, "size " + std::to_string(d.size) + ", expected " + std::to_string(size)});
+          problems.push_back({file.string(), "", "size " + std::to_string(d.size) + ", expected " + std::to_string(size)});
           return false;
         }
         if (d.sha256 != sha) {
-          problems.push_back({file, "SHA-256 " + d.sha256 + ", expected " + sha});
+          problems.push_back({file.string(), "", "SHA-256 " + d.sha256 + ", expected " + sha});
           return false;
         }
         return true;
@@ -519,16 +519,16 @@ std::vector<Installer::Problem> Installer::Verify(const std::vector<std::string>
         ++checked;
         std::string listing_text;
         if (!IsFile(listing_path)) {
-          problems.push_back({listing_path, "missing"});
+          problems.push_back({listing_path.string(), "", "missing"});
           good = false;
         } else if (listing_text = ReadFile(listing_path); Sha256Hex(listing_text) != a.members_sha256) {
-          problems.push_back({listing_path, "SHA-256 differs from the manifest's members_sha256"});
+          problems.push_back({listing_path.string(), "", "SHA-256 differs from the manifest's members_sha256"});
           good = false;
         } else {
           const FlatJson listing = ParseFlatJson(listing_text, listing_path.string());
           for (const auto& [rel, info] : listing.items()) {
             if (!info.is_object() || !info.contains("size") || !info.contains("sha256")) {
-              problems.push_back({listing_path, "bad entry for " + rel});
+              problems.push_back({listing_path.string(), "", "bad entry for " + rel});
               good = false;
               continue;
             }

@@ -103,6 +103,13 @@ struct IsMap<std::map<std::string, T>> : std::true_type {};
 template <class T>
 concept YamlStruct = yaml_internal::HasSerialize<T> || yaml_internal::HasSerializeFields<T>;
 
+namespace yaml_internal {
+template <class T>
+struct IsStructVector : std::false_type {};
+template <class T>
+struct IsStructVector<std::vector<T>> : std::bool_constant<YamlStruct<T>> {};
+}  // namespace yaml_internal
+
 /// Calls a->Visit(name, field) for every field of `value`, in order.
 template <class A, YamlStruct T>
 void VisitYamlFields(A* a, T& value) {
@@ -447,7 +454,7 @@ void YamlWriter::Field(int indent, const std::string& key, const T& value) {
     }
     out += pad + key + ":\n";
     for (const auto& [k, v] : value) Field(indent + 2, QuoteYamlString(k), v);
-  } else if constexpr (IsVector<T>::value && YamlStruct<typename T::value_type>) {
+  } else if constexpr (IsStructVector<T>::value) {
     if (value.empty()) {
       out += pad + key + ": []\n";
       return;

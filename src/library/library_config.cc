@@ -79,6 +79,11 @@ LibraryConfig LibraryConfig::LoadYaml(const fs::path& file) {
   ctx.null_lists_are_empty = true;  // "asset_libraries:" with nothing after it
   const YamlReader reader(ctx);
   reader.ReadStruct(root, "", config);
+  for (const auto& kv : root) {  // unlike an optional elsewhere, assets_dir cannot be null
+    if (kv.first.Scalar() == "assets_dir" && kv.second.IsNull()) {
+      reader.Fail(kv.first, "assets_dir", "expected a path, got null");
+    }
+  }
   for (size_t i = 0; i < config.grasp_libraries.size(); ++i) {
     if (config.grasp_libraries[i].asset_library.empty()) {
       throw Error("grasp_libraries[" + std::to_string(i) + "].asset_library: must not be empty",

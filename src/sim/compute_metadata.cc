@@ -69,7 +69,7 @@ ComputeMetadataReport ComputeAssetMetadata(const fs::path& dir, const AssetIndex
     if (failure.empty()) {
       ++report.computed;
     } else {
-      report.failures.push_back({w.uid, failure});
+      report.failures.push_back(Diagnostic{"", "", failure, w.uid});
     }
     ++done;
     if (compute.progress) compute.progress(done, work.size());

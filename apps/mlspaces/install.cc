@@ -85,7 +85,7 @@ int RunVerify(const VerifyFlags& flags) {
   Installer installer(flags.remote.Settings());
   size_t checked = 0;
   const auto problems = installer.Verify(flags.names, flags.repair, &checked);
-  for (const auto& p : problems) std::printf("%s: %s\n", p.file.c_str(), p.message.c_str());
+  for (const auto& p : problems) std::printf("%s\n", p.ToString().c_str());
   if (problems.empty()) {
     std::printf("checked %zu files: ok\n", checked);
     return 0;

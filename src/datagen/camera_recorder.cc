@@ -8,6 +8,7 @@
 #include "mlspaces/core/error.h"
 #include "mlspaces/core/progress.h"
 #include "mlspaces/core/transform.h"
+#include "mlspaces/datagen/dataset_schema.h"
 
 namespace mlspaces::datagen {
 namespace fs = std::filesystem;
@@ -75,10 +76,12 @@ sim::CameraView CameraSystem::View(size_t i, const mjData* d) const {
 
 void CameraSystem::AppendParams(const sim::CameraView& v, int width, int height,
                                 std::map<std::string, Series>& params) {
+  const auto& [c2w_param, ext_param, int_param] = schema::kSensorParams;
   if (params.empty()) {
-    params["cam2world_gl"] = Series(DType::kFloat64, {4, 4});
-    params["extrinsic_cv"] = Series(DType::kFloat64, {3, 4});
-    params["intrinsic_cv"] = Series(DType::kFloat64, {3, 3});
+    for (const schema::SensorParam& p : schema::kSensorParams) {
+      params[p.name] = Series(DType::kFloat64, {static_cast<size_t>(p.rows),
+                                                static_cast<size_t>(p.cols)});
+    }
   }
   // Columns: right (x), -up (-y), forward (-z), position.
   double c2w[16] = {0};
@@ -100,9 +103,9 @@ void CameraSystem::AppendParams(const sim::CameraView& v, int width, int height,
     ext[4 * a + 3] = t;
   }
   const double f = 0.5 * height / std::tan(v.fovy_deg * kPi / 360.0);
-  params["cam2world_gl"].Append(std::vector<double>(c2w, c2w + 16));
-  params["extrinsic_cv"].Append(ext);
-  params["intrinsic_cv"].Append({f, 0, 0.5 * width, 0, f, 0.5 * height, 0, 0, 1});
+  params[c2w_param.name].Append(std::vector<double>(c2w, c2w + 16));
+  params[ext_param.name].Append(ext);
+  params[int_param.name].Append({f, 0, 0.5 * width, 0, f, 0.5 * height, 0, 0, 1});
 }
 
 CameraRecorder::CameraRecorder(const mjModel* m, const CameraSystemConfig& config, double fps,

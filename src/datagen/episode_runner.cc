@@ -115,88 +115,115 @@ EpisodeRunner::EpisodeRunner(Env& env, TaskSampler& sampler, const Registry& reg
 
 EpisodeRunner::~EpisodeRunner() = default;
 
-EpisodeResult EpisodeRunner::Run(int64_t episode) {
-  const mjModel* m = env_.model();
-  mjData* d = env_.data();
+struct EpisodeRunner::Episode {
   EpisodeResult result;
   AttemptRecord& attempt = result.attempt;
+  int64_t index = 0;
+  Task task;
+  int object = -1;  ///< the pickup object's body
+  // The object's grasps, their asset and the grasp-library filter.
+  std::string uid;
+  std::shared_ptr<const Annotation> annotation;
+  GraspSet grasps;
+  std::vector<std::string> filter;
+  // The rollout.
+  EpisodeRecord rec;
+  Mat4 grasp_world;
+  double start_z = 0;
+  Mat4 goal;
+  /// The scene's free objects (env_states/actors, always empty in the original).
+  std::vector<std::pair<std::string, int>> actors;
+  Mat4 prev_tcp;
+  std::vector<double> prev_arm_qpos;
+  PickSuccess verdict;
+  int64_t step = 0;
+  bool terminated = false, truncated = false;
+};
+
+EpisodeResult EpisodeRunner::Run(int64_t episode) {
+  Episode e;
+  e.index = episode;
+  AttemptRecord& attempt = e.attempt;
   attempt.scene = options_.scene_name;
   attempt.episode = episode;
   attempt.seed = EpisodeSeed(sampler_.run_seed(), env_.scene_key(), episode);
   attempt.extra = Json::object();
+  if (!SampleTask(e) || !LoadGrasps(e) || !Plan(e)) return std::move(e.result);
+  BeginRecording(e);
+  Rollout(e);
+  Judge(e);
+  if (options_.record) FinishRecord(e);
+  return std::move(e.result);
+}
 
-  // 1. Sample the task.
-  auto t0 = Clock::now();
-  Task task;
+bool EpisodeRunner::SampleTask(Episode& e) {
+  const auto t0 = Clock::now();
   try {
-    task = sampler_.SampleTask(env_, episode);
-  } catch (const TaskRejected& e) {
-    attempt.AddTiming("sample", Since(t0));
-    attempt.outcome = Outcome::kSamplerReject;
-    attempt.message = e.what();
-    return result;
+    e.task = sampler_.SampleTask(env_, e.index);
+  } catch (const TaskRejected& error) {
+    e.attempt.AddTiming("sample", Since(t0));
+    e.attempt.outcome = Outcome::kSamplerReject;
+    e.attempt.message = error.what();
+    return false;
   }
-  attempt.AddTiming("sample", Since(t0));
-  const int object = env_.BodyId(task.pickup_obj_name);
+  e.attempt.AddTiming("sample", Since(t0));
+  e.object = env_.BodyId(e.task.pickup_obj_name);
+  return true;
+}
 
-  // 2. The object's grasps (missing ones are a "no grasp" attempt, as the original's
-  // candidate rejection).
-  t0 = Clock::now();
-  std::string uid;
-  std::shared_ptr<const Annotation> annotation;
-  GraspSet grasps;
-  const std::vector<std::string> filter = config_.policy_config.grasp_libraries
-                                              ? *config_.policy_config.grasp_libraries
-                                              : std::vector<std::string>{};
+// The object's grasps (missing ones are a "no grasp" attempt, as the original's candidate
+// rejection).
+bool EpisodeRunner::LoadGrasps(Episode& e) {
+  const auto t0 = Clock::now();
+  e.filter = config_.policy_config.grasp_libraries ? *config_.policy_config.grasp_libraries
+                                                   : std::vector<std::string>{};
   try {
     const std::optional<Json> metadata =
         env_.metadata().is_null() ? std::nullopt : std::optional<Json>(env_.metadata());
-    uid = SceneObjectAssetId(metadata, task.pickup_obj_name);
-    grasps = registry_.LoadPickupGrasps(uid, filter, std::numeric_limits<size_t>::max());
-    annotation = registry_.GetAnnotation(uid);
-  } catch (const Error& e) {
-    attempt.AddTiming("grasps", Since(t0));
-    attempt.outcome = Outcome::kNoGrasp;
-    attempt.message = e.what();
-    return result;
+    e.uid = SceneObjectAssetId(metadata, e.task.pickup_obj_name);
+    e.grasps = registry_.LoadPickupGrasps(e.uid, e.filter, std::numeric_limits<size_t>::max());
+    e.annotation = registry_.GetAnnotation(e.uid);
+  } catch (const Error& error) {
+    e.attempt.AddTiming("grasps", Since(t0));
+    e.attempt.outcome = Outcome::kNoGrasp;
+    e.attempt.message = error.what();
+    return false;
   }
-  attempt.AddTiming("grasps", Since(t0));
+  e.attempt.AddTiming("grasps", Since(t0));
+  return true;
+}
 
-  // 3. Plan.
-  t0 = Clock::now();
-  const PlanFailure planned = planner_.Reset(d, object, grasps.poses);
+bool EpisodeRunner::Plan(Episode& e) {
+  const auto t0 = Clock::now();
+  const PlanFailure planned = planner_.Reset(env_.data(), e.object, e.grasps.poses);
+  AttemptRecord& attempt = e.attempt;
   attempt.AddTiming("plan", Since(t0));
-  attempt.extra["num_grasps"] = grasps.poses.size();
+  attempt.extra["num_grasps"] = e.grasps.poses.size();
   attempt.extra["num_collision_free"] = planner_.stats().num_collision_free;
   if (planned != PlanFailure::kNone) {
     attempt.outcome = OutcomeOfFailure(planned);
     attempt.message = planner_.message();
-    return result;
+    return false;
   }
   attempt.extra["grasp_index"] = *planner_.grasp_index();
+  return true;
+}
 
-  // 4. Roll out.
-  Rng noise_rng(DeriveSeed(attempt.seed, {0x6e6f697365ULL}));  // "noise"
-  const bool record = options_.record;
-  EpisodeRecord rec;
-  const Mat4 grasp_world = planner_.grasp_pose();
-  const double start_z = task.pickup_obj_start_pose.pos[2];
-  const Mat4 goal = ToMat4(task.pickup_obj_goal_pose);
-  const size_t n_arm = robot_.num_arm();
-  const size_t n_grip = robot_.num_gripper();
-  const std::string& artic = env_.robot().articulation_name;
-  const size_t artic_width = env_.robot().articulation_width;
-  // The scene's free objects (env_states/actors, always empty in the original).
-  std::vector<std::pair<std::string, int>> actors;
+void EpisodeRunner::BeginRecording(Episode& e) {
+  const mjModel* m = env_.model();
+  e.grasp_world = planner_.grasp_pose();
+  e.start_z = e.task.pickup_obj_start_pose.pos[2];
+  e.goal = ToMat4(e.task.pickup_obj_goal_pose);
   for (int b = 1; b < m->nbody; ++b) {
     const char* name = mj_id2name(m, mjOBJ_BODY, b);
     if (name == nullptr || m->body_parentid[b] != 0 || m->body_jntnum[b] != 1) continue;
     const int j = m->body_jntadr[b];
     if (m->jnt_type[j] != mjJNT_FREE) continue;
     if (std::string_view(name).rfind(env_.robot().prefix, 0) == 0) continue;
-    actors.emplace_back(name, j);
+    e.actors.emplace_back(name, j);
   }
-  if (record) {
+  if (options_.record) {
+    EpisodeRecord& rec = e.rec;
     rec.extra["robot_base_pose"] = Series(DType::kFloat32, {7});
     rec.extra["obj_start"] = Series(DType::kFloat32, {7});
     rec.extra["obj_end"] = Series(DType::kFloat32, {7});
@@ -206,142 +233,157 @@ EpisodeResult EpisodeRunner::Run(int64_t episode) {
     rec.extra["policy_num_retries"] = Series(DType::kInt64, {});
     rec.extra_json["task_info"].max_len = 4000;
     rec.extra_json["grasp_state_pickup_obj"].max_len = 2000;
-    rec.env_states["articulations/" + artic] = Series(DType::kFloat32, {artic_width});
-    for (const auto& [name, joint] : actors) {
+    rec.env_states["articulations/" + env_.robot().articulation_name] =
+        Series(DType::kFloat32, {env_.robot().articulation_width});
+    for (const auto& [name, joint] : e.actors) {
       rec.env_states["actors/" + name] = Series(DType::kFloat32, {13});
     }
   }
+  e.prev_tcp = robot_.TcpPose(env_.data());
+  e.prev_arm_qpos = robot_.ArmQpos(env_.data());
+}
 
-  // FK of the TCP with the arm at `q` (other joints as now), in the world frame.
+Mat4 EpisodeRunner::CommandedTcp(const std::vector<double>& q) {
+  const mjModel* m = env_.model();
+  const mjData* d = env_.data();
   mjData* scratch = impl_->scratch.get();
-  auto fk = [&](const std::vector<double>& q) {
-    std::copy_n(d->qpos, m->nq, scratch->qpos);
-    std::copy_n(d->mocap_pos, 3 * m->nmocap, scratch->mocap_pos);
-    std::copy_n(d->mocap_quat, 4 * m->nmocap, scratch->mocap_quat);
-    for (size_t i = 0; i < n_arm; ++i) scratch->qpos[robot_.arm_qpos_adr()[i]] = q[i];
-    mj_kinematics(m, scratch);
-    return robot_.TcpPose(scratch);
-  };
+  std::copy_n(d->qpos, m->nq, scratch->qpos);
+  std::copy_n(d->mocap_pos, 3 * m->nmocap, scratch->mocap_pos);
+  std::copy_n(d->mocap_quat, 4 * m->nmocap, scratch->mocap_quat);
+  for (size_t i = 0; i < robot_.num_arm(); ++i) scratch->qpos[robot_.arm_qpos_adr()[i]] = q[i];
+  mj_kinematics(m, scratch);
+  return robot_.TcpPose(scratch);
+}
 
-  Mat4 prev_tcp = robot_.TcpPose(d);
-  std::vector<double> prev_arm_qpos = robot_.ArmQpos(d);
-  PickSuccess verdict;
-  int64_t step = 0;
-  bool terminated = false, truncated = false;
-
-  // Records the observation after `step` policy steps; `action` is what led to it (null for
-  // observation 0), `applied_arm` its un-noised arm targets.
-  auto observe = [&](const PlannerAction* action) {
-    verdict = EvaluatePickSuccess(m, d, object, start_z, env_.robot().prefix,
+void EpisodeRunner::Observe(Episode& e, const PlannerAction* action) {
+  const mjModel* m = env_.model();
+  const mjData* d = env_.data();
+  const int object = e.object;
+  e.verdict = EvaluatePickSuccess(m, d, object, e.start_z, env_.robot().prefix,
                                   config_.task_config.succ_pos_threshold);
-    if (!record) return;
-    const std::vector<double> arm_q = robot_.ArmQpos(d), grip_q = robot_.GripperQpos(d);
-    const std::vector<double> arm_v = robot_.ArmQvel(d), grip_v = robot_.GripperQvel(d);
-    rec.qpos.push_back({{"arm", arm_q}, {"base", {}}, {"gripper", grip_q}});
-    rec.qvel.push_back({{"arm", arm_v}, {"base", {}}, {"gripper", grip_v}});
-    const Mat4 base = robot_.BasePose(d);
-    const Mat4 base_inv = InverseRigid(base);
-    rec.extra["robot_base_pose"].Append(PoseRow(env_.GetRobotBasePose()));
-    rec.extra["obj_start"].Append(PoseRow(task.pickup_obj_start_pose));
-    rec.extra["obj_end"].Append(PoseRow(task.pickup_obj_goal_pose));
-    rec.extra["tcp_pose"].Append(PoseRow(base_inv * robot_.TcpPose(d)));
-    rec.extra["grasp_pose"].Append(PoseRow(grasp_world));
-    rec.extra["policy_phase"].AppendInts({static_cast<int64_t>(planner_.phase())});
-    rec.extra["policy_num_retries"].AppendInts({planner_.retries()});
-    std::vector<double> panda(artic_width, 0.0);
-    size_t k = 0;
-    for (double v : arm_q) if (k < artic_width) panda[k++] = v;
-    for (double v : grip_q) if (k < artic_width) panda[k++] = v;
-    for (double v : arm_v) if (k < artic_width) panda[k++] = v;
-    for (double v : grip_v) if (k < artic_width) panda[k++] = v;
-    rec.env_states["articulations/" + artic].Append(panda);
-    for (const auto& [name, joint] : actors) {
-      // Free-joint pose (xyz, quat wxyz) and velocity (linear, angular): 13 values.
-      std::vector<double> row(13);
-      std::copy_n(d->qpos + m->jnt_qposadr[joint], 7, row.begin());
-      std::copy_n(d->qvel + m->jnt_dofadr[joint], 6, row.begin() + 7);
-      rec.env_states["actors/" + name].Append(row);
-    }
+  if (!options_.record) return;
+  EpisodeRecord& rec = e.rec;
+  const size_t artic_width = env_.robot().articulation_width;
+  const std::vector<double> arm_q = robot_.ArmQpos(d), grip_q = robot_.GripperQpos(d);
+  const std::vector<double> arm_v = robot_.ArmQvel(d), grip_v = robot_.GripperQvel(d);
+  rec.qpos.push_back({{"arm", arm_q}, {"base", {}}, {"gripper", grip_q}});
+  rec.qvel.push_back({{"arm", arm_v}, {"base", {}}, {"gripper", grip_v}});
+  const Mat4 base = robot_.BasePose(d);
+  const Mat4 base_inv = InverseRigid(base);
+  rec.extra["robot_base_pose"].Append(PoseRow(env_.GetRobotBasePose()));
+  rec.extra["obj_start"].Append(PoseRow(e.task.pickup_obj_start_pose));
+  rec.extra["obj_end"].Append(PoseRow(e.task.pickup_obj_goal_pose));
+  rec.extra["tcp_pose"].Append(PoseRow(base_inv * robot_.TcpPose(d)));
+  rec.extra["grasp_pose"].Append(PoseRow(e.grasp_world));
+  rec.extra["policy_phase"].AppendInts({static_cast<int64_t>(planner_.phase())});
+  rec.extra["policy_num_retries"].AppendInts({planner_.retries()});
+  std::vector<double> panda(artic_width, 0.0);
+  size_t k = 0;
+  for (double v : arm_q) if (k < artic_width) panda[k++] = v;
+  for (double v : grip_q) if (k < artic_width) panda[k++] = v;
+  for (double v : arm_v) if (k < artic_width) panda[k++] = v;
+  for (double v : grip_v) if (k < artic_width) panda[k++] = v;
+  rec.env_states["articulations/" + env_.robot().articulation_name].Append(panda);
+  for (const auto& [name, joint] : e.actors) {
+    // Free-joint pose (xyz, quat wxyz) and velocity (linear, angular): 13 values.
+    std::vector<double> row(13);
+    std::copy_n(d->qpos + m->jnt_qposadr[joint], 7, row.begin());
+    std::copy_n(d->qvel + m->jnt_dofadr[joint], 6, row.begin() + 7);
+    rec.env_states["actors/" + name].Append(row);
+  }
 
-    const Mat4 obj = ToMat4(sim::BodyPose(d, object));
-    rec.extra_json["task_info"].steps.push_back(
-        Json{{"episode_step", step},
-             {"position_error", TranslationDistance(obj, goal)},
-             {"rotation_error", RotationAngle(obj, goal)},
-             {"success", verdict.success}});
-    // Grasp state: contacts of the object with gripper geoms and with anything else.
-    bool touching = false, other = false;
-    for (int c = 0; c < d->ncon; ++c) {
-      const mjContact& con = d->contact[c];
-      const int b1 = m->geom_bodyid[con.geom1], b2 = m->geom_bodyid[con.geom2];
-      auto in_object = [&](int b) {
-        for (; b > 0; b = m->body_parentid[b]) if (b == object) return true;
-        return false;
-      };
-      const bool o1 = in_object(b1), o2 = in_object(b2);
-      if (o1 == o2) continue;
-      const int g = o1 ? con.geom2 : con.geom1;
-      if (robot_.IsGripperGeom(g)) touching = true;
-      else other = true;
-    }
-    rec.extra_json["grasp_state_pickup_obj"].steps.push_back(
-        Json{{"gripper", Json{{"touching", touching}, {"held", touching && !other}}}});
+  const Mat4 obj = ToMat4(sim::BodyPose(d, object));
+  rec.extra_json["task_info"].steps.push_back(
+      Json{{"episode_step", e.step},
+           {"position_error", TranslationDistance(obj, e.goal)},
+           {"rotation_error", RotationAngle(obj, e.goal)},
+           {"success", e.verdict.success}});
+  // Grasp state: contacts of the object with gripper geoms and with anything else.
+  bool touching = false, other = false;
+  for (int c = 0; c < d->ncon; ++c) {
+    const mjContact& con = d->contact[c];
+    const int b1 = m->geom_bodyid[con.geom1], b2 = m->geom_bodyid[con.geom2];
+    auto in_object = [&](int b) {
+      for (; b > 0; b = m->body_parentid[b]) if (b == object) return true;
+      return false;
+    };
+    const bool o1 = in_object(b1), o2 = in_object(b2);
+    if (o1 == o2) continue;
+    const int g = o1 ? con.geom2 : con.geom1;
+    if (robot_.IsGripperGeom(g)) touching = true;
+    else other = true;
+  }
+  rec.extra_json["grasp_state_pickup_obj"].steps.push_back(
+      Json{{"gripper", Json{{"touching", touching}, {"held", touching && !other}}}});
 
-    const bool terminal = action != nullptr && action->done;
-    auto& acts = rec.actions;
-    if (action == nullptr) {
-      // Observation 0: a dummy command, the servo targets after reset, zero motion.
-      const std::vector<double> targets = robot_.ArmTargets(d);
-      const Mat4 cmd_tcp = fk(targets);
-      acts["commanded_action"].push_back({});
-      acts["joint_pos"].push_back({{"arm", targets}, {"gripper", {robot_.GripperCtrl(d)}}});
-      acts["joint_pos_rel"].push_back({{"arm", std::vector<double>(n_arm, 0.0)},
-                                       {"base", {}},
-                                       {"gripper", std::vector<double>(n_grip, 0.0)}});
-      acts["ee_twist"].push_back(
-          {{"arm", std::vector<double>(6, 0.0)}, {"gripper", std::vector<double>(6, 0.0)}});
-      const std::vector<double> ee = PoseRow(base_inv * cmd_tcp);
-      acts["ee_pose"].push_back(
-          {{"arm", ee}, {"base", {0, 0, 0, 1, 0, 0, 0}}, {"gripper", ee}});
-    } else {
-      // The policy's action as the original stores it: in its action dtype, the arm as
-      // absolute targets or, in joint_rel_position mode, as the change from the joints at
-      // the previous observation.
-      std::vector<double> arm = action->arm;
-      if (config_.robot_config.command_mode.arm == ArmCommandMode::kJointRelPosition) {
-        for (size_t i = 0; i < n_arm; ++i) arm[i] -= prev_arm_qpos[i];
-      }
-      double gripper = action->gripper;
-      if (config_.task_config.action_dtype == ActionDtype::kFloat32) {
-        for (double& v : arm) v = static_cast<float>(v);
-        gripper = static_cast<float>(gripper);
-      }
-      acts["commanded_action"].push_back({{"arm", arm}, {"base", {}}, {"gripper", {gripper}}});
-      if (terminal) {
-        for (const char* name : {"joint_pos", "joint_pos_rel", "ee_twist", "ee_pose"}) {
-          acts[name].push_back({});
-        }
-      } else {
-        // fk() reads the joints of the previous state, restored below; the arm is replaced.
-        const Mat4 cmd_tcp = fk(action->arm);
-        std::vector<double> rel(n_arm);
-        for (size_t i = 0; i < n_arm; ++i) rel[i] = action->arm[i] - prev_arm_qpos[i];
-        acts["joint_pos"].push_back({{"arm", action->arm}, {"gripper", {action->gripper}}});
-        acts["joint_pos_rel"].push_back({{"arm", rel}});
-        const std::vector<double> twist = Se3Log(InverseRigid(prev_tcp) * cmd_tcp);
-        acts["ee_twist"].push_back({{"arm", twist}, {"gripper", twist}});
-        const std::vector<double> ee = PoseRow(base_inv * cmd_tcp);
-        acts["ee_pose"].push_back(
-            {{"arm", ee}, {"base", {0, 0, 0, 1, 0, 0, 0}}, {"gripper", ee}});
-      }
+  RecordActions(e, action, base_inv);
+  rec.rewards.push_back(static_cast<float>(e.verdict.reward));
+  rec.success.push_back(e.verdict.success);
+  rec.terminated.push_back(e.terminated);
+  rec.truncated.push_back(e.truncated);
+  e.prev_tcp = robot_.TcpPose(d);
+  e.prev_arm_qpos = arm_q;
+}
+
+void EpisodeRunner::RecordActions(Episode& e, const PlannerAction* action,
+                                  const Mat4& base_inv) {
+  const mjData* d = env_.data();
+  const size_t n_arm = robot_.num_arm();
+  const size_t n_grip = robot_.num_gripper();
+  const bool terminal = action != nullptr && action->done;
+  auto& acts = e.rec.actions;
+  if (action == nullptr) {
+    // Observation 0: a dummy command, the servo targets after reset, zero motion.
+    const std::vector<double> targets = robot_.ArmTargets(d);
+    const Mat4 cmd_tcp = CommandedTcp(targets);
+    acts["commanded_action"].push_back({});
+    acts["joint_pos"].push_back({{"arm", targets}, {"gripper", {robot_.GripperCtrl(d)}}});
+    acts["joint_pos_rel"].push_back({{"arm", std::vector<double>(n_arm, 0.0)},
+                                     {"base", {}},
+                                     {"gripper", std::vector<double>(n_grip, 0.0)}});
+    acts["ee_twist"].push_back(
+        {{"arm", std::vector<double>(6, 0.0)}, {"gripper", std::vector<double>(6, 0.0)}});
+    const std::vector<double> ee = PoseRow(base_inv * cmd_tcp);
+    acts["ee_pose"].push_back({{"arm", ee}, {"base", {0, 0, 0, 1, 0, 0, 0}}, {"gripper", ee}});
+    return;
+  }
+  // The policy's action as the original stores it: in its action dtype, the arm as absolute
+  // targets or, in joint_rel_position mode, as the change from the joints at the previous
+  // observation.
+  std::vector<double> arm = action->arm;
+  if (config_.robot_config.command_mode.arm == ArmCommandMode::kJointRelPosition) {
+    for (size_t i = 0; i < n_arm; ++i) arm[i] -= e.prev_arm_qpos[i];
+  }
+  double gripper = action->gripper;
+  if (config_.task_config.action_dtype == ActionDtype::kFloat32) {
+    for (double& v : arm) v = static_cast<float>(v);
+    gripper = static_cast<float>(gripper);
+  }
+  acts["commanded_action"].push_back({{"arm", arm}, {"base", {}}, {"gripper", {gripper}}});
+  if (terminal) {
+    for (const char* name : {"joint_pos", "joint_pos_rel", "ee_twist", "ee_pose"}) {
+      acts[name].push_back({});
     }
-    rec.rewards.push_back(static_cast<float>(verdict.reward));
-    rec.success.push_back(verdict.success);
-    rec.terminated.push_back(terminated);
-    rec.truncated.push_back(truncated);
-    prev_tcp = robot_.TcpPose(d);
-    prev_arm_qpos = arm_q;
-  };
+    return;
+  }
+  // CommandedTcp() reads the joints of the previous state, restored below; the arm is
+  // replaced.
+  const Mat4 cmd_tcp = CommandedTcp(action->arm);
+  std::vector<double> rel(n_arm);
+  for (size_t i = 0; i < n_arm; ++i) rel[i] = action->arm[i] - e.prev_arm_qpos[i];
+  acts["joint_pos"].push_back({{"arm", action->arm}, {"gripper", {action->gripper}}});
+  acts["joint_pos_rel"].push_back({{"arm", rel}});
+  const std::vector<double> twist = Se3Log(InverseRigid(e.prev_tcp) * cmd_tcp);
+  acts["ee_twist"].push_back({{"arm", twist}, {"gripper", twist}});
+  const std::vector<double> ee = PoseRow(base_inv * cmd_tcp);
+  acts["ee_pose"].push_back({{"arm", ee}, {"base", {0, 0, 0, 1, 0, 0, 0}}, {"gripper", ee}});
+}
+
+void EpisodeRunner::Rollout(Episode& e) {
+  const mjModel* m = env_.model();
+  mjData* d = env_.data();
+  AttemptRecord& attempt = e.attempt;
+  Rng noise_rng(DeriveSeed(attempt.seed, {0x6e6f697365ULL}));  // "noise"
 
   // Cameras: one frame per observation; an exception drops the episode's videos.
   struct AbortVideos {
@@ -352,15 +394,15 @@ EpisodeResult EpisodeRunner::Run(int64_t episode) {
   } abort_videos{cameras_.get()};
   const double render0 = cameras_ ? cameras_->render_seconds() : 0;
   const double encode0 = cameras_ ? cameras_->encode_seconds() : 0;
-  if (cameras_) cameras_->Begin(options_.video_dir, episode);
+  if (cameras_) cameras_->Begin(options_.video_dir, e.index);
 
   double t_policy = 0, t_physics = 0, t_observe = 0;
   auto t_obs = Clock::now();
-  observe(nullptr);
+  Observe(e, nullptr);
   if (cameras_) cameras_->Capture(d);
   t_observe += Since(t_obs);
   const ActionNoiseConfig& noise = config_.robot_config.action_noise_config;
-  while (!terminated && !truncated) {
+  while (!e.terminated && !e.truncated) {
     auto tp = Clock::now();
     const PlannerAction action = planner_.Act(d);
     // The controller: noisy arm targets (un-noised ones are recorded), gripper ctrl.
@@ -372,30 +414,30 @@ EpisodeResult EpisodeRunner::Run(int64_t episode) {
     auto ts = Clock::now();
     robot_.SetArmTargets(d, target);
     robot_.SetGripperCtrl(d, action.gripper);
-    if (options_.on_step) options_.on_step(m, d, step);
+    if (options_.on_step) options_.on_step(m, d, e.step);
     robot_.Step(d, substeps_);
     // Positions, contacts and Jacobians of the new state (what the success check, the
     // recorder and the next action read); the next mj_step1 recomputes the rest.
     mj_fwdPosition(m, d);
     t_physics += Since(ts);
-    result.physics_steps += substeps_;
-    ++step;
-    terminated = action.done;
-    truncated = step >= config_.task_horizon;
+    e.result.physics_steps += substeps_;
+    ++e.step;
+    e.terminated = action.done;
+    e.truncated = e.step >= config_.task_horizon;
     t_obs = Clock::now();
-    observe(&action);
+    Observe(e, &action);
     if (cameras_) cameras_->Capture(d);
     t_observe += Since(t_obs);
-    if (config_.end_on_success && verdict.success && !terminated) {
-      terminated = true;
-      if (record) rec.terminated.back() = true;
+    if (config_.end_on_success && e.verdict.success && !e.terminated) {
+      e.terminated = true;
+      if (options_.record) e.rec.terminated.back() = true;
     }
   }
-  result.policy_steps = step;
+  e.result.policy_steps = e.step;
   attempt.AddTiming("policy", t_policy);
   attempt.AddTiming("physics", t_physics);
   if (cameras_) {
-    rec.cameras = cameras_->End();
+    e.rec.cameras = cameras_->End();
     const double render = cameras_->render_seconds() - render0;
     const double encode = cameras_->encode_seconds() - encode0;
     attempt.AddTiming("observe", std::max(0.0, t_observe - render - encode));
@@ -404,18 +446,22 @@ EpisodeResult EpisodeRunner::Run(int64_t episode) {
   } else {
     attempt.AddTiming("observe", t_observe);
   }
-  attempt.extra["policy_steps"] = step;
+  attempt.extra["policy_steps"] = e.step;
   attempt.extra["retries"] = planner_.retries();
-  attempt.extra["lift"] = verdict.lift;
+  attempt.extra["lift"] = e.verdict.lift;
+}
 
-  result.success = verdict.success;
+void EpisodeRunner::Judge(Episode& e) {
+  AttemptRecord& attempt = e.attempt;
+  const PickSuccess& verdict = e.verdict;
+  e.result.success = verdict.success;
   if (verdict.success) {
     attempt.outcome = Outcome::kSuccess;
   } else if (planner_.gave_up()) {
     attempt.outcome = OutcomeOfFailure(planner_.failure());
     attempt.message = std::string(PlanFailureName(planner_.failure())) + ": " + planner_.message() +
                       " (after " + std::to_string(planner_.retries()) + " retries)";
-  } else if (truncated && !terminated) {
+  } else if (e.truncated && !e.terminated) {
     attempt.outcome = Outcome::kTimeout;
     attempt.message = "the horizon of " + std::to_string(config_.task_horizon) +
                       " policy steps ran out";
@@ -426,60 +472,62 @@ EpisodeResult EpisodeRunner::Run(int64_t episode) {
                       std::to_string(verdict.robot_contacts) + " robot / " +
                       std::to_string(verdict.other_contacts) + " other contacts";
   }
+}
 
-  if (record) {
-    EpisodeMetadata& meta = rec.meta;
-    meta.config_hash = DataConfigHashHex(config_);
-    meta.seed = attempt.seed;
-    meta.scene = options_.scene_name;
-    meta.source_episode = episode;
-    const std::string expr = Referral(task.pickup_obj_name, annotation.get());
-    meta.task_description = "Pick up the " + expr;
-    std::string license = "unknown";
-    if (annotation && annotation->json.is_object()) {
-      for (const char* key : {"license", "licence"}) {
-        const auto it = annotation->json.find(key);
-        if (it != annotation->json.end() && it->is_string()) license = it->get<std::string>();
-      }
+void EpisodeRunner::FinishRecord(Episode& e) {
+  EpisodeRecord& rec = e.rec;
+  const Task& task = e.task;
+  const std::string& uid = e.uid;
+  EpisodeMetadata& meta = rec.meta;
+  meta.config_hash = DataConfigHashHex(config_);
+  meta.seed = e.attempt.seed;
+  meta.scene = options_.scene_name;
+  meta.source_episode = e.index;
+  const std::string expr = Referral(task.pickup_obj_name, e.annotation.get());
+  meta.task_description = "Pick up the " + expr;
+  std::string license = "unknown";
+  if (e.annotation && e.annotation->json.is_object()) {
+    for (const char* key : {"license", "licence"}) {
+      const auto it = e.annotation->json.find(key);
+      if (it != e.annotation->json.end() && it->is_string()) license = it->get<std::string>();
     }
-    const std::optional<AssetLocation> where = registry_.Locate(uid);
-    meta.assets.push_back({uid, where ? where->library : std::string("unknown"), license,
-                           "pickup_obj"});
-    meta.mujoco_version = mj_versionString();
-    meta.mlspaces_version = std::string(Version());
-    // Only what is the same on every machine: the grasp file relative to its library.
-    std::string grasp_library, grasp_file = grasps.source.filename().string();
-    if (const auto found = registry_.FindPickupGraspFile(uid, filter)) {
-      grasp_library = found->library;
-      if (const GraspLibraryInfo* lib = registry_.FindGraspLibrary(found->library)) {
-        grasp_file = found->path.lexically_relative(lib->dir).generic_string();
-      }
-    }
-    // The attempt as journaled, minus its timings (which differ run to run): a resumed run
-    // restores a journal line lost in a crash from it.
-    Json attempt_json = attempt.ToJson();
-    attempt_json["timings"] = Json::object();
-    meta.extra = Json{{"scene_key", env_.scene_key()},
-                      {"grasp_library", grasp_library},
-                      {"grasp_file", grasp_file},
-                      {"attempt", attempt_json}};
-    rec.obs_scene = Json{{"task_type", "pick"},
-                         {"task_description", meta.task_description},
-                         {"policy_dt_ms", config_.policy_dt_ms},
-                         {"referral_expressions",
-                          Json{{"pickup_obj_name", Json::array({Json::array({expr, 1.0})})}}},
-                         {"policy_phases", PolicyPhaseMap()},
-                         {"frozen_config",
-                          Json{{"pickup_obj_name", task.pickup_obj_name},
-                               {"robot_base_pose", ToArray7(task.robot_base_pose)},
-                               {"pickup_obj_start_pose", ToArray7(task.pickup_obj_start_pose)},
-                               {"pickup_obj_goal_pose", ToArray7(task.pickup_obj_goal_pose)},
-                               {"config_hash", meta.config_hash}}},
-                         {"text", "pick " + task.pickup_obj_name},
-                         {"object_name", task.pickup_obj_name}};
-    result.record = std::move(rec);
   }
-  return result;
+  const std::optional<AssetLocation> where = registry_.Locate(uid);
+  meta.assets.push_back({uid, where ? where->library : std::string("unknown"), license,
+                         "pickup_obj"});
+  meta.mujoco_version = mj_versionString();
+  meta.mlspaces_version = std::string(Version());
+  // Only what is the same on every machine: the grasp file relative to its library.
+  std::string grasp_library, grasp_file = e.grasps.source.filename().string();
+  if (const auto found = registry_.FindPickupGraspFile(uid, e.filter)) {
+    grasp_library = found->library;
+    if (const GraspLibraryInfo* lib = registry_.FindGraspLibrary(found->library)) {
+      grasp_file = found->path.lexically_relative(lib->dir).generic_string();
+    }
+  }
+  // The attempt as journaled, minus its timings (which differ run to run): a resumed run
+  // restores a journal line lost in a crash from it.
+  Json attempt_json = e.attempt.ToJson();
+  attempt_json["timings"] = Json::object();
+  meta.extra = Json{{"scene_key", env_.scene_key()},
+                    {"grasp_library", grasp_library},
+                    {"grasp_file", grasp_file},
+                    {"attempt", attempt_json}};
+  rec.obs_scene = Json{{"task_type", "pick"},
+                       {"task_description", meta.task_description},
+                       {"policy_dt_ms", config_.policy_dt_ms},
+                       {"referral_expressions",
+                        Json{{"pickup_obj_name", Json::array({Json::array({expr, 1.0})})}}},
+                       {"policy_phases", PolicyPhaseMap()},
+                       {"frozen_config",
+                        Json{{"pickup_obj_name", task.pickup_obj_name},
+                             {"robot_base_pose", ToArray7(task.robot_base_pose)},
+                             {"pickup_obj_start_pose", ToArray7(task.pickup_obj_start_pose)},
+                             {"pickup_obj_goal_pose", ToArray7(task.pickup_obj_goal_pose)},
+                             {"config_hash", meta.config_hash}}},
+                       {"text", "pick " + task.pickup_obj_name},
+                       {"object_name", task.pickup_obj_name}};
+  e.result.record = std::move(rec);
 }
 
 }  // namespace mlspaces::datagen

@@ -14,6 +14,7 @@
 #include "mlspaces/core/crash_point.h"
 #include "mlspaces/core/error.h"
 #include "mlspaces/core/files.h"
+#include "mlspaces/datagen/dataset_schema.h"
 
 namespace mlspaces::datagen {
 namespace fs = std::filesystem;
@@ -377,50 +378,55 @@ Json ProvenanceJson(const EpisodeRecord& r, int k) {
 }
 
 void WriteTraj(Writer& w, const EpisodeRecord& r, int k) {
-  const std::string root = "/traj_" + std::to_string(k);
+  const std::string root = "/" + schema::TrajGroup(k);
   const size_t t = NumSteps(r);
   w.Group(root);
   // Datasets in a fixed order (HDF5 lists them by name anyway; this fixes the file bytes).
   std::vector<Json> rows(t);
   for (const auto& [name, steps] : r.actions) {
     for (size_t i = 0; i < t; ++i) rows[i] = MoveGroupJson(steps[i], false);
-    w.JsonRows(root + "/actions/" + name, rows, 2000);
+    w.JsonRows(root + "/" + schema::kActions + "/" + name, rows, schema::kJsonRowLen);
   }
-  for (const auto& [path, s] : r.env_states) w.Series(root + "/env_states/" + path, s);
-  for (const std::string& g : r.env_state_groups) w.Group(root + "/env_states/" + g);
+  const std::string env_states = root + "/" + schema::kEnvStates + "/";
+  for (const auto& [path, s] : r.env_states) w.Series(env_states + path, s);
+  for (const std::string& g : r.env_state_groups) w.Group(env_states + g);
+  const std::string agent = root + "/" + schema::kAgent + "/";
   for (size_t i = 0; i < t; ++i) rows[i] = MoveGroupJson(r.qpos[i], true);
-  w.JsonRows(root + "/obs/agent/qpos", rows, 2000);
+  w.JsonRows(agent + schema::kAgentDatasets[0], rows, schema::kJsonRowLen);
   for (size_t i = 0; i < t; ++i) rows[i] = MoveGroupJson(r.qvel[i], true);
-  w.JsonRows(root + "/obs/agent/qvel", rows, 2000);
-  w.Group(root + "/obs/extra");
-  for (const auto& [path, s] : r.extra) w.Series(root + "/obs/extra/" + path, s);
+  w.JsonRows(agent + schema::kAgentDatasets[1], rows, schema::kJsonRowLen);
+  const std::string extra = root + "/" + schema::kExtra;
+  w.Group(extra);
+  for (const auto& [path, s] : r.extra) w.Series(extra + "/" + path, s);
   for (const auto& [path, s] : r.extra_json) {
-    w.JsonRows(root + "/obs/extra/" + path, s.steps, s.max_len);
+    w.JsonRows(extra + "/" + path, s.steps, s.max_len);
   }
-  w.Group(root + "/obs/sensor_data");
-  w.Group(root + "/obs/sensor_param");
+  const std::string sensor_data = root + "/" + schema::kSensorData;
+  const std::string sensor_param = root + "/" + schema::kSensorParam;
+  w.Group(sensor_data);
+  w.Group(sensor_param);
   for (const CameraRecord& c : r.cameras) {
     if (!c.video_file.empty()) {
-      w.PaddedName(root + "/obs/sensor_data/" + c.name, c.video_file, kVideoNameLen);
+      w.PaddedName(sensor_data + "/" + c.name, c.video_file, kVideoNameLen);
     }
     if (!c.depth_video_file.empty()) {
-      w.PaddedName(root + "/obs/sensor_data/" + c.name + "_depth", c.depth_video_file,
+      w.PaddedName(sensor_data + "/" + c.name + schema::kDepthSuffix, c.depth_video_file,
                    kVideoNameLen);
     }
-    w.Group(root + "/obs/sensor_param/" + c.name);
+    w.Group(sensor_param + "/" + c.name);
     for (const auto& [key, s] : c.params) {
-      w.Series(root + "/obs/sensor_param/" + c.name + "/" + key, s);
+      w.Series(sensor_param + "/" + c.name + "/" + key, s);
     }
   }
   std::vector<bool> fail(t);
   for (size_t i = 0; i < t; ++i) fail[i] = !r.success[i];
-  w.Bools(root + "/fail", fail);
-  w.Dataset(root + "/rewards", H5T_NATIVE_FLOAT, {t}, r.rewards.data());
-  w.Bools(root + "/success", r.success);
-  w.Bools(root + "/terminated", r.terminated);
-  w.Bools(root + "/truncated", r.truncated);
-  w.ScalarString(root + "/obs_scene", r.obs_scene.dump());
-  w.StringAttribute(root, "provenance", ProvenanceJson(r, k).dump());
+  w.Bools(root + "/" + schema::kFail, fail);
+  w.Dataset(root + "/" + schema::kRewards, H5T_NATIVE_FLOAT, {t}, r.rewards.data());
+  w.Bools(root + "/" + schema::kSuccess, r.success);
+  w.Bools(root + "/" + schema::kTerminated, r.terminated);
+  w.Bools(root + "/" + schema::kTruncated, r.truncated);
+  w.ScalarString(root + "/" + schema::kObsScene, r.obs_scene.dump());
+  w.StringAttribute(root, schema::kProvenance, ProvenanceJson(r, k).dump());
 }
 
 /// Runs `fill` on a fresh HDF5 file beside `target`, then makes it durable and renames it over

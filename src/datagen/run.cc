@@ -1,10 +1,7 @@
 #include "mlspaces/datagen/run.h"
 
-#include <fcntl.h>
-#include <poll.h>
 #include <signal.h>
 #include <sys/prctl.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -25,6 +22,7 @@
 #include "mlspaces/core/file_lock.h"
 #include "mlspaces/core/files.h"
 #include "mlspaces/core/progress.h"
+#include "mlspaces/core/subprocess.h"
 #include "mlspaces/library/registry.h"
 #include "mlspaces/datagen/env.h"
 #include "mlspaces/datagen/episode_runner.h"
@@ -239,8 +237,8 @@ class ItemRunner {
   int64_t env_house_ = -1;
 };
 
-// A forked worker: runs its items, reports through `fd`, never returns.
-[[noreturn]] void WorkerMain(int fd, pid_t parent, const ExperimentConfig& config,
+// A forked worker: runs its items, reports through `fd`; returns the exit status.
+int WorkerMain(int fd, pid_t parent, const ExperimentConfig& config,
                              const Registry& registry, TaskSampler& sampler,
                              const fs::path& folder,
                              sim::GlBackend gl, int workers,
@@ -266,8 +264,7 @@ class ItemRunner {
     emit(Json{{"error", e.what()}});
     code = 1;
   }
-  ::close(fd);
-  ::_exit(code);
+  return code;
 }
 
 }  // namespace
@@ -482,92 +479,32 @@ RunReport RunDatagen(const ExperimentConfig& input, const TaskSamplerRegistry& s
                       handle);
     for (const auto& [index, item] : todo) runner.Run(index, item);
   } else {
-    struct Worker {
-      pid_t pid = -1;
-      int fd = -1;
-      std::string buffer;
-    };
-    std::vector<Worker> pool(workers);
+    std::vector<Child> pool;
     const pid_t self = ::getpid();
-    std::fflush(nullptr);
     for (int w = 0; w < workers; ++w) {
       std::vector<std::pair<size_t, WorkItem>> mine;
       for (size_t k = w; k < todo.size(); k += workers) mine.push_back(todo[k]);
-      int fds[2];
-      if (::pipe2(fds, O_CLOEXEC) != 0) {
-        throw Error(std::string("cannot create a pipe: ") + std::strerror(errno));
-      }
-      const pid_t pid = ::fork();
-      if (pid < 0) throw Error(std::string("cannot start a worker: ") + std::strerror(errno));
-      if (pid == 0) {
-        ::close(fds[0]);
-        for (int v = 0; v < w; ++v) ::close(pool[v].fd);
-        WorkerMain(fds[1], self, config, registry, *sampler, report.folder, options.gl_backend,
-                   workers, earlier, mine);
-      }
-      ::close(fds[1]);
-      pool[w].pid = pid;
-      pool[w].fd = fds[0];
+      pool.push_back(Child::Start([&](int fd) {
+        for (const Child& earlier_worker : pool) ::close(earlier_worker.fd());
+        return WorkerMain(fd, self, config, registry, *sampler, report.folder,
+                          options.gl_backend, workers, earlier, mine);
+      }));
     }
     std::string first_error;
-    auto stop_all = [&] {
-      for (Worker& w : pool) {
-        if (w.pid > 0) ::kill(w.pid, SIGKILL);
+    ReadChildLines(pool, [&](size_t, std::string_view line) {
+      const Json m = ParseJson(line, "worker message");
+      if (m.contains("error")) {
+        if (first_error.empty()) first_error = m["error"].get<std::string>();
+        for (Child& c : pool) c.Kill();
+        return;
       }
-    };
-    try {
-      size_t open = pool.size();
-      while (open > 0) {
-        std::vector<pollfd> fds;
-        std::vector<size_t> which;
-        for (size_t i = 0; i < pool.size(); ++i) {
-          if (pool[i].fd >= 0) {
-            fds.push_back({pool[i].fd, POLLIN, 0});
-            which.push_back(i);
-          }
-        }
-        if (::poll(fds.data(), fds.size(), -1) < 0) {
-          if (errno == EINTR) continue;
-          throw Error(std::string("poll failed: ") + std::strerror(errno));
-        }
-        for (size_t j = 0; j < fds.size(); ++j) {
-          if (fds[j].revents == 0) continue;
-          Worker& w = pool[which[j]];
-          char chunk[65536];
-          const ssize_t n = ::read(w.fd, chunk, sizeof chunk);
-          if (n < 0 && errno == EINTR) continue;
-          if (n <= 0) {
-            ::close(w.fd);
-            w.fd = -1;
-            --open;
-            continue;
-          }
-          w.buffer.append(chunk, static_cast<size_t>(n));
-          for (size_t nl; (nl = w.buffer.find('\n')) != std::string::npos;) {
-            const Json m = ParseJson(std::string_view(w.buffer).substr(0, nl), "worker message");
-            w.buffer.erase(0, nl + 1);
-            if (m.contains("error")) {
-              if (first_error.empty()) first_error = m["error"].get<std::string>();
-              stop_all();
-              continue;
-            }
-            handle(m);
-          }
-        }
-      }
-    } catch (...) {
-      stop_all();
-      for (Worker& w : pool) ::waitpid(w.pid, nullptr, 0);
-      throw;
-    }
+      handle(m);
+    });
     for (size_t i = 0; i < pool.size(); ++i) {
-      int status = 0;
-      ::waitpid(pool[i].pid, &status, 0);
-      if (first_error.empty() && !(WIFEXITED(status) && WEXITSTATUS(status) == 0)) {
+      const ChildExit exit = pool[i].Wait();
+      if (first_error.empty() && !exit.ok()) {
         first_error = "worker " + std::to_string(i) + " ended abnormally (" +
-                      (WIFSIGNALED(status) ? "signal " + std::to_string(WTERMSIG(status))
-                                           : "exit " + std::to_string(WEXITSTATUS(status))) +
-                      ")";
+                      (exit.signaled ? "signal " : "exit ") + std::to_string(exit.number) + ")";
       }
     }
     if (!first_error.empty()) throw Error(first_error);

@@ -1,13 +1,9 @@
-// Library lists from YAML files and CLI flags. Strict: unknown keys and wrong types are
-// errors naming the file and line.
+// Library lists from YAML files (the strict YAML archive, core/yaml_archive.h) and CLI
+// flags.
 #include "mlspaces/library/library_config.h"
 
-#include <yaml-cpp/yaml.h>
-
-#include <algorithm>
-#include <set>
-
 #include "mlspaces/core/error.h"
+#include "mlspaces/core/yaml_archive.h"
 #include "mlspaces/library/registry.h"
 
 namespace mlspaces {
@@ -15,77 +11,23 @@ namespace fs = std::filesystem;
 
 namespace {
 
-std::string LineOf(const YAML::Node& node) {
-  const YAML::Mark mark = node.Mark();
-  if (mark.is_null()) return {};
-  return "line " + std::to_string(mark.line + 1);
+template <class Spec>
+void ReadSpec(const YamlReader& reader, const YAML::Node& node, const std::string& key,
+              Spec& spec) {
+  reader.ReadStruct(node, key, spec);
+  for (const std::string& name : YamlFieldNames<Spec>()) {
+    if (!node[name]) reader.Fail(node, key, "missing '" + name + "'");
+  }
+  if (spec.name.empty()) reader.Fail(node, YamlChildKey(key, "name"), "must not be empty");
+  if (spec.name.find('/') != std::string::npos) {
+    reader.Fail(node, YamlChildKey(key, "name"),
+                "library name " + spec.name + " must not contain slashes");
+  }
+  if (!reader.context().file.empty()) {
+    spec.origin_file = reader.context().file;
+    spec.origin_line = YamlLineOf(node);
+  }
 }
-
-struct YamlReader {
-  fs::path file;
-  fs::path base_dir;
-
-  [[noreturn]] void Fail(const YAML::Node& node, const std::string& message) const {
-    throw Error(message, file.string(), LineOf(node));
-  }
-
-  /// A mapping's entries, checking keys are strings, known and not repeated.
-  std::vector<std::pair<std::string, YAML::Node>> Entries(
-      const YAML::Node& map, const std::vector<std::string>& allowed,
-      const std::string& what) const {
-    if (!map.IsMap()) Fail(map, what + " must be a mapping");
-    std::vector<std::pair<std::string, YAML::Node>> out;
-    std::set<std::string> seen;
-    for (const auto& kv : map) {
-      if (!kv.first.IsScalar()) Fail(kv.first, what + ": keys must be strings");
-      const std::string key = kv.first.Scalar();
-      if (std::find(allowed.begin(), allowed.end(), key) == allowed.end()) {
-        std::string list;
-        for (const std::string& a : allowed) list += (list.empty() ? "" : ", ") + a;
-        Fail(kv.first, "unknown key '" + key + "' in " + what + " (expected " + list + ")");
-      }
-      if (!seen.insert(key).second) Fail(kv.first, "duplicate key '" + key + "' in " + what);
-      out.emplace_back(key, kv.second);
-    }
-    return out;
-  }
-
-  std::string String(const YAML::Node& node, const std::string& key) const {
-    if (!node.IsScalar()) {
-      Fail(node, "'" + key + "' must be a string, got " +
-                     (node.IsNull() ? "null" : node.IsSequence() ? "a list" : "a mapping"));
-    }
-    if (node.Scalar().empty()) Fail(node, "'" + key + "' must not be empty");
-    return node.Scalar();
-  }
-
-  std::string Name(const YAML::Node& node, const std::string& key) const {
-    std::string name = String(node, key);
-    if (name.find('/') != std::string::npos) {
-      Fail(node, "library name " + name + " must not contain slashes");
-    }
-    return name;
-  }
-
-  fs::path Path(const YAML::Node& node, const std::string& key) const {
-    fs::path p(String(node, key));
-    return p.is_absolute() ? p : (base_dir / p).lexically_normal();
-  }
-
-  template <class F>
-  void List(const YAML::Node& node, const std::string& key, F&& each) const {
-    if (node.IsNull()) return;  // "asset_libraries:" with nothing after it
-    if (!node.IsSequence()) Fail(node, "'" + key + "' must be a list");
-    for (const auto& item : node) each(item);
-  }
-
-  void Required(const YAML::Node& map, const std::set<std::string>& present,
-                const std::vector<std::string>& keys, const std::string& what) const {
-    for (const std::string& k : keys) {
-      if (present.count(k) == 0) Fail(map, what + ": missing '" + k + "'");
-    }
-  }
-};
 
 /// Re-throws a registration error with the YAML location when it has none of its own.
 template <class F>
@@ -103,53 +45,49 @@ void WithLocation(const std::string& file, const std::string& line, F&& f) {
 
 }  // namespace
 
-LibraryConfig LibraryConfig::LoadYaml(const fs::path& file) {
-  YamlReader reader{file, fs::absolute(file).parent_path()};
-  YAML::Node root;
-  try {
-    root = YAML::LoadFile(file.string());
-  } catch (const YAML::BadFile&) {
-    throw Error("cannot open the libraries file", file.string());
-  } catch (const YAML::ParserException& e) {
-    throw Error("invalid YAML: " + e.msg, file.string(),
-                e.mark.is_null() ? std::string() : "line " + std::to_string(e.mark.line + 1));
+void ReadYaml(const YamlReader& reader, const YAML::Node& node, const std::string& key,
+              AssetLibrarySpec& spec) {
+  ReadSpec(reader, node, key, spec);
+}
+
+void ReadYaml(const YamlReader& reader, const YAML::Node& node, const std::string& key,
+              GraspLibrarySpec& spec) {
+  ReadSpec(reader, node, key, spec);
+}
+
+void ReadYaml(const YamlReader& reader, const YAML::Node& node, const std::string& key,
+              LibraryConfig& config) {
+  if (!node.IsScalar()) {
+    reader.ReadStruct(node, key, config);
+    return;
   }
+  fs::path file;
+  reader.Read(node, key, file);
+  try {
+    config = LibraryConfig::LoadYaml(file);
+  } catch (const Error& e) {
+    if (!e.field().empty()) throw;  // located in the libraries file itself
+    reader.Fail(node, key, e.what());
+  }
+}
+
+LibraryConfig LibraryConfig::LoadYaml(const fs::path& file) {
+  const YAML::Node root = LoadYamlFile(file, "libraries file");
   LibraryConfig config;
   if (root.IsNull()) return config;  // an empty file registers nothing
-  for (auto& [key, value] :
-       reader.Entries(root, {"assets_dir", "asset_libraries", "grasp_libraries"}, "top level")) {
-    if (key == "assets_dir") {
-      config.assets_dir = reader.Path(value, key);
-    } else if (key == "asset_libraries") {
-      reader.List(value, key, [&](const YAML::Node& item) {
-        AssetLibrarySpec spec;
-        std::set<std::string> present;
-        for (auto& [k, v] : reader.Entries(item, {"name", "path"}, "an asset library")) {
-          present.insert(k);
-          if (k == "name") spec.name = reader.Name(v, k);
-          if (k == "path") spec.dir = reader.Path(v, k);
-        }
-        reader.Required(item, present, {"name", "path"}, "asset library");
-        spec.origin_file = file;
-        spec.origin_line = LineOf(item);
-        config.asset_libraries.push_back(std::move(spec));
-      });
-    } else {
-      reader.List(value, key, [&](const YAML::Node& item) {
-        GraspLibrarySpec spec;
-        std::set<std::string> present;
-        for (auto& [k, v] :
-             reader.Entries(item, {"name", "path", "asset_library"}, "a grasp library")) {
-          present.insert(k);
-          if (k == "name") spec.name = reader.Name(v, k);
-          if (k == "path") spec.dir = reader.Path(v, k);
-          if (k == "asset_library") spec.asset_library = reader.String(v, k);
-        }
-        reader.Required(item, present, {"name", "path", "asset_library"}, "grasp library");
-        spec.origin_file = file;
-        spec.origin_line = LineOf(item);
-        config.grasp_libraries.push_back(std::move(spec));
-      });
+  YamlContext ctx{file.string(), fs::absolute(file).parent_path()};
+  ctx.null_lists_are_empty = true;  // "asset_libraries:" with nothing after it
+  const YamlReader reader(ctx);
+  reader.ReadStruct(root, "", config);
+  for (const auto& kv : root) {  // unlike an optional elsewhere, assets_dir cannot be null
+    if (kv.first.Scalar() == "assets_dir" && kv.second.IsNull()) {
+      reader.Fail(kv.first, "assets_dir", "expected a path, got null");
+    }
+  }
+  for (size_t i = 0; i < config.grasp_libraries.size(); ++i) {
+    if (config.grasp_libraries[i].asset_library.empty()) {
+      throw Error("grasp_libraries[" + std::to_string(i) + "].asset_library: must not be empty",
+                  file.string(), config.grasp_libraries[i].origin_line);
     }
   }
   return config;

@@ -16,13 +16,6 @@
 namespace mlspaces {
 namespace fs = std::filesystem;
 
-std::string Problem::ToString() const {
-  std::string out = file;
-  if (!pointer.empty()) out += (out.empty() ? "" : ": ") + pointer;
-  if (!message.empty()) out += (out.empty() ? "" : ": ") + message;
-  return out;
-}
-
 namespace {
 
 constexpr double kOrthoTolerance = 1e-3;      // f4 / f8 files

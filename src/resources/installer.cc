@@ -24,13 +24,13 @@
 #include <map>
 #include <mutex>
 #include <set>
-#include <thread>
 #include <tuple>
 
 #include "mlspaces/core/crash_point.h"
 #include "mlspaces/core/error.h"
 #include "mlspaces/core/files.h"
 #include "mlspaces/core/json.h"
+#include "mlspaces/core/parallel.h"
 #include "mlspaces/resources/archive.h"
 #include "mlspaces/resources/fetch.h"
 #include "mlspaces/core/file_lock.h"
@@ -335,35 +335,19 @@ struct Installer::Impl {
       fs::remove_all(src->dir / ".mlspaces" / "staging", ec);
       for (size_t begin = 0; begin < indexes.size(); begin += kBatch) {
         const size_t end = std::min(indexes.size(), begin + kBatch);
-        std::atomic<size_t> next{begin};
         std::mutex mu;
-        std::exception_ptr error;
         std::vector<uint32_t> placed;
-        auto work = [&] {
-          for (;;) {
-            const size_t i = next++;
-            if (i >= end) return;
-            {
+        std::exception_ptr error;
+        try {
+          ParallelFor(end - begin, std::max(1, options.parallel_downloads), [&](size_t k) {
+            if (PlaceArchive(*src, indexes[begin + k], done, plan.download_bytes)) {
               std::lock_guard<std::mutex> l(mu);
-              if (error) return;
+              placed.push_back(indexes[begin + k]);
             }
-            try {
-              if (PlaceArchive(*src, indexes[i], done, plan.download_bytes)) {
-                std::lock_guard<std::mutex> l(mu);
-                placed.push_back(indexes[i]);
-              }
-            } catch (...) {
-              std::lock_guard<std::mutex> l(mu);
-              if (!error) error = std::current_exception();
-            }
-          }
-        };
-        const int n = std::max(1, std::min<int>(options.parallel_downloads,
-                                                static_cast<int>(end - begin)));
-        std::vector<std::thread> pool;
-        for (int t = 1; t < n; ++t) pool.emplace_back(work);
-        work();
-        for (auto& t : pool) t.join();
+          });
+        } catch (...) {
+          error = std::current_exception();
+        }
         FlagArchives(*src, placed);  // what is complete keeps its work, even on an error
         if (error) std::rethrow_exception(error);
       }
@@ -506,22 +490,22 @@ std::vector<Installer::Problem> Installer::Verify(const std::vector<std::string>
       try {
         m = PackageManifest::Load(manifest_path);
       } catch (const Error& e) {
-        problems.push_back({manifest_path, e.message()});
+        problems.push_back({manifest_path.string(), "", e.message()});
         continue;
       }
       auto check = [&](const fs::path& file, uint64_t size, const std::string& sha) {
         ++checked;
         if (!IsFile(file)) {
-          problems.push_back({file, "missing"});
+          problems.push_back({file.string(), "", "missing"});
           return false;
         }
         const FileDigest d = Sha256File(file);
         if (d.size != size) {
-          problems.push_back({file, "size " + std::to_string(d.size) + ", expected " + std::to_string(size)});
+          problems.push_back({file.string(), "", "size " + std::to_string(d.size) + ", expected " + std::to_string(size)});
           return false;
         }
         if (d.sha256 != sha) {
-          problems.push_back({file, "SHA-256 " + d.sha256 + ", expected " + sha});
+          problems.push_back({file.string(), "", "SHA-256 " + d.sha256 + ", expected " + sha});
           return false;
         }
         return true;
@@ -535,16 +519,16 @@ std::vector<Installer::Problem> Installer::Verify(const std::vector<std::string>
         ++checked;
         std::string listing_text;
         if (!IsFile(listing_path)) {
-          problems.push_back({listing_path, "missing"});
+          problems.push_back({listing_path.string(), "", "missing"});
           good = false;
         } else if (listing_text = ReadFile(listing_path); Sha256Hex(listing_text) != a.members_sha256) {
-          problems.push_back({listing_path, "SHA-256 differs from the manifest's members_sha256"});
+          problems.push_back({listing_path.string(), "", "SHA-256 differs from the manifest's members_sha256"});
           good = false;
         } else {
           const FlatJson listing = ParseFlatJson(listing_text, listing_path.string());
           for (const auto& [rel, info] : listing.items()) {
             if (!info.is_object() || !info.contains("size") || !info.contains("sha256")) {
-              problems.push_back({listing_path, "bad entry for " + rel});
+              problems.push_back({listing_path.string(), "", "bad entry for " + rel});
               good = false;
               continue;
             }

@@ -10,15 +10,11 @@
 #include <zlib.h>
 
 #include <algorithm>
-#include <atomic>
-#include <condition_variable>
 #include <cstdio>
 #include <ctime>
 #include <map>
-#include <mutex>
 #include <optional>
 #include <set>
-#include <thread>
 
 #include "mlspaces/library/annotation.h"
 #include "mlspaces/library/asset_index.h"
@@ -27,6 +23,7 @@
 #include "mlspaces/core/files.h"
 #include "mlspaces/library/grasp_index.h"
 #include "mlspaces/core/json.h"
+#include "mlspaces/core/parallel.h"
 #include "mlspaces/library/packed_store.h"
 #include "mlspaces/library/registry.h"
 #include "mlspaces/core/version.h"
@@ -278,17 +275,7 @@ PackReport PackLibrary(const fs::path& library_dir, const fs::path& out_dir, Pac
   // Workers build archives; the main thread adds them to the store in archive order (so the
   // output does not depend on scheduling), and workers stay at most a window ahead.
   const size_t n = plans.size();
-  int threads = options.threads > 0 ? options.threads
-                                    : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-  threads = static_cast<int>(std::min<size_t>(static_cast<size_t>(threads), n));
-  const size_t window = static_cast<size_t>(threads) * 4;
-  std::vector<std::optional<ArchiveResult>> results(n);
-  std::vector<std::exception_ptr> errors(n);
-  std::mutex mu;
-  std::condition_variable cv;
-  std::atomic<size_t> next{0};
-  size_t consumed = 0;
-  std::atomic<bool> failed{false};
+  const size_t window = static_cast<size_t>(ParallelThreads(options.threads, n)) * 4;
 
   auto build = [&](size_t i) {
     const ArchivePlan& plan = plans[i];
@@ -369,32 +356,6 @@ PackReport PackLibrary(const fs::path& library_dir, const fs::path& out_dir, Pac
     return r;
   };
 
-  auto worker = [&] {
-    for (;;) {
-      size_t i;
-      {
-        std::unique_lock<std::mutex> lock(mu);
-        cv.wait(lock, [&] { return failed || next.load() < consumed + window || next.load() >= n; });
-        if (failed || next.load() >= n) return;
-        i = next++;
-      }
-      std::optional<ArchiveResult> r;
-      std::exception_ptr err;
-      try {
-        r = build(i);
-      } catch (...) {
-        err = std::current_exception();
-      }
-      std::lock_guard<std::mutex> lock(mu);
-      results[i] = std::move(r);
-      errors[i] = err;
-      if (err) failed = true;
-      cv.notify_all();
-    }
-  };
-  std::vector<std::thread> pool;
-  for (int t = 0; t < threads; ++t) pool.emplace_back(worker);
-
   PackageManifest manifest;
   manifest.data_type = options.data_type;
   manifest.name = options.name;
@@ -419,48 +380,22 @@ PackReport PackLibrary(const fs::path& library_dir, const fs::path& out_dir, Pac
     tries[archive] = std::move(trie);
   };
   std::set<std::string> robots;
-  std::exception_ptr first_error;
-  for (size_t i = 0; i < n; ++i) {
-    std::optional<ArchiveResult> r;
-    {
-      std::unique_lock<std::mutex> lock(mu);
-      cv.wait(lock, [&] { return results[i].has_value() || errors[i] || failed; });
-      if (!results[i]) {
-        // Report the lowest-numbered failure once every worker has stopped.
-        failed = true;
-        cv.notify_all();
-        lock.unlock();
-        for (auto& t : pool) t.join();
-        pool.clear();
-        for (size_t k = 0; k < n; ++k) {
-          if (errors[k]) {
-            first_error = errors[k];
-            break;
-          }
-        }
-        break;
-      }
-      r = std::move(results[i]);
-      results[i].reset();
-      consumed = i + 1;
-      cv.notify_all();
-    }
-    for (const PackedAssetInput& a : r->assets) {
+  ParallelForOrdered<ArchiveResult>(n, options.threads, window, build, [&](size_t i,
+                                                                          ArchiveResult&& r) {
+    for (const PackedAssetInput& a : r.assets) {
       store.Add(a);
       for (const auto& g : a.grasps) robots.insert(g.robot);
     }
-    report.grasp_sets += r->grasp_sets;
-    report.grasps += r->grasps;
-    report.warnings.insert(report.warnings.end(), r->warnings.begin(), r->warnings.end());
-    report.archive_bytes += r->archive.size;
-    report.unpacked_bytes += r->archive.unpacked_bytes;
-    sizes[r->archive.name] = static_cast<double>(r->archive.size) / (1024.0 * 1024.0);
-    add_trie(r->archive.name, r->members);
+    report.grasp_sets += r.grasp_sets;
+    report.grasps += r.grasps;
+    report.warnings.insert(report.warnings.end(), r.warnings.begin(), r.warnings.end());
+    report.archive_bytes += r.archive.size;
+    report.unpacked_bytes += r.archive.unpacked_bytes;
+    sizes[r.archive.name] = static_cast<double>(r.archive.size) / (1024.0 * 1024.0);
+    add_trie(r.archive.name, r.members);
     if (options.progress) options.progress(i + 1, n);
-    manifest.archives.push_back(std::move(r->archive));
-  }
-  for (auto& t : pool) t.join();
-  if (first_error) std::rethrow_exception(first_error);
+    manifest.archives.push_back(std::move(r.archive));
+  });
 
   store.Finish();
   for (std::string_view file : {kUidIndexFile, kMetadataStoreFile}) {

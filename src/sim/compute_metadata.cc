@@ -1,12 +1,11 @@
 #include "mlspaces/sim/compute_metadata.h"
 
 #include <algorithm>
-#include <atomic>
 #include <mutex>
-#include <thread>
 
 #include "mlspaces/core/error.h"
 #include "mlspaces/core/files.h"
+#include "mlspaces/core/parallel.h"
 #include "mlspaces/sim/mujoco_handlers.h"
 
 namespace mlspaces::sim {
@@ -51,40 +50,30 @@ ComputeMetadataReport ComputeAssetMetadata(const fs::path& dir, const AssetIndex
     work.push_back(std::move(w));
   }
 
-  int threads = compute.threads > 0 ? compute.threads
-                                    : std::max(1u, std::thread::hardware_concurrency());
-  threads = std::max(1, std::min<int>(threads, static_cast<int>(work.size())));
-  std::atomic<size_t> next{0};
   std::mutex mu;
   size_t done = 0;
-  auto worker = [&] {
-    for (size_t i; (i = next.fetch_add(1)) < work.size();) {
-      const Work& w = work[i];
-      std::string failure;
-      try {
-        Json source = ParseJsonFile(w.json);
-        AssetFacts facts = ComputeAssetFacts(w.xml, /*physics_only=*/true);
-        // No fsync per ~300-byte file (4-8 ms each on this machine's disk, several times the
-        // compile): the file system is synced once below, before the index is written.
-        WriteFileAtomic(w.computed, DumpJsonIndent4(MakeComputedMetadata(source, facts)),
-                        /*sync=*/false);
-      } catch (const std::exception& e) {
-        failure = e.what();
-      }
-      std::lock_guard<std::mutex> lock(mu);
-      if (failure.empty()) {
-        ++report.computed;
-      } else {
-        report.failures.push_back({w.uid, failure});
-      }
-      ++done;
-      if (compute.progress) compute.progress(done, work.size());
+  ParallelFor(work.size(), compute.threads, [&](size_t i) {
+    const Work& w = work[i];
+    std::string failure;
+    try {
+      Json source = ParseJsonFile(w.json);
+      AssetFacts facts = ComputeAssetFacts(w.xml, /*physics_only=*/true);
+      // No fsync per ~300-byte file (4-8 ms each on this machine's disk, several times the
+      // compile): the file system is synced once below, before the index is written.
+      WriteFileAtomic(w.computed, DumpJsonIndent4(MakeComputedMetadata(source, facts)),
+                      /*sync=*/false);
+    } catch (const std::exception& e) {
+      failure = e.what();
     }
-  };
-  std::vector<std::thread> pool;
-  for (int t = 1; t < threads; ++t) pool.emplace_back(worker);
-  worker();
-  for (std::thread& t : pool) t.join();
+    std::lock_guard<std::mutex> lock(mu);
+    if (failure.empty()) {
+      ++report.computed;
+    } else {
+      report.failures.push_back(Diagnostic{"", "", failure, w.uid});
+    }
+    ++done;
+    if (compute.progress) compute.progress(done, work.size());
+  });
   std::sort(report.failures.begin(), report.failures.end(),
             [](const AssetFailure& a, const AssetFailure& b) { return a.uid < b.uid; });
 

@@ -306,7 +306,7 @@ TEST_F(ConfigTest, LibrariesFromALibrariesFile) {
   // An error inside the libraries file names that file and its line.
   WriteText(tmp_ / "sub/libs.yaml", "asset_libraries:\n  - {name: a, pth: lib}\n");
   ExpectError([&] { Load("libraries: sub/libs.yaml\n"); },
-              {"libs.yaml", "line 2", "unknown key 'pth'"});
+              {"libs.yaml", "line 2", "asset_libraries[0].pth: unknown key"});
   // A missing libraries file names the config's line.
   auto [what, field] = LoadError("num_workers: 1\nlibraries: missing.yaml\n");
   EXPECT_EQ(field, "line 2");

@@ -80,8 +80,8 @@ class DatasetValidateTest : public ::testing::Test {
   static void ExpectOnly(const DatasetReport& r, const fs::path& file, const std::string& path,
                          const std::string& message) {
     ASSERT_EQ(r.problems.size(), 1u) << Lines(r);
-    EXPECT_EQ(r.problems[0].file, file.string());
-    EXPECT_EQ(r.problems[0].path, path);
+    EXPECT_EQ(r.problems[0].path, file.string());
+    EXPECT_EQ(r.problems[0].field, path);
     EXPECT_THAT(r.problems[0].message, HasSubstr(message));
   }
 
@@ -89,7 +89,7 @@ class DatasetValidateTest : public ::testing::Test {
   static bool Has(const DatasetReport& r, const fs::path& file, const std::string& path,
                   const std::string& message) {
     for (const DatasetProblem& p : r.problems) {
-      if (p.file == file.string() && p.path == path &&
+      if (p.path == file.string() && p.field == path &&
           p.message.find(message) != std::string::npos) {
         return true;
       }

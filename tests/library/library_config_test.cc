@@ -77,23 +77,23 @@ TEST_F(LibraryConfigTest, BadYamlNamesFileAndLine) {
 
   std::tie(what, field) =
       YamlError("asset_libraries:\n  - name: a\n    path: b\n    colour: red\n");
-  EXPECT_THAT(what, HasSubstr("unknown key 'colour'"));
+  EXPECT_THAT(what, HasSubstr("asset_libraries[0].colour: unknown key (valid keys: name, path)"));
   EXPECT_EQ(field, "line 4");
 
   std::tie(what, field) = YamlError("assets_dir: x\nlibraries: []\n");
-  EXPECT_THAT(what, HasSubstr("unknown key 'libraries' in top level"));
+  EXPECT_THAT(what, HasSubstr("libraries: unknown key ("));
   EXPECT_EQ(field, "line 2");
 
   std::tie(what, field) = YamlError("asset_libraries:\n  - name: [a]\n    path: b\n");
-  EXPECT_THAT(what, HasSubstr("'name' must be a string"));
+  EXPECT_THAT(what, HasSubstr("asset_libraries[0].name: expected a string, got a list"));
   EXPECT_EQ(field, "line 2");
 
   std::tie(what, field) = YamlError("asset_libraries: {name: a}\n");
-  EXPECT_THAT(what, HasSubstr("'asset_libraries' must be a list"));
+  EXPECT_THAT(what, HasSubstr("asset_libraries: expected a list, got a mapping"));
   EXPECT_EQ(field, "line 1");
 
   std::tie(what, field) = YamlError("asset_libraries:\n  - name: a\n");
-  EXPECT_THAT(what, HasSubstr("missing 'path'"));
+  EXPECT_THAT(what, HasSubstr("asset_libraries[0]: missing 'path'"));
   EXPECT_EQ(field, "line 2");
 
   std::tie(what, field) =
@@ -105,13 +105,13 @@ TEST_F(LibraryConfigTest, BadYamlNamesFileAndLine) {
   EXPECT_EQ(field, "line 2");
 
   std::tie(what, field) = YamlError("asset_libraries:\n  - {name: a, path: p, path: q}\n");
-  EXPECT_THAT(what, HasSubstr("duplicate key 'path'"));
+  EXPECT_THAT(what, HasSubstr("asset_libraries[0].path: duplicate key"));
 
   std::tie(what, field) = YamlError("- just\n- a list\n");
-  EXPECT_THAT(what, HasSubstr("top level must be a mapping"));
+  EXPECT_THAT(what, HasSubstr("top level: expected a mapping, got a list"));
 
   std::tie(what, field) = YamlError("assets_dir:\n");
-  EXPECT_THAT(what, HasSubstr("'assets_dir' must be a string, got null"));
+  EXPECT_THAT(what, HasSubstr("assets_dir: expected a path, got null"));
 }
 
 TEST_F(LibraryConfigTest, MissingFile) {

@@ -88,7 +88,7 @@ class PackInstallTest : public ::testing::Test {
     Installer installer(Settings("file:///nonexistent"));
     size_t checked = 0;
     const auto problems = installer.Verify({}, false, &checked);
-    for (const auto& p : problems) ADD_FAILURE() << p.file << ": " << p.message;
+    for (const auto& p : problems) ADD_FAILURE() << p.ToString();
     size_t flags = 0;
     for (const PackageArchive& a : manifest.archives) {
       flags += fs::exists(tmp / "cache" / "objects" / "fixlib" / "1" / ExtractFlagName(a.name));

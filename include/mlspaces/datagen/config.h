@@ -73,6 +73,13 @@ std::string_view EnumName(E value) {
   return EnumNames<E>::kNames[static_cast<size_t>(value)];
 }
 
+/// The YAML archive's enum hook (core/yaml_archive.h), found by ADL.
+template <class E>
+  requires requires { EnumNames<E>::kNames; }
+constexpr const auto& YamlEnumNames(E) {
+  return EnumNames<E>::kNames;
+}
+
 // ---------------------------------------------------------------------------------------
 // Sub-configs.
 

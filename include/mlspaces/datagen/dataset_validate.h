@@ -7,15 +7,14 @@
 #include <string>
 #include <vector>
 
+#include "mlspaces/core/diagnostics.h"
+
 namespace mlspaces::datagen {
 
-/// One problem: printed as "file: path: message", leaving out empty parts.
-struct DatasetProblem {
-  std::string file;     ///< the file or folder concerned (an HDF5 file, a video, a temp file)
-  std::string path;     ///< HDF5 path ("traj_0/obs/agent/qpos", "traj_0@provenance/seed"), or ""
-  std::string message;
-  std::string ToString() const;
-};
+/// One problem: path = the file or folder concerned (an HDF5 file, a video, a temp file),
+/// field = the HDF5 path ("traj_0/obs/agent/qpos", "traj_0@provenance/seed") or "";
+/// printed as "file: hdf5 path: message", leaving out empty parts.
+using DatasetProblem = Diagnostic;
 
 /// What ValidateDataset looked at and found.
 struct DatasetReport {

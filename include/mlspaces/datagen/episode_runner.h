@@ -78,6 +78,30 @@ class EpisodeRunner {
 
  private:
   struct Impl;
+  /// The state of one episode while Run carries it through the steps below.
+  struct Episode;
+
+  // Run's steps, in order. The first three return false when the episode ends there (the
+  // outcome is in the attempt).
+  bool SampleTask(Episode& e);
+  bool LoadGrasps(Episode& e);
+  bool Plan(Episode& e);
+  /// Sets up the recorded series (robot poses, env states of the free objects).
+  void BeginRecording(Episode& e);
+  /// Steps policy -> controller -> physics until done or the horizon, observing each state.
+  void Rollout(Episode& e);
+  /// Records the observation after e.step policy steps; `action` led to it (null for
+  /// observation 0).
+  void Observe(Episode& e, const PlannerAction* action);
+  /// Records the action rows of one observation (see Observe).
+  void RecordActions(Episode& e, const PlannerAction* action, const Mat4& base_inv);
+  /// The outcome from the final verdict and the planner's state.
+  void Judge(Episode& e);
+  /// The episode's metadata and obs_scene; moves the record into the result.
+  void FinishRecord(Episode& e);
+  /// The TCP pose in the world frame with the arm joints at `q` (the rest as now).
+  Mat4 CommandedTcp(const std::vector<double>& q);
+
   Env& env_;
   TaskSampler& sampler_;
   const Registry& registry_;

@@ -6,9 +6,14 @@
 #include <string>
 #include <vector>
 
+namespace YAML {
+class Node;
+}
+
 namespace mlspaces {
 
 class Registry;
+class YamlReader;
 
 struct AssetLibrarySpec {
   std::string name;
@@ -49,5 +54,37 @@ struct LibraryConfig {
   /// a file of their own name the YAML file and line of the entry.
   void ApplyTo(Registry& registry) const;
 };
+
+// Field descriptions for the YAML archive (core/yaml_archive.h): the keys of the YAML form.
+
+template <class A>
+void SerializeFields(A* a, AssetLibrarySpec& spec) {
+  a->Visit("name", spec.name);
+  a->Visit("path", spec.dir);
+}
+
+template <class A>
+void SerializeFields(A* a, GraspLibrarySpec& spec) {
+  a->Visit("name", spec.name);
+  a->Visit("path", spec.dir);
+  a->Visit("asset_library", spec.asset_library);
+}
+
+template <class A>
+void SerializeFields(A* a, LibraryConfig& config) {
+  a->Visit("assets_dir", config.assets_dir);
+  a->Visit("asset_libraries", config.asset_libraries);
+  a->Visit("grasp_libraries", config.grasp_libraries);
+}
+
+/// Archive read hooks: a spec needs every key, a non-empty name without slashes, and records
+/// the file and line it came from; a LibraryConfig inside another config is a mapping or the
+/// path of a libraries YAML file (LoadYaml).
+void ReadYaml(const YamlReader& reader, const YAML::Node& node, const std::string& key,
+              AssetLibrarySpec& spec);
+void ReadYaml(const YamlReader& reader, const YAML::Node& node, const std::string& key,
+              GraspLibrarySpec& spec);
+void ReadYaml(const YamlReader& reader, const YAML::Node& node, const std::string& key,
+              LibraryConfig& config);
 
 }  // namespace mlspaces

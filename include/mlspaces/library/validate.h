@@ -5,15 +5,13 @@
 #include <string>
 #include <vector>
 
+#include "mlspaces/core/diagnostics.h"
+
 namespace mlspaces {
 
-/// One problem: printed as "file: /json/pointer: message".
-struct Problem {
-  std::string file;
-  std::string pointer;  ///< JSON pointer, or a zip member / "line N"; may be empty
-  std::string message;
-  std::string ToString() const;
-};
+/// One problem: path = the file, field = a JSON pointer, zip member or "line N" (may be
+/// empty); printed as "file: /json/pointer: message".
+using Problem = Diagnostic;
 
 /// Validates the asset index and/or grasp index in `dir` (at least one must exist):
 /// every entry resolves to a file; index `uid` equals its key; metadata JSON parses and its

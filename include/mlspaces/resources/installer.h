@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "mlspaces/core/diagnostics.h"
 #include "mlspaces/library/packed_store.h"
 #include "mlspaces/resources/package.h"
 #include "mlspaces/resources/sources.h"
@@ -79,10 +80,8 @@ class Installer {
   /// Downloads, verifies and extracts a plan's archives (with their grasp shards).
   void Install(const InstallPlan& plan);
 
-  struct Problem {
-    std::filesystem::path file;
-    std::string message;
-  };
+  /// A problem of an installed file: path = the file, message; field empty.
+  using Problem = Diagnostic;
   /// Re-checks installed files of every set-up source in the assets dir (or only `names`)
   /// against the manifests. With `repair`, archives with bad files lose their extraction
   /// flag so the next install fetches them again. @returns the problems (empty = all good).

@@ -9,16 +9,15 @@
 #include <vector>
 
 #include "mlspaces/library/asset_index.h"
+#include "mlspaces/core/diagnostics.h"
 #include "mlspaces/core/json.h"
 #include "mlspaces/sim/asset_facts.h"
 
 namespace mlspaces::sim {
 
-/// One asset that could not be computed (the run goes on without it).
-struct AssetFailure {
-  std::string uid;
-  std::string message;  ///< one line: "<file>: line N, element <tag>: <message>"
-};
+/// One asset that could not be computed (the run goes on without it): uid, and message, one
+/// line: "<file>: line N, element <tag>: <message>" (path and field empty).
+using AssetFailure = Diagnostic;
 
 struct ComputeMetadataReport {
   IndexReport index;                  ///< the index written (count, output, warnings)

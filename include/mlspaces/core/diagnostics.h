@@ -1,0 +1,41 @@
+// Diagnostic: the one shape of a warning or a per-item problem found while checking or
+// building something (library validation, dataset validation, install verification, ...).
+// Printed on one line as "path: field: message", leaving out empty parts, like Error::what().
+#pragma once
+
+#include <string>
+#include <vector>
+
+namespace mlspaces {
+
+enum class Severity { kError, kWarning };
+
+struct Diagnostic {
+  std::string path;   ///< the file or folder concerned; may be empty
+  std::string field;  ///< where in it: JSON pointer, HDF5 path, "line N", member; may be empty
+  std::string message;
+  std::string uid;    ///< the asset concerned; may be empty (not printed)
+  Severity severity = Severity::kError;
+
+  /// "path: field: message", leaving out empty parts.
+  std::string ToString() const;
+};
+
+/// Collects diagnostics in the order they are found.
+class Diagnostics {
+ public:
+  void Error(std::string path, std::string field, std::string message, std::string uid = {});
+  void Warning(std::string path, std::string field, std::string message, std::string uid = {});
+  void Add(Diagnostic d) { items_.push_back(std::move(d)); }
+
+  const std::vector<Diagnostic>& items() const { return items_; }
+  std::vector<Diagnostic> Take() { return std::move(items_); }
+  size_t size() const { return items_.size(); }
+  size_t errors() const;
+  bool ok() const { return errors() == 0; }
+
+ private:
+  std::vector<Diagnostic> items_;
+};
+
+}  // namespace mlspaces

@@ -160,7 +160,7 @@ EpisodeResult EpisodeRunner::Run(int64_t episode) {
     const std::optional<Json> metadata =
         env_.metadata().is_null() ? std::nullopt : std::optional<Json>(env_.metadata());
     uid = SceneObjectAssetId(metadata, task.pickup_obj_name);
-    grasps = registry_.LoadPickupGrasps(uid, filter, std::numeric_limits<size_t>::max());
+    grasps = registry_.LoadGrasps({uid, "", filter}, std::numeric_limits<size_t>::max());
     annotation = registry_.GetAnnotation(uid);
   } catch (const Error& e) {
     attempt.AddTiming("grasps", Since(t0));
@@ -460,7 +460,7 @@ EpisodeResult EpisodeRunner::Run(int64_t episode) {
     meta.mlspaces_version = std::string(Version());
     // Only what is the same on every machine: the grasp file relative to its library.
     std::string grasp_library, grasp_file = grasps.source.filename().string();
-    if (const auto found = registry_.FindPickupGraspFile(uid, filter)) {
+    if (const auto found = registry_.FindGraspFile({uid, "", filter})) {
       grasp_library = found->library;
       if (const GraspLibraryInfo* lib = registry_.FindGraspLibrary(found->library)) {
         grasp_file = found->path.lexically_relative(lib->dir).generic_string();

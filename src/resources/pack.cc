@@ -28,6 +28,7 @@
 #include "mlspaces/library/grasp_index.h"
 #include "mlspaces/core/json.h"
 #include "mlspaces/library/packed_store.h"
+#include "mlspaces/resources/packed_store_writer.h"
 #include "mlspaces/library/registry.h"
 #include "mlspaces/core/version.h"
 #include "mlspaces/resources/archive.h"

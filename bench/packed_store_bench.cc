@@ -24,6 +24,7 @@
 #include "mlspaces/core/files.h"
 #include "mlspaces/core/json.h"
 #include "mlspaces/library/packed_store.h"
+#include "mlspaces/resources/packed_store_writer.h"
 
 namespace mlspaces {
 namespace {

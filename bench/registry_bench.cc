@@ -1,6 +1,6 @@
 // Registry lookups on 3 synthetic user libraries totalling 150,000 UIDs.
 // Targets (median): Locate < 1 us, GetAnnotation warm < 1 us, first time < 10 us,
-// LoadPickupGrasps 50 of 1,000 (STORED f8) < 30 us.
+// LoadGrasps (pickup) 50 of 1,000 (STORED f8) < 30 us.
 #include <benchmark/benchmark.h>
 #include <unistd.h>
 
@@ -173,7 +173,7 @@ void BM_LoadPickupGrasps50Of1000(benchmark::State& state) {
   const std::string& uid = f.uids[0];
   uint64_t seed = 0;
   for (auto _ : state) {
-    GraspSet set = f.registry->LoadPickupGrasps(uid, {}, 50, seed++);
+    GraspSet set = f.registry->LoadGrasps({uid}, 50, seed++);
     benchmark::DoNotOptimize(set);
   }
 }

@@ -119,8 +119,8 @@ int main(int argc, char** argv) {
     for (size_t r = 0; r < rows.size(); ++r) rows[r] = r;
     sink += lib->ReadGrasps(ref, &rows).size();
   }, 20000);
-  Report("grasps: Registry::LoadPickupGrasps (50)", 100000, [&](size_t i) {
-    sink += registry.LoadPickupGrasps(uids[i], filter, 50, i).poses.size();
+  Report("grasps: Registry::LoadGrasps (50)", 100000, [&](size_t i) {
+    sink += registry.LoadGrasps({uids[i], "", {filter.begin(), filter.end()}}, 50, i).poses.size();
   }, 20000);
   std::printf("resident memory: %ld kB before opening, %ld kB after all of the above "
               "(%zu checksum)\n", rss0, RssKb(), sink % 10);

@@ -2,7 +2,9 @@
 # README command 2: install what is missing, build, and run every test.
 #   1. the full build and all ctest suites;
 #   2. the core (parser) and datagen (planner, runner, recorder) suites again under
-#      AddressSanitizer + UndefinedBehaviorSanitizer.
+#      AddressSanitizer + UndefinedBehaviorSanitizer;
+#   3. the libFuzzer targets of the binary parsers (NPY/NPZ, MessagePack, packed UID index),
+#      MLSPACES_FUZZ_SECONDS (default 60) each (scripts/fuzz.sh).
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 "$ROOT/scripts/install-deps.sh"
@@ -15,3 +17,6 @@ MLSPACES_BUILD_DIR="$ROOT/build-asan" "$ROOT/scripts/build.sh" -DMLSPACES_SANITI
 ASAN_OPTIONS=detect_leaks=1:abort_on_error=0 UBSAN_OPTIONS=print_stacktrace=1 \
   LSAN_OPTIONS="suppressions=$ROOT/scripts/lsan-suppressions.txt" \
   ctest --test-dir "$ROOT/build-asan" --output-on-failure -j "$(nproc)" -L 'core|library|resources|datagen'
+
+echo "== fuzz targets of the binary parsers =="
+"$ROOT/scripts/fuzz.sh" "${MLSPACES_FUZZ_SECONDS:-60}"

@@ -63,21 +63,17 @@ int Run(const GraspsFlags& flags) {
   const Registry registry = flags.libraries.Build();
   const bool joint = !flags.joint.empty();
   if (!joint) registry.LocateOrThrow(flags.uid);  // unknown UID: name every library
-  const std::vector<std::string> filter = RobotFilter(registry, flags);
-  std::optional<GraspFileLocation> file =
-      joint ? registry.FindJointGraspFile(flags.uid, flags.joint, filter)
-            : registry.FindPickupGraspFile(flags.uid, filter);
+  GraspQuery query{flags.uid, flags.joint, RobotFilter(registry, flags)};
+  std::optional<GraspFileLocation> file = registry.FindGraspFile(query);
   if (!file) {
     throw Error(joint ? "No joint grasp file found for " + flags.uid + "/" + flags.joint
                       : "No grasp file found for " + flags.uid,
                 "", "", flags.uid);
   }
   // Load from the file found, so the library printed is the one used.
-  const std::vector<std::string> one = {file->library};
+  query.libraries = {file->library};
   const size_t num = flags.num == 0 ? std::numeric_limits<size_t>::max() : flags.num;
-  const GraspSet grasps =
-      joint ? registry.LoadJointGrasps(flags.uid, flags.joint, one, num, flags.seed)
-            : registry.LoadPickupGrasps(flags.uid, one, num, flags.seed);
+  const GraspSet grasps = registry.LoadGrasps(query, num, flags.seed);
   std::printf("library: %s\npath: %s\n", file->library.c_str(), grasps.source.c_str());
   std::printf("count: %zu (stored %s)\n", grasps.poses.size(),
               DTypeDescr(grasps.stored_dtype).c_str());

@@ -181,7 +181,7 @@ bool EpisodeRunner::LoadGrasps(Episode& e) {
     const std::optional<Json> metadata =
         env_.metadata().is_null() ? std::nullopt : std::optional<Json>(env_.metadata());
     e.uid = SceneObjectAssetId(metadata, e.task.pickup_obj_name);
-    e.grasps = registry_.LoadPickupGrasps(e.uid, e.filter, std::numeric_limits<size_t>::max());
+    e.grasps = registry_.LoadGrasps({e.uid, "", e.filter}, std::numeric_limits<size_t>::max());
     e.annotation = registry_.GetAnnotation(e.uid);
   } catch (const Error& error) {
     e.attempt.AddTiming("grasps", Since(t0));
@@ -499,7 +499,7 @@ void EpisodeRunner::FinishRecord(Episode& e) {
   meta.mlspaces_version = std::string(Version());
   // Only what is the same on every machine: the grasp file relative to its library.
   std::string grasp_library, grasp_file = e.grasps.source.filename().string();
-  if (const auto found = registry_.FindPickupGraspFile(uid, e.filter)) {
+  if (const auto found = registry_.FindGraspFile({uid, "", e.filter})) {
     grasp_library = found->library;
     if (const GraspLibraryInfo* lib = registry_.FindGraspLibrary(found->library)) {
       grasp_file = found->path.lexically_relative(lib->dir).generic_string();

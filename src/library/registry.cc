@@ -15,20 +15,19 @@
 
 #include <algorithm>
 #include <atomic>
-#include <cmath>
 #include <cstdlib>
 #include <cstring>
 #include <functional>
 #include <mutex>
-#include <numeric>
 #include <unordered_map>
 #include <utility>
 
 #include "annotation_internal.h"
 #include "mlspaces/core/error.h"
 #include "mlspaces/core/files.h"
-#include "mlspaces/core/npz.h"
-#include "mlspaces/core/rng.h"
+#include "mlspaces/library/grasp_index.h"
+#include "mlspaces/library/package_layout.h"
+#include "mlspaces/library/packed_store.h"
 
 namespace mlspaces {
 namespace fs = std::filesystem;
@@ -49,9 +48,6 @@ constexpr std::string_view kObjaverse = "objaverse";
 constexpr std::string_view kObjathorMetadata = "objathor_metadata";
 constexpr std::string_view kDroid = "droid";
 constexpr std::string_view kDroidObjaverse = "droid_objaverse";
-constexpr std::string_view kTransformsKey = "transforms";
-constexpr std::string_view kTransformsMember = "transforms.npy";
-
 bool IsBuiltinAssetLibrary(std::string_view name) {
   for (std::string_view b : kBuiltinAssetLibraries) {
     if (b == name) return true;
@@ -82,77 +78,6 @@ std::string QuotedList(const std::vector<std::string>& names) {
     out += "'" + names[i] + "'";
   }
   return out + "]";
-}
-
-/// Checks a transforms.npy header; returns N.
-size_t CheckGraspHeader(const NpyHeader& header, const fs::path& npz) {
-  if (header.shape.size() != 3 || header.shape[1] != 4 || header.shape[2] != 4) {
-    throw Error("grasp transforms must have shape (N, 4, 4), got " + ShapeRepr(header.shape),
-                npz.string(), std::string(kTransformsMember));
-  }
-  if (header.dtype == DType::kB1) {
-    throw Error("grasp transforms must be numeric, got dtype " + DTypeDescr(header.dtype),
-                npz.string(), std::string(kTransformsMember));
-  }
-  return header.shape[0];
-}
-
-NpyHeader ReadGraspHeader(const NpzReader& reader) {
-  if (!reader.Contains(kTransformsKey)) {
-    throw Error("grasp file has no transforms.npy array", reader.path().string());
-  }
-  NpyHeader header = reader.ReadHeader(kTransformsKey);
-  CheckGraspHeader(header, reader.path());
-  return header;
-}
-
-/// Reads all rows (rows == nullptr) or `rows` of an already checked transforms array.
-GraspSet ReadGrasps(const NpzReader& reader, const NpyHeader& header,
-                    const std::vector<size_t>* rows) {
-  const size_t n = header.shape[0];
-  GraspSet out;
-  out.source = reader.path();
-  out.stored_dtype = header.dtype;
-  NpyArray array;
-  if (rows != nullptr) {
-    for (size_t r : *rows) {
-      if (r >= n) {
-        throw Error("grasp row " + std::to_string(r) + " out of range (file has " +
-                        std::to_string(n) + ")",
-                    reader.path().string(), std::string(kTransformsMember));
-      }
-    }
-    out.indices = *rows;
-    array = reader.ReadRows(kTransformsKey, *rows);
-  } else {
-    out.indices.resize(n);
-    std::iota(out.indices.begin(), out.indices.end(), size_t{0});
-    array = reader.Read(kTransformsKey);
-  }
-  const size_t count = out.indices.size();
-  if (array.num_elements() != count * 16) {
-    throw Error("grasp transforms: read " + std::to_string(array.num_elements()) +
-                    " values, expected " + std::to_string(count * 16),
-                reader.path().string(), std::string(kTransformsMember));
-  }
-  out.poses.resize(count);
-  const bool f8 = array.dtype == DType::kF8;
-  for (size_t i = 0; i < count; ++i) {
-    Mat4& pose = out.poses[i];
-    if (f8) {
-      std::memcpy(pose.m.data(), array.data.data() + i * 16 * sizeof(double),
-                  16 * sizeof(double));
-    } else {
-      for (size_t k = 0; k < 16; ++k) pose.m[k] = array.AsDouble(i * 16 + k);
-    }
-    for (double v : pose.m) {
-      if (!std::isfinite(v)) {
-        throw Error("grasp " + std::to_string(out.indices[i]) + " has a non-finite value",
-                    reader.path().string(), std::string(kTransformsMember));
-      }
-    }
-  }
-  return out;
 }
 
 }  // namespace
@@ -445,8 +370,6 @@ struct Registry::Impl {
     }
     return GraspFileLocation{lib.info.name, lib.packed->GraspShardPath(ref->archive), ref};
   }
-
-  GraspSet LoadSubsampled(const GraspFileLocation& loc, size_t num_grasps, uint64_t seed) const;
 
   std::optional<fs::path> PickupCandidate(const GraspLibrary& lib, std::string_view uid) const {
     if (lib.info.builtin) {
@@ -817,25 +740,22 @@ std::vector<std::string> Registry::GraspLibrariesFor(std::string_view uid,
   return impl_->Walk(uid, filter);
 }
 
-std::optional<GraspFileLocation> Registry::FindPickupGraspFile(std::string_view uid,
-                                                               GraspLibraryFilter filter) const {
+std::optional<GraspFileLocation> Registry::FindGraspFile(const GraspQuery& query) const {
   const Impl& impl = *impl_;
-  for (const std::string& name : impl.Walk(uid, filter)) {
-    const Impl::GraspLibrary& lib = *impl.grasp_libraries.find(name)->second;
-    if (lib.packed != nullptr) {
-      if (auto loc = impl.PackedCandidate(lib, uid, "")) return loc;
-      continue;
+  const std::string_view uid = query.uid;
+  const GraspLibraryFilter filter = query.libraries;
+  if (query.joint.empty()) {
+    for (const std::string& name : impl.Walk(uid, filter)) {
+      const Impl::GraspLibrary& lib = *impl.grasp_libraries.find(name)->second;
+      if (lib.packed != nullptr) {
+        if (auto loc = impl.PackedCandidate(lib, uid, "")) return loc;
+        continue;
+      }
+      std::optional<fs::path> candidate = impl.PickupCandidate(lib, uid);
+      if (candidate && IsFile(*candidate)) return GraspFileLocation{name, *candidate, {}};
     }
-    std::optional<fs::path> candidate = impl.PickupCandidate(lib, uid);
-    if (candidate && IsFile(*candidate)) return GraspFileLocation{name, *candidate, {}};
+    return std::nullopt;
   }
-  return std::nullopt;
-}
-
-std::optional<GraspFileLocation> Registry::FindJointGraspFile(std::string_view uid,
-                                                              std::string_view joint,
-                                                              GraspLibraryFilter filter) const {
-  const Impl& impl = *impl_;
   std::vector<std::string> walk;
   if (!impl.LibraryOf(uid).empty()) {
     walk = impl.Walk(uid, filter);
@@ -845,158 +765,41 @@ std::optional<GraspFileLocation> Registry::FindJointGraspFile(std::string_view u
   for (const std::string& name : walk) {
     const Impl::GraspLibrary& lib = *impl.grasp_libraries.find(name)->second;
     if (lib.packed != nullptr) {
-      if (joint.empty()) continue;  // "" is the packed stores' pickup key, not a joint
-      if (auto loc = impl.PackedCandidate(lib, uid, joint)) return loc;
+      if (auto loc = impl.PackedCandidate(lib, uid, query.joint)) return loc;
       continue;
     }
-    std::optional<fs::path> candidate = impl.JointCandidate(lib, uid, joint);
+    std::optional<fs::path> candidate = impl.JointCandidate(lib, uid, query.joint);
     if (candidate && IsFile(*candidate)) return GraspFileLocation{name, *candidate, {}};
   }
   return std::nullopt;
 }
 
-std::optional<fs::path> Registry::PickupGraspPath(std::string_view uid,
-                                                  GraspLibraryFilter filter) const {
-  auto found = FindPickupGraspFile(uid, filter);
+std::optional<fs::path> Registry::GraspPath(const GraspQuery& query) const {
+  auto found = FindGraspFile(query);
   if (!found) return std::nullopt;
   return std::move(found->path);
 }
 
-std::optional<fs::path> Registry::JointGraspPath(std::string_view uid, std::string_view joint,
-                                                 GraspLibraryFilter filter) const {
-  auto found = FindJointGraspFile(uid, joint, filter);
-  if (!found) return std::nullopt;
-  return std::move(found->path);
+bool Registry::HasValidGrasps(const GraspQuery& query, size_t num_grasps) const {
+  std::optional<GraspFileLocation> loc = FindGraspFile(query);
+  if (!loc) return false;
+  const size_t count = loc->packed ? loc->packed->count : CountGraspFileRows(loc->path);
+  return count >= num_grasps;
 }
 
-namespace {
-
-size_t GraspCount(const GraspFileLocation& loc) {
-  if (loc.packed) return loc.packed->count;
-  NpzReader reader(loc.path);
-  return ReadGraspHeader(reader).shape[0];
-}
-
-}  // namespace
-
-bool Registry::HasValidPickupGrasps(std::string_view uid, size_t num_grasps,
-                                    GraspLibraryFilter filter) const {
-  std::optional<GraspFileLocation> loc = FindPickupGraspFile(uid, filter);
-  return loc && GraspCount(*loc) >= num_grasps;
-}
-
-bool Registry::HasValidJointGrasps(std::string_view uid, std::string_view joint,
-                                   size_t num_grasps, GraspLibraryFilter filter) const {
-  std::optional<GraspFileLocation> loc = FindJointGraspFile(uid, joint, filter);
-  return loc && GraspCount(*loc) >= num_grasps;
-}
-
-GraspSet Registry::Impl::LoadSubsampled(const GraspFileLocation& loc, size_t num_grasps,
-                                        uint64_t seed) const {
-  if (loc.packed) {
-    // Same draws as from the NPZ the poses were packed from.
-    const PackedLibrary& lib = *grasp_libraries.find(loc.library)->second->packed;
-    const size_t n = loc.packed->count;
-    GraspSet out;
-    out.source = loc.path;
-    out.stored_dtype = loc.packed->stored_dtype;
-    if (n <= num_grasps) {
-      out.poses = lib.ReadGrasps(*loc.packed);
-      out.indices.resize(n);
-      std::iota(out.indices.begin(), out.indices.end(), size_t{0});
-    } else {
-      out.indices = SubsampleIndices(n, num_grasps, seed);
-      out.poses = lib.ReadGrasps(*loc.packed, &out.indices);
-    }
-    return out;
-  }
-  NpzReader reader(loc.path);
-  const NpyHeader header = ReadGraspHeader(reader);
-  const size_t n = header.shape[0];
-  if (n <= num_grasps) return ReadGrasps(reader, header, nullptr);
-  const std::vector<size_t> rows = SubsampleIndices(n, num_grasps, seed);
-  return ReadGrasps(reader, header, &rows);
-}
-
-GraspSet Registry::LoadPickupGrasps(std::string_view uid, GraspLibraryFilter filter,
-                                    size_t num_grasps, uint64_t seed) const {
-  std::optional<GraspFileLocation> loc = FindPickupGraspFile(uid, filter);
+GraspSet Registry::LoadGrasps(const GraspQuery& query, size_t num_grasps, uint64_t seed) const {
+  std::optional<GraspFileLocation> loc = FindGraspFile(query);
   if (!loc) {
-    throw Error("No grasp file found for " + std::string(uid), "", "", std::string(uid));
+    throw Error(query.joint.empty()
+                    ? "No grasp file found for " + query.uid
+                    : "No joint grasp file found for " + query.uid + "/" + query.joint,
+                "", "", query.uid);
   }
-  return impl_->LoadSubsampled(*loc, num_grasps, seed);
-}
-
-GraspSet Registry::LoadJointGrasps(std::string_view uid, std::string_view joint,
-                                   GraspLibraryFilter filter, size_t num_grasps,
-                                   uint64_t seed) const {
-  std::optional<GraspFileLocation> loc = FindJointGraspFile(uid, joint, filter);
-  if (!loc) {
-    throw Error("No joint grasp file found for " + std::string(uid) + "/" + std::string(joint),
-                "", "", std::string(uid));
+  if (loc->packed) {
+    const PackedLibrary& lib = *impl_->grasp_libraries.find(loc->library)->second->packed;
+    return LoadPackedGrasps(lib, *loc->packed, loc->path, num_grasps, seed);
   }
-  return impl_->LoadSubsampled(*loc, num_grasps, seed);
-}
-
-GraspSet ReadGraspFile(const fs::path& npz, const std::vector<size_t>* rows) {
-  NpzReader reader(npz);
-  const NpyHeader header = ReadGraspHeader(reader);
-  return ReadGrasps(reader, header, rows);
-}
-
-std::vector<size_t> SubsampleIndices(size_t n, size_t k, uint64_t seed) {
-  std::vector<size_t> out;
-  if (n <= k) {
-    out.resize(n);
-    std::iota(out.begin(), out.end(), size_t{0});
-    return out;
-  }
-  // Partial Fisher-Yates: step i swaps slot i with slot i + UniformInt(n - i) and emits slot i.
-  // Large n with small k keeps only the displaced slots (same draws, same result).
-  Rng rng(seed);
-  out.reserve(k);
-  if (n <= 4096 || n <= 8 * k) {
-    std::vector<size_t> slots(n);
-    std::iota(slots.begin(), slots.end(), size_t{0});
-    for (size_t i = 0; i < k; ++i) {
-      const size_t j = i + static_cast<size_t>(rng.UniformInt(n - i));
-      std::swap(slots[i], slots[j]);
-      out.push_back(slots[i]);
-    }
-    return out;
-  }
-  std::unordered_map<size_t, size_t> displaced;
-  displaced.reserve(2 * k);
-  auto slot = [&](size_t i) {
-    auto it = displaced.find(i);
-    return it == displaced.end() ? i : it->second;
-  };
-  for (size_t i = 0; i < k; ++i) {
-    const size_t j = i + static_cast<size_t>(rng.UniformInt(n - i));
-    const size_t vi = slot(i), vj = slot(j);
-    displaced[j] = vi;
-    out.push_back(vj);
-  }
-  return out;
-}
-
-std::vector<Mat4> GraspsInWorld(const Mat4& body_pose, std::span<const Mat4> grasps,
-                                bool include_flipped) {
-  std::vector<Mat4> out;
-  out.reserve(grasps.size() * (include_flipped ? 2 : 1));
-  for (const Mat4& g : grasps) out.push_back(body_pose * g);
-  if (include_flipped) {
-    // W * Rz(180 deg) with the exact rotation diag(-1, -1, 1): negate the x and y columns.
-    for (size_t i = 0; i < grasps.size(); ++i) {
-      Mat4 flipped = out[i];
-      for (int r = 0; r < 3; ++r) {
-        flipped(r, 0) = -flipped(r, 0);
-        flipped(r, 1) = -flipped(r, 1);
-      }
-      out.push_back(flipped);
-    }
-  }
-  return out;
+  return LoadGraspFile(loc->path, num_grasps, seed);
 }
 
 }  // namespace mlspaces

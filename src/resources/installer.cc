@@ -28,6 +28,7 @@
 
 #include "mlspaces/core/crash_point.h"
 #include "mlspaces/core/error.h"
+#include "mlspaces/library/annotation.h"
 #include "mlspaces/core/files.h"
 #include "mlspaces/core/json.h"
 #include "mlspaces/core/parallel.h"

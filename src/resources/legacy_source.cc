@@ -16,6 +16,7 @@
 #include "mlspaces/core/files.h"
 #include "mlspaces/core/json.h"
 #include "mlspaces/library/packed_store.h"
+#include "mlspaces/resources/packed_store_writer.h"
 #include "mlspaces/resources/package.h"
 
 namespace mlspaces {

@@ -25,6 +25,7 @@
 #include "mlspaces/core/json.h"
 #include "mlspaces/core/parallel.h"
 #include "mlspaces/library/packed_store.h"
+#include "mlspaces/resources/packed_store_writer.h"
 #include "mlspaces/library/registry.h"
 #include "mlspaces/core/version.h"
 #include "mlspaces/resources/archive.h"

@@ -133,7 +133,7 @@ class GraspProbeTest : public ::testing::Test {
   }
 
   std::vector<Mat4> LibraryGraspsInWorld() const {
-    const GraspSet set = registry_.LoadPickupGrasps("red_block");
+    const GraspSet set = registry_.LoadGrasps({"red_block"});
     return GraspsInWorld(BlockPose(), set.poses, /*include_flipped=*/true);
   }
 

@@ -31,7 +31,7 @@ class PickPlannerTest : public ::testing::Test {
         block_(env_.BodyId("red_block")) {
     Registry registry;
     config_.libraries.ApplyTo(registry);
-    grasps_ = registry.LoadPickupGrasps("red_block").poses;
+    grasps_ = registry.LoadGrasps({"red_block"}).poses;
   }
 
   double BlockZ() const { return env_.data()->xpos[3 * block_ + 2]; }

@@ -17,7 +17,6 @@
 #include "mlspaces/core/files.h"
 #include "mlspaces/core/json.h"
 #include "mlspaces/core/npz.h"
-#include "mlspaces/core/rng.h"
 #include "test_util.h"
 
 namespace mlspaces {
@@ -153,7 +152,7 @@ TEST(RegistryTest, PathsAreMadeAbsoluteAtRegistration) {
   EXPECT_EQ(loc.mjcf_path, tmp.path() / "lib" / "a" / "a.xml");
   EXPECT_TRUE(loc.mjcf_path.is_absolute());
   EXPECT_EQ(registry.FindGraspLibrary("g/droid")->dir, tmp.path() / "lib");
-  EXPECT_EQ(registry.PickupGraspPath("a"), tmp.path() / "lib" / "a" / "droid" / "grasps.npz");
+  EXPECT_EQ(registry.GraspPath({"a"}), tmp.path() / "lib" / "a" / "droid" / "grasps.npz");
 }
 
 TEST(RegistryTest, GraspRegistrationErrorsMatchTheOriginal) {
@@ -224,7 +223,7 @@ TEST(RegistryTest, GraspPriorityIsNewestFirstRobotsSorted) {
   EXPECT_EQ(info->asset_library, "assets");
   EXPECT_FALSE(info->builtin);
   // The first robot in sorted order wins when no filter is given.
-  EXPECT_EQ(registry.FindPickupGraspFile("a")->library, "g1/alpha");
+  EXPECT_EQ(registry.FindGraspFile({"a"})->library, "g1/alpha");
 }
 
 // ---- locate and duplicates -------------------------------------------------------------------
@@ -317,24 +316,24 @@ TEST(RegistryTest, BuiltinLibrariesFromTheAssetsDir) {
   EXPECT_THAT(registry.grasp_libraries_of("thor"), ElementsAre("droid"));
   EXPECT_THAT(registry.grasp_libraries_of("objaverse"), ElementsAre("droid_objaverse"));
   EXPECT_TRUE(registry.FindGraspLibrary("droid")->builtin);
-  EXPECT_EQ(registry.PickupGraspPath("Bowl_1"),
+  EXPECT_EQ(registry.GraspPath({"Bowl_1"}),
             assets / "grasps/droid/Bowl_1/Bowl_1_grasps_filtered.npz");
   // The user grasps for Bowl_1 serve "user", which Bowl_1 does not resolve to.
   registry.RegisterGraspLibrary("ug", tmp.path() / "user", "user");
   EXPECT_THAT(registry.GraspLibrariesFor("Bowl_1"), ElementsAre("droid"));
   registry.RegisterGraspLibrary("tg", tmp.path() / "user", "thor");
   EXPECT_THAT(registry.GraspLibrariesFor("Bowl_1"), ElementsAre("tg/franka", "droid"));
-  EXPECT_EQ(registry.LoadPickupGrasps("Bowl_1").poses[0](1, 3), 5);  // user grasps first
+  EXPECT_EQ(registry.LoadGrasps({"Bowl_1"}).poses[0](1, 3), 5);  // user grasps first
   const std::vector<std::string> droid = {"droid"};
-  EXPECT_EQ(registry.LoadPickupGrasps("Bowl_1", droid).poses.size(), 3u);
+  EXPECT_EQ(registry.LoadGrasps({"Bowl_1", "", droid}).poses.size(), 3u);
 
   // Joint grasps use the library's own folder (the original hard-codes droid).
-  EXPECT_EQ(registry.JointGraspPath("Bowl_1", "lid_hinge"),
+  EXPECT_EQ(registry.GraspPath({"Bowl_1", "lid_hinge"}),
             assets / "grasps/droid/Bowl_1/lid_hinge_grasps_filtered.npz");
-  EXPECT_EQ(registry.JointGraspPath("abc123", "door"),
+  EXPECT_EQ(registry.GraspPath({"abc123", "door"}),
             assets / "grasps/droid_objaverse/abc123/door_grasps_filtered.npz");
-  EXPECT_EQ(registry.LoadJointGrasps("abc123", "door").poses.size(), 5u);
-  EXPECT_FALSE(registry.JointGraspPath("abc123", "lid_hinge").has_value());
+  EXPECT_EQ(registry.LoadGrasps({"abc123", "door"}).poses.size(), 5u);
+  EXPECT_FALSE(registry.GraspPath({"abc123", "lid_hinge"}).has_value());
 }
 
 TEST(RegistryTest, WithoutAssetsDirBuiltinsAnswerNothing) {
@@ -376,55 +375,55 @@ TEST_F(GraspLookupTest, FilterKeepsCallerOrderAndDropsUnavailable) {
   EXPECT_THAT(registry_.GraspLibrariesFor("a", filter), ElementsAre("g1/beta", "g2/gamma"));
   const std::vector<std::string> root_only = {"g1"};  // names must be "<root>/<robot>"
   EXPECT_THAT(registry_.GraspLibrariesFor("a", root_only), IsEmpty());
-  EXPECT_FALSE(registry_.PickupGraspPath("a", root_only).has_value());
+  EXPECT_FALSE(registry_.GraspPath({"a", "", root_only}).has_value());
   EXPECT_THAT(registry_.GraspLibrariesFor("unknown"), IsEmpty());
 }
 
 TEST_F(GraspLookupTest, FirstExistingCandidateWins) {
-  EXPECT_EQ(registry_.PickupGraspPath("a"), tmp_.path() / "g2/a/gamma/grasps.npz");
+  EXPECT_EQ(registry_.GraspPath({"a"}), tmp_.path() / "g2/a/gamma/grasps.npz");
   const std::vector<std::string> beta_first = {"g1/beta", "g1/alpha"};
   // g1/beta lists a but has no file: the next library answers.
-  auto found = registry_.FindPickupGraspFile("a", beta_first);
+  auto found = registry_.FindGraspFile({"a", "", beta_first});
   ASSERT_TRUE(found.has_value());
   EXPECT_EQ(found->library, "g1/alpha");
   EXPECT_EQ(found->path, tmp_.path() / "g1/a/alpha/grasps.npz");
   const std::vector<std::string> beta = {"g1/beta"};
-  EXPECT_FALSE(registry_.PickupGraspPath("a", beta).has_value());
-  EXPECT_EQ(registry_.PickupGraspPath("b"), tmp_.path() / "g1/b/beta/grasps.npz");
-  EXPECT_FALSE(registry_.PickupGraspPath("nope").has_value());
+  EXPECT_FALSE(registry_.GraspPath({"a", "", beta}).has_value());
+  EXPECT_EQ(registry_.GraspPath({"b"}), tmp_.path() / "g1/b/beta/grasps.npz");
+  EXPECT_FALSE(registry_.GraspPath({"nope"}).has_value());
 }
 
 TEST_F(GraspLookupTest, HasValidComparesRowCount) {
   const std::vector<std::string> alpha = {"g1/alpha"};
-  EXPECT_TRUE(registry_.HasValidPickupGrasps("a", 5, alpha));
-  EXPECT_FALSE(registry_.HasValidPickupGrasps("a", 6, alpha));
-  EXPECT_TRUE(registry_.HasValidPickupGrasps("a"));
-  EXPECT_TRUE(registry_.HasValidPickupGrasps("a", 7));
-  EXPECT_FALSE(registry_.HasValidPickupGrasps("a", 8));
+  EXPECT_TRUE(registry_.HasValidGrasps({"a", "", alpha}, 5));
+  EXPECT_FALSE(registry_.HasValidGrasps({"a", "", alpha}, 6));
+  EXPECT_TRUE(registry_.HasValidGrasps({"a"}));
+  EXPECT_TRUE(registry_.HasValidGrasps({"a"}, 7));
+  EXPECT_FALSE(registry_.HasValidGrasps({"a"}, 8));
   const std::vector<std::string> beta = {"g1/beta"};
-  EXPECT_FALSE(registry_.HasValidPickupGrasps("a", 1, beta));  // no file: false, no error
-  EXPECT_FALSE(registry_.HasValidPickupGrasps("nope"));
+  EXPECT_FALSE(registry_.HasValidGrasps({"a", "", beta}, 1));  // no file: false, no error
+  EXPECT_FALSE(registry_.HasValidGrasps({"nope"}));
   // A grasp file without transforms.npy raises, as the original does.
   WriteNpz(tmp_.path() / "g1/a/alpha/grasps.npz",
            {{"other", NpyArray::FromDoubles({1}, std::vector<double>{1.0})}});
-  EXPECT_THROW(registry_.HasValidPickupGrasps("a", 1, alpha), Error);
+  EXPECT_THROW(registry_.HasValidGrasps({"a", "", alpha}, 1), Error);
 }
 
 TEST_F(GraspLookupTest, JointTrio) {
-  EXPECT_EQ(registry_.JointGraspPath("a", "hinge"),
+  EXPECT_EQ(registry_.GraspPath({"a", "hinge"}),
             tmp_.path() / "g2/a/gamma/joint_grasps_hinge.npz");
   const std::vector<std::string> alpha = {"g1/alpha"};
-  EXPECT_EQ(registry_.JointGraspPath("a", "hinge", alpha),
+  EXPECT_EQ(registry_.GraspPath({"a", "hinge", alpha}),
             tmp_.path() / "g1/a/alpha/joint_grasps_hinge.npz");
-  EXPECT_TRUE(registry_.HasValidJointGrasps("a", "hinge", 3));
-  EXPECT_FALSE(registry_.HasValidJointGrasps("a", "hinge", 4));
-  EXPECT_TRUE(registry_.HasValidJointGrasps("a", "hinge", 4, alpha));
-  EXPECT_FALSE(registry_.HasValidJointGrasps("a", "door"));
-  const GraspSet set = registry_.LoadJointGrasps("a", "hinge", alpha);
+  EXPECT_TRUE(registry_.HasValidGrasps({"a", "hinge"}, 3));
+  EXPECT_FALSE(registry_.HasValidGrasps({"a", "hinge"}, 4));
+  EXPECT_TRUE(registry_.HasValidGrasps({"a", "hinge", alpha}, 4));
+  EXPECT_FALSE(registry_.HasValidGrasps({"a", "door"}));
+  const GraspSet set = registry_.LoadGrasps({"a", "hinge", alpha});
   EXPECT_EQ(set.poses.size(), 4u);
   EXPECT_EQ(set.poses[3](0, 3), 3);
   EXPECT_EQ(set.poses[3](1, 3), 1);  // file tag of g1
-  EXPECT_EQ(ErrorOf([&] { registry_.LoadJointGrasps("a", "door"); }),
+  EXPECT_EQ(ErrorOf([&] { registry_.LoadGrasps({"a", "door"}); }),
             "No joint grasp file found for a/door");
 }
 
@@ -433,11 +432,11 @@ TEST_F(GraspLookupTest, SingleLibraryBypassOnlyForUnknownUids) {
   WriteGraspLibrary(tmp_.path() / "g3", {{}, {{"delta", {{"ghost", {{"door", 2}}}}}}});
   registry_.RegisterGraspLibrary("g3", tmp_.path() / "g3", "assets");
   const std::vector<std::string> one = {"g3/delta"};
-  EXPECT_EQ(registry_.JointGraspPath("ghost", "door", one),
+  EXPECT_EQ(registry_.GraspPath({"ghost", "door", one}),
             tmp_.path() / "g3/ghost/delta/joint_grasps_door.npz");
-  EXPECT_FALSE(registry_.JointGraspPath("ghost", "door").has_value());
+  EXPECT_FALSE(registry_.GraspPath({"ghost", "door"}).has_value());
   const std::vector<std::string> two = {"g3/delta", "g1/alpha"};
-  EXPECT_FALSE(registry_.JointGraspPath("ghost", "door", two).has_value());
+  EXPECT_FALSE(registry_.GraspPath({"ghost", "door", two}).has_value());
   // A located UID keeps the availability filter (the original skipped it).
   TempDir other;
   WriteAssetLibrary(other.path() / "other", {"o"});
@@ -445,26 +444,26 @@ TEST_F(GraspLookupTest, SingleLibraryBypassOnlyForUnknownUids) {
   registry_.RegisterAssetLibrary("other", other.path() / "other");
   registry_.RegisterGraspLibrary("og", other.path() / "og", "other");
   const std::vector<std::string> og = {"og/r"};
-  EXPECT_FALSE(registry_.JointGraspPath("a", "hinge", og).has_value());
+  EXPECT_FALSE(registry_.GraspPath({"a", "hinge", og}).has_value());
 }
 
 TEST_F(GraspLookupTest, LoadAllOrSubsample) {
   const std::vector<std::string> alpha = {"g1/alpha"};
-  const GraspSet all = registry_.LoadPickupGrasps("a", alpha, 5);
+  const GraspSet all = registry_.LoadGrasps({"a", "", alpha}, 5);
   ASSERT_EQ(all.poses.size(), 5u);
   EXPECT_THAT(all.indices, ElementsAre(0, 1, 2, 3, 4));
   EXPECT_EQ(all.source, tmp_.path() / "g1/a/alpha/grasps.npz");
   EXPECT_EQ(all.stored_dtype, DType::kF8);
   for (size_t i = 0; i < 5; ++i) EXPECT_EQ(all.poses[i](0, 3), static_cast<double>(i));
 
-  const GraspSet some = registry_.LoadPickupGrasps("a", alpha, 3, 42);
+  const GraspSet some = registry_.LoadGrasps({"a", "", alpha}, 3, 42);
   ASSERT_EQ(some.poses.size(), 3u);
   EXPECT_EQ(some.indices, SubsampleIndices(5, 3, 42));
   for (size_t i = 0; i < 3; ++i) {
     EXPECT_EQ(some.poses[i](0, 3), static_cast<double>(some.indices[i]));
   }
-  EXPECT_EQ(registry_.LoadPickupGrasps("a", alpha, 3, 42).indices, some.indices);
-  EXPECT_EQ(ErrorOf([&] { registry_.LoadPickupGrasps("nope"); }),
+  EXPECT_EQ(registry_.LoadGrasps({"a", "", alpha}, 3, 42).indices, some.indices);
+  EXPECT_EQ(ErrorOf([&] { registry_.LoadGrasps({"nope"}); }),
             "No grasp file found for nope");
 }
 
@@ -517,159 +516,13 @@ TEST(RegistryTest, BundledExample) {
   ASSERT_NE(annotation, nullptr);
   EXPECT_EQ(annotation->json["category"], "block");
   EXPECT_EQ(annotation->json["mass"].get<double>(), 0.12500000000000003);
-  EXPECT_TRUE(registry.HasValidPickupGrasps("red_block", 1));
-  EXPECT_FALSE(registry.HasValidPickupGrasps("red_block", 2));
-  const GraspSet grasps = registry.LoadPickupGrasps("red_block");
+  EXPECT_TRUE(registry.HasValidGrasps({"red_block"}, 1));
+  EXPECT_FALSE(registry.HasValidGrasps({"red_block"}, 2));
+  const GraspSet grasps = registry.LoadGrasps({"red_block"});
   ASSERT_EQ(grasps.poses.size(), 1u);
   EXPECT_EQ(grasps.poses[0](1, 1), -1);
   EXPECT_EQ(grasps.poses[0](2, 2), -1);
   EXPECT_EQ(grasps.poses[0](0, 0), 1);
-}
-
-// ---- grasp files, subsampling, world grasps ------------------------------------------------
-
-TEST(ReadGraspFileTest, ValidatesShapeAndValues) {
-  TempDir tmp;
-  const fs::path f = tmp.path() / "g.npz";
-  WriteNpz(f, {{"transforms", NpyArray::FromDoubles({2, 3, 3}, std::vector<double>(18, 0.0))}});
-  EXPECT_THAT(ErrorOf([&] { ReadGraspFile(f); }),
-              HasSubstr("must have shape (N, 4, 4), got (2, 3, 3)"));
-  WriteNpz(f, {{"transforms", NpyArray::FromDoubles({16}, std::vector<double>(16, 0.0))}});
-  EXPECT_THAT(ErrorOf([&] { ReadGraspFile(f); }), HasSubstr("got (16,)"));
-  std::vector<double> values(32, 0.0);
-  values[16 + 5] = std::numeric_limits<double>::quiet_NaN();
-  WriteNpz(f, {{"transforms", NpyArray::FromDoubles({2, 4, 4}, values)}});
-  EXPECT_THAT(ErrorOf([&] { ReadGraspFile(f); }), HasSubstr("grasp 1 has a non-finite value"));
-  const std::vector<size_t> first = {0};
-  EXPECT_EQ(ReadGraspFile(f, &first).poses.size(), 1u);  // row 1 not read
-  const std::vector<size_t> out_of_range = {2};
-  EXPECT_THROW(ReadGraspFile(f, &out_of_range), Error);
-  WriteNpz(f, {{"grasps", NpyArray::FromDoubles({1, 4, 4}, std::vector<double>(16, 0.0))}});
-  EXPECT_THAT(ErrorOf([&] { ReadGraspFile(f); }), HasSubstr("no transforms.npy"));
-  EXPECT_THROW(ReadGraspFile(tmp.path() / "missing.npz"), Error);
-}
-
-TEST(ReadGraspFileTest, ConvertsStoredDtypesToDouble) {
-  TempDir tmp;
-  for (DType dtype : {DType::kF2, DType::kF4, DType::kF8}) {
-    for (bool compress : {false, true}) {
-      const fs::path f = tmp.path() / "g.npz";
-      WriteGrasps(f, 6, 0.5, dtype, compress);
-      const GraspSet all = ReadGraspFile(f);
-      EXPECT_EQ(all.stored_dtype, dtype);
-      ASSERT_EQ(all.poses.size(), 6u);
-      EXPECT_EQ(all.poses[4](0, 3), 4.0);
-      EXPECT_EQ(all.poses[4](1, 3), 0.5);
-      EXPECT_EQ(all.poses[4](3, 3), 1.0);
-      const std::vector<size_t> rows = {5, 1, 5};
-      const GraspSet some = ReadGraspFile(f, &rows);
-      EXPECT_THAT(some.indices, ElementsAre(5, 1, 5));
-      EXPECT_EQ(some.poses[0](0, 3), 5.0);
-      EXPECT_EQ(some.poses[1](0, 3), 1.0);
-    }
-  }
-}
-
-/// The documented algorithm, dense, as a reference.
-std::vector<size_t> ReferenceSubsample(size_t n, size_t k, uint64_t seed) {
-  std::vector<size_t> a(n);
-  for (size_t i = 0; i < n; ++i) a[i] = i;
-  Rng rng(seed);
-  std::vector<size_t> out;
-  for (size_t i = 0; i < k; ++i) {
-    size_t j = i + rng.UniformInt(n - i);
-    std::swap(a[i], a[j]);
-    out.push_back(a[i]);
-  }
-  return out;
-}
-
-TEST(SubsampleTest, AllWhenFewEnough) {
-  EXPECT_THAT(SubsampleIndices(4, 4, 9), ElementsAre(0, 1, 2, 3));
-  EXPECT_THAT(SubsampleIndices(3, 50, 9), ElementsAre(0, 1, 2));
-  EXPECT_THAT(SubsampleIndices(0, 5, 9), IsEmpty());
-  EXPECT_THAT(SubsampleIndices(10, 0, 9), IsEmpty());
-}
-
-TEST(SubsampleTest, DeterministicDistinctInRange) {
-  for (uint64_t seed : {0ull, 1ull, 12345ull}) {
-    const std::vector<size_t> a = SubsampleIndices(1000, 50, seed);
-    EXPECT_EQ(a, SubsampleIndices(1000, 50, seed));
-    ASSERT_EQ(a.size(), 50u);
-    EXPECT_EQ(std::set<size_t>(a.begin(), a.end()).size(), 50u);
-    for (size_t i : a) EXPECT_LT(i, 1000u);
-    EXPECT_EQ(a, ReferenceSubsample(1000, 50, seed));
-  }
-  EXPECT_NE(SubsampleIndices(1000, 50, 1), SubsampleIndices(1000, 50, 2));
-  // k = n - 1 is a full permutation but one.
-  const std::vector<size_t> p = SubsampleIndices(10, 9, 3);
-  EXPECT_EQ(std::set<size_t>(p.begin(), p.end()).size(), 9u);
-}
-
-TEST(SubsampleTest, SparsePathMatchesTheDenseAlgorithm) {
-  // Large n with small k takes the sparse path; the draws must be the same.
-  for (uint64_t seed : {0ull, 7ull}) {
-    EXPECT_EQ(SubsampleIndices(1000000, 40, seed), ReferenceSubsample(1000000, 40, seed));
-    EXPECT_EQ(SubsampleIndices(5000, 600, seed), ReferenceSubsample(5000, 600, seed));
-  }
-  // Small n so that collisions among displaced slots happen, through the public function.
-  const std::vector<size_t> s = SubsampleIndices(4097, 512, 5);
-  EXPECT_EQ(s, ReferenceSubsample(4097, 512, 5));
-  EXPECT_EQ(std::set<size_t>(s.begin(), s.end()).size(), 512u);
-}
-
-TEST(SubsampleTest, PinnedDraws) {
-  // The documented stream (docs/formats.md) must never change silently.
-  const std::vector<size_t> got = SubsampleIndices(100, 5, 0);
-  EXPECT_EQ(got, ReferenceSubsample(100, 5, 0));
-  EXPECT_THAT(got, ElementsAre(60, 75, 12, 43, 74));
-}
-
-Mat4 Make(std::initializer_list<double> rows) {
-  Mat4 m;
-  std::copy(rows.begin(), rows.end(), m.m.begin());
-  return m;
-}
-
-TEST(GraspsInWorldTest, ComposesAndFlipsExactly) {
-  // Body: rotation of +90 deg about z, at (1, 2, 3).
-  const Mat4 body = Make({0, -1, 0, 1,  //
-                          1, 0, 0, 2,   //
-                          0, 0, 1, 3,   //
-                          0, 0, 0, 1});
-  // Grasp: the tutorial's top-down grasp, 0.1 m along the body x axis.
-  const Mat4 grasp = Make({1, 0, 0, 0.1,  //
-                           0, -1, 0, 0,   //
-                           0, 0, -1, 0,   //
-                           0, 0, 0, 1});
-  const std::vector<Mat4> grasps = {grasp, Mat4{}};
-  const std::vector<Mat4> w = GraspsInWorld(body, grasps);
-  ASSERT_EQ(w.size(), 4u);
-  // Hand-computed: R_body * R_grasp = [[0,1,0],[1,0,0],[0,0,-1]]; p = (1, 2.1, 3).
-  const Mat4 w0 = Make({0, 1, 0, 1,    //
-                        1, 0, 0, 2.1,  //
-                        0, 0, -1, 3,   //
-                        0, 0, 0, 1});
-  EXPECT_EQ(w[0].m, w0.m);
-  EXPECT_EQ(w[1].m, body.m);
-  // Flipped twins follow all originals: x and y columns negated, z and position kept.
-  const Mat4 w0_flipped = Make({0, -1, 0, 1,    //
-                                -1, 0, 0, 2.1,  //
-                                0, 0, -1, 3,    //
-                                0, 0, 0, 1});
-  EXPECT_EQ(w[2].m, w0_flipped.m);
-  const Mat4 body_flipped = Make({0, 1, 0, 1,   //
-                                  -1, 0, 0, 2,  //
-                                  0, 0, 1, 3,   //
-                                  0, 0, 0, 1});
-  EXPECT_EQ(w[3].m, body_flipped.m);
-  // Exactly W * diag(-1, -1, 1, 1), and its jaw axis (y) reversed.
-  const Mat4 flip = Make({-1, 0, 0, 0, 0, -1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1});
-  EXPECT_EQ((w[0] * flip).m, w[2].m);
-  const std::vector<Mat4> unflipped = GraspsInWorld(body, grasps, false);
-  ASSERT_EQ(unflipped.size(), 2u);
-  EXPECT_EQ(unflipped[0].m, w0.m);
-  EXPECT_TRUE(GraspsInWorld(body, {}).empty());
 }
 
 }  // namespace

@@ -249,19 +249,19 @@ TEST_F(PackInstallTest, ServeInstallLocateAndLoadGrasps) {
     EXPECT_EQ(a->ToJson(), b->ToJson());
     for (size_t num : {2u, 50u}) {
       const std::vector<std::string> filter_a = {"fixlib/droid"}, filter_b = {"fixlib/droid"};
-      GraspSet ga = installed.LoadPickupGrasps(uid, filter_a, num, 7);
-      GraspSet gb = unpacked.LoadPickupGrasps(uid, filter_b, num, 7);
+      GraspSet ga = installed.LoadGrasps({uid, "", filter_a}, num, 7);
+      GraspSet gb = unpacked.LoadGrasps({uid, "", filter_b}, num, 7);
       EXPECT_EQ(ga.indices, gb.indices);
       ASSERT_EQ(ga.poses.size(), gb.poses.size());
       for (size_t i = 0; i < ga.poses.size(); ++i) EXPECT_EQ(ga.poses[i].m, gb.poses[i].m);
     }
-    EXPECT_EQ(installed.HasValidJointGrasps(uid, "hinge", 4), uid_i % 3 == 0);
+    EXPECT_EQ(installed.HasValidGrasps({uid, "hinge"}, 4), uid_i % 3 == 0);
     EXPECT_EQ(installed.GraspLibrariesFor(uid), unpacked.GraspLibrariesFor(uid));
   }
-  GraspSet joint = installed.LoadJointGrasps(FixtureUid(3), "hinge");
+  GraspSet joint = installed.LoadGrasps({FixtureUid(3), "hinge"});
   EXPECT_EQ(joint.poses.size(), 4u);
   // Grasps of a UID whose archive is not installed are not there yet.
-  EXPECT_FALSE(installed.HasValidPickupGrasps(FixtureUid(0)));
+  EXPECT_FALSE(installed.HasValidGrasps({FixtureUid(0)}));
 
   // The CLI reads the same install.
   const auto cli = RunCli({"locate", FixtureUid(0)}, Env(server.url()));

@@ -1,4 +1,5 @@
-// Asset libraries: assets_index.json (the original's schema) and building it from a folder.
+// Asset libraries: assets_index.json and building it from a folder. How the schema and the
+// bytes written match MolmoSpaces': docs/formats.md ("Files we match exactly").
 #pragma once
 
 #include <filesystem>
@@ -22,13 +23,13 @@ struct AssetEntry {
 struct AssetIndex {
   std::map<std::string, AssetEntry> entries;
 
-  /// Parses assets_index.json. Strict on what the original requires (object with object
-  /// entries, string paths, `metadata_npz_path` present and string-or-null); extra keys in
-  /// an entry are ignored as pydantic ignores them. Lookups use the dict key; an entry whose
-  /// `uid` differs from its key is accepted (as the original does) and reported by validate.
+  /// Parses assets_index.json: an object of object entries, string paths,
+  /// `metadata_npz_path` present and string-or-null; extra keys in an entry are ignored.
+  /// Lookups use the dict key; an entry whose `uid` differs from its key is accepted and
+  /// reported by validate.
   /// @throws Error with the file and JSON pointer of the bad field.
   static AssetIndex Load(const std::filesystem::path& index_file);
-  /// The original's serialisation: keys sorted, indent 4, no trailing newline.
+  /// Keys sorted, indent 4, no trailing newline (byte-identical to MolmoSpaces').
   std::string Serialize() const;
 };
 
@@ -56,7 +57,7 @@ AssetIndex BuildAssetIndex(const std::filesystem::path& dir, const AssetIndexOpt
 
 /// The index file `index-assets` writes: options.output resolved, or <dir>/assets_index.json.
 /// @throws Error "<output> already exists. Use --overwrite to overwrite." when it exists and
-/// options.overwrite is false (checked before any work, as the original does).
+/// options.overwrite is false (checked before any work).
 std::filesystem::path AssetIndexOutputPath(const std::filesystem::path& dir,
                                            const AssetIndexOptions& options);
 

@@ -1,4 +1,5 @@
-// Grasp libraries: grasps_index.json (the original's schema) and building it from a folder.
+// Grasp libraries: grasps_index.json and building it from a folder (schema and bytes as
+// MolmoSpaces writes them; docs/formats.md).
 #pragma once
 
 #include <filesystem>
@@ -23,7 +24,7 @@ struct GraspIndex {
   /// Parses grasps_index.json; missing top-level keys default to {}. @throws Error with the
   /// file and JSON pointer of a bad field.
   static GraspIndex Load(const std::filesystem::path& index_file);
-  /// The original's serialisation: "articulated_grasp_paths" then "grasp_paths", sorted,
+  /// "articulated_grasp_paths" then "grasp_paths", sorted,
   /// indent 4, no trailing newline.
   std::string Serialize() const;
 };
@@ -34,8 +35,8 @@ struct GraspIndexOptions {
 };
 
 /// Scans `dir` for `<uid>/<robot>/grasps.npz` and `<uid>/<robot>/joint_grasps_<joint>.npz`.
-/// Unlike the original, a grasps file less than two folders deep, an empty joint name or
-/// the same (robot, uid) found twice is an error naming the files.
+/// A grasps file less than two folders deep, an empty joint name or the same (robot, uid)
+/// found twice is an error naming the files.
 GraspIndex BuildGraspIndex(const std::filesystem::path& dir, IndexReport* report);
 
 /// `mlspaces index-grasps`. @throws Error (existing output without overwrite, ...).

@@ -4,6 +4,12 @@
 // Indexes are parsed once at registration into hash maps; lookups never scan the disk.
 // Const lookups may run concurrently from several threads (the annotation cache is locked);
 // registration must not run concurrently with anything else.
+//
+// Lifetimes: pointers and views a Registry returns (AssetLocation::entry, FindGraspLibrary,
+// duplicates(), GraspFileLocation::packed's names) stay valid until the Registry is
+// destroyed or moved from; registering more libraries does not invalidate them. Shared
+// pointers (annotations, packed libraries) keep what they point to alive on their own.
+// How lookups compare with MolmoSpaces' (priorities, workarounds): docs/formats.md.
 #pragma once
 
 #include <cstdint>
@@ -17,9 +23,8 @@
 
 #include "mlspaces/library/annotation.h"
 #include "mlspaces/library/asset_index.h"
-#include "mlspaces/library/grasp_index.h"
+#include "mlspaces/library/grasp_set.h"
 #include "mlspaces/library/packed_store.h"
-#include "mlspaces/core/transform.h"
 
 namespace mlspaces {
 
@@ -33,8 +38,10 @@ inline constexpr std::string_view kBuiltinGraspLibraries[] = {"droid", "droid_ob
 struct AssetLocation {
   std::string library;                ///< asset library name
   std::filesystem::path mjcf_path;    ///< absolute path of the asset MJCF
-  const AssetEntry* entry = nullptr;  ///< the index entry (user libraries); null for built-ins
-  /// Packed libraries: the archive holding the asset (the original's second return value).
+  /// The index entry of a user library (owned by the Registry); null for built-in and
+  /// packed libraries.
+  const AssetEntry* entry = nullptr;
+  /// Packed libraries: the archive holding the asset; empty otherwise.
   std::string archive;
   /// False when the asset's package archive is not installed yet (the MJCF does not exist).
   bool installed = true;
@@ -56,7 +63,8 @@ struct DuplicateUid {
 struct GraspFileLocation {
   std::string library;
   std::filesystem::path path;  ///< the NPZ, or a packed library's grasp shard
-  /// Packed libraries: where in the shard the poses are.
+  /// Packed libraries: where in the shard the poses are (its names view the library's
+  /// mapped index, owned by the Registry); nullopt for an NPZ.
   std::optional<PackedGraspRef> packed;
 };
 
@@ -69,20 +77,25 @@ struct GraspLibraryInfo {
   bool builtin = false;
 };
 
-/// N grasp poses, in the object body frame (pickup) or the joint's body frame (joint).
-struct GraspSet {
-  std::vector<Mat4> poses;
-  std::filesystem::path source;  ///< the NPZ they came from
-  std::vector<size_t> indices;   ///< row of each pose in the file
-  DType stored_dtype = DType::kF8;
-};
-
 /// Which grasp libraries a lookup may use, in priority order. Empty = all libraries
 /// registered for the UID's asset library, newest registration first.
 using GraspLibraryFilter = std::span<const std::string>;
 
+/// One grasp lookup: pickup grasps of an asset, or the grasps of one of its joints.
+/// A plain value (copyable, no views) so it can cross the Python binding as is.
+struct GraspQuery {
+  std::string uid;
+  /// The joint name in the asset MJCF; empty for pickup grasps.
+  std::string joint;
+  /// Grasp libraries the lookup may use, in priority order; empty = all that serve the UID
+  /// (see GraspLibraryFilter). Names are "<root>/<robot>" for user libraries.
+  std::vector<std::string> libraries;
+};
+
 class Registry {
  public:
+  // ===========================================================================================
+  // Construction
   struct Options {
     /// The install dir of built-in data (MLSPACES_ASSETS_DIR). Built-in libraries answer
     /// lookups only when it is set: thor/objaverse MJCFs under <assets>/objects/<lib>/ and
@@ -98,6 +111,9 @@ class Registry {
   ~Registry();
   Registry(Registry&&) noexcept;
   Registry& operator=(Registry&&) noexcept;
+
+  // ===========================================================================================
+  // Registration (not concurrent with anything else)
 
   /// Registers a user asset library: the name must be non-empty, without '/', not taken and
   /// not built-in; `dir`/assets_index.json must exist and parse. The path is made absolute
@@ -119,21 +135,31 @@ class Registry {
   /// before user libraries), with one grasp library "<name>/<robot>" per robot.
   /// @throws Error for a bad store or a name already taken.
   void RegisterPackedLibrary(const std::string& name, const std::filesystem::path& dir);
-  /// The packed library of that name, or nullptr.
-  std::shared_ptr<const PackedLibrary> FindPackedLibrary(std::string_view name) const;
 
+  // ===========================================================================================
+  // Libraries
+
+  /// The packed library of that name (shared: it outlives the Registry if held), or nullptr.
+  std::shared_ptr<const PackedLibrary> FindPackedLibrary(std::string_view name) const;
   /// Registered asset libraries: built-ins first (when an assets dir is set), then user
   /// libraries in registration order.
   std::vector<std::string> asset_libraries() const;
   /// Grasp libraries serving an asset library, highest priority first.
   std::vector<std::string> grasp_libraries_of(const std::string& asset_library) const;
+  /// The grasp library of that name, or nullptr. Owned by the Registry.
   const GraspLibraryInfo* FindGraspLibrary(std::string_view name) const;
+  /// Every UID held by more than one asset library, sorted by UID. Recomputed after a
+  /// registration (built-in libraries are scanned then); the reference is valid until the
+  /// next call after a registration.
   const std::vector<DuplicateUid>& duplicates() const;
   /// Number of UIDs across all user libraries (duplicates counted once).
   size_t num_uids() const;
 
+  // ===========================================================================================
+  // Assets
+
   /// Finds a UID: thor, then the other built-in and packed libraries alphabetically, then
-  /// user libraries in registration order (the original's priority). nullopt if unknown.
+  /// user libraries in registration order. nullopt if unknown.
   /// Packed libraries answer from their UID index (one hash probe). A built-in thor or
   /// objaverse that is not a package is scanned once (<assets>/objects/<lib>/**/*.xml, file
   /// stem = UID) on first use. objathor_metadata holds no MJCFs.
@@ -141,70 +167,47 @@ class Registry {
   /// As Locate. @throws Error "<uid> not found in asset libraries [...]" naming every library.
   AssetLocation LocateOrThrow(std::string_view uid) const;
 
+  // ===========================================================================================
+  // Annotations
+
   /// The annotation of a UID, cached after the first call (the shared object is immutable).
-  /// nullptr for an unknown UID. @throws Error for a bad metadata file.
-  /// Like the original's union view, user libraries are asked in registration order; the
-  /// built-in objathor_metadata store is not readable yet, so built-in-only UIDs give nullptr.
+  /// nullptr for an unknown UID or one without metadata. @throws Error for a bad metadata
+  /// file. Packed libraries first, then user libraries in registration order; the built-in
+  /// objathor_metadata store is not readable yet, so built-in-only UIDs give nullptr.
   std::shared_ptr<const Annotation> GetAnnotation(std::string_view uid) const;
+
+  // ===========================================================================================
+  // Grasps
 
   /// Grasp libraries a lookup for `uid` walks: the filter's names that serve the UID's
   /// library, in the filter's order; or all of them when the filter is empty.
   std::vector<std::string> GraspLibrariesFor(std::string_view uid,
                                              GraspLibraryFilter filter = {}) const;
 
-  /// As PickupGraspPath / JointGraspPath, also naming the grasp library that matched.
-  std::optional<GraspFileLocation> FindPickupGraspFile(std::string_view uid,
-                                                       GraspLibraryFilter filter = {}) const;
-  std::optional<GraspFileLocation> FindJointGraspFile(std::string_view uid,
-                                                      std::string_view joint,
-                                                      GraspLibraryFilter filter = {}) const;
-
-  /// First existing pickup-grasp file for `uid` in priority order, or nullopt.
-  /// Built-in libraries: <assets>/grasps/<lib>/<uid>/<uid>_grasps_filtered.npz.
-  std::optional<std::filesystem::path> PickupGraspPath(std::string_view uid,
-                                                       GraspLibraryFilter filter = {}) const;
-  /// First existing joint-grasp file. `joint` is the joint name in the asset MJCF. When the
-  /// UID is in no asset library and the filter names exactly one library, that library is
-  /// asked directly (the original's workaround for iTHOR articulated objects, without its
-  /// bug of skipping the filter for located UIDs). Built-in libraries:
-  /// <assets>/grasps/<lib>/<uid>/<joint>_grasps_filtered.npz, with the library's own name
-  /// (the original hard-codes "droid" whichever built-in library was asked).
-  std::optional<std::filesystem::path> JointGraspPath(std::string_view uid,
-                                                      std::string_view joint,
-                                                      GraspLibraryFilter filter = {}) const;
-  /// A grasp file exists and its transforms.npy has at least `num_grasps` rows (reads the
-  /// header only). False when there is no file. @throws Error for a corrupt file.
-  bool HasValidPickupGrasps(std::string_view uid, size_t num_grasps = 1,
-                            GraspLibraryFilter filter = {}) const;
-  bool HasValidJointGrasps(std::string_view uid, std::string_view joint, size_t num_grasps = 1,
-                           GraspLibraryFilter filter = {}) const;
-
+  /// The first existing grasp file for the query in priority order, and the library that
+  /// provided it; nullopt when there is none (no error).
+  /// Pickup grasps (empty joint): built-in libraries hold
+  /// <assets>/grasps/<lib>/<uid>/<uid>_grasps_filtered.npz.
+  /// Joint grasps: when the UID is in no asset library and the query names exactly one
+  /// library, that library is asked directly (for iTHOR articulated objects; see
+  /// docs/formats.md). Built-in libraries hold
+  /// <assets>/grasps/<lib>/<uid>/<joint>_grasps_filtered.npz, under the library's own name.
+  std::optional<GraspFileLocation> FindGraspFile(const GraspQuery& query) const;
+  /// FindGraspFile's path only.
+  std::optional<std::filesystem::path> GraspPath(const GraspQuery& query) const;
+  /// A grasp file exists and holds at least `num_grasps` grasps (reads the NPZ header only).
+  /// False when there is no file. @throws Error for a corrupt file.
+  bool HasValidGrasps(const GraspQuery& query, size_t num_grasps = 1) const;
   /// Loads grasps. If the file has N <= num_grasps rows, all of them in file order; else
   /// num_grasps distinct rows drawn with Rng(seed) by a partial Fisher-Yates shuffle, in
-  /// draw order (see docs/formats.md). @throws Error "No grasp file found for <uid>", or for
-  /// a bad file (shape not (N,4,4), non-finite values).
-  GraspSet LoadPickupGrasps(std::string_view uid, GraspLibraryFilter filter = {},
-                            size_t num_grasps = 50, uint64_t seed = 0) const;
-  GraspSet LoadJointGrasps(std::string_view uid, std::string_view joint,
-                           GraspLibraryFilter filter = {}, size_t num_grasps = 50,
-                           uint64_t seed = 0) const;
+  /// draw order (SubsampleIndices; docs/formats.md). @throws Error "No grasp file found for
+  /// <uid>" (pickup) or "No joint grasp file found for <uid>/<joint>", or for a bad file
+  /// (shape not (N,4,4), non-finite values, a packed shard not installed or damaged).
+  GraspSet LoadGrasps(const GraspQuery& query, size_t num_grasps = 50, uint64_t seed = 0) const;
 
  private:
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };
-
-/// Loads every row of transforms.npy from a grasp NPZ (or `rows` of them), checking the
-/// shape is (N,4,4) and values are finite. @throws Error naming the file.
-GraspSet ReadGraspFile(const std::filesystem::path& npz, const std::vector<size_t>* rows = nullptr);
-
-/// Indices drawn for subsampling: all of [0, n) when n <= k, else k distinct indices from a
-/// partial Fisher-Yates shuffle driven by Rng(seed), in draw order.
-std::vector<size_t> SubsampleIndices(size_t n, size_t k, uint64_t seed);
-
-/// World-frame grasps W_i = body_pose * G_i; with `include_flipped`, followed by the
-/// jaw-symmetric twins W_i * Rz(180 deg) (shape 2N, as the original).
-std::vector<Mat4> GraspsInWorld(const Mat4& body_pose, std::span<const Mat4> grasps,
-                                bool include_flipped = true);
 
 }  // namespace mlspaces

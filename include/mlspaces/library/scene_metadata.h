@@ -12,24 +12,23 @@
 
 namespace mlspaces {
 
-/// The metadata file for a scene XML, following the original's rules: `X_ceiling.xml` ->
+/// The metadata file for a scene XML: `X_ceiling.xml` ->
 /// `X_metadata.json`, else `X.xml` -> `X_metadata.json`; if that file does not exist, try the
 /// stem cut at each '_' from the right (`a_b_c` -> `a_b_metadata.json`, `a_metadata.json`).
-/// Unlike the original, only the file name is looked at ("ceiling" or ".xml" in a folder
-/// name changes nothing). nullopt if none exists. @throws Error if the path is not "*.xml".
+/// Only the file name is looked at ("ceiling" or ".xml" in a folder name changes nothing).
+/// nullopt if none exists. @throws Error if the path is not "*.xml".
 std::optional<std::filesystem::path> FindSceneMetadataFile(const std::filesystem::path& xml);
 
 /// Loads the scene metadata for a scene XML; nullopt when there is none.
 /// @throws Error for a bad file (not JSON, not an object, "objects" not an object).
 std::optional<Json> LoadSceneMetadata(const std::filesystem::path& xml);
 
-/// The entry the original adds for an object inserted at run time:
-/// {"asset_id", "category", "object_enum": "temp_object", "is_static": false, "boundingBox"}
-/// plus, unlike the original, "asset_library" and "mjcf_path" (works for user libraries).
+/// The entry for an object inserted at run time: {"asset_id", "category", "object_enum":
+/// "temp_object", "is_static": false, "boundingBox", "asset_library", "mjcf_path"}.
 Json MakeInsertedObjectEntry(const Annotation& annotation, const std::filesystem::path& mjcf);
 
 /// Adds `entry` under objects[body_name]; first write wins (returns false if present).
-/// Creates {"objects": {}} when the scene had no metadata (the original crashes).
+/// Creates {"objects": {}} when the scene had no metadata.
 bool AddSceneObject(Json& scene_metadata, const std::string& body_name, Json entry);
 
 /// The UID of a scene body: objects[body_name].asset_id. @throws Error "Could not load grasps

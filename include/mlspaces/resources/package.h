@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "mlspaces/library/packed_store.h"  // ExtractFlagName
+#include "mlspaces/library/package_layout.h"  // ExtractFlagName
 
 namespace mlspaces {
 

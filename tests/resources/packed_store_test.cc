@@ -1,6 +1,7 @@
 // Packed stores: writer -> reader round trips, hashing, grasp shards, annotations, determinism,
 // and damaged files (every truncation, byte flips) giving an Error, never a crash.
 #include "mlspaces/library/packed_store.h"
+#include "mlspaces/resources/packed_store_writer.h"
 
 #define XXH_INLINE_ALL
 #include <xxhash.h>

@@ -1,0 +1,191 @@
+// Grasp sets (include/mlspaces/library/grasp_set.h): grasp NPZ and packed-shard reading,
+// seeded subsampling, world-frame grasps.
+#include "mlspaces/library/grasp_set.h"
+
+#include <cmath>
+#include <cstring>
+#include <numeric>
+#include <string>
+#include <string_view>
+#include <unordered_map>
+#include <utility>
+
+#include "mlspaces/core/error.h"
+#include "mlspaces/core/npz.h"
+#include "mlspaces/core/rng.h"
+#include "mlspaces/library/packed_store.h"
+
+namespace mlspaces {
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr std::string_view kTransformsKey = "transforms";
+constexpr std::string_view kTransformsMember = "transforms.npy";
+
+/// Checks a transforms.npy header; returns N.
+size_t CheckGraspHeader(const NpyHeader& header, const fs::path& npz) {
+  if (header.shape.size() != 3 || header.shape[1] != 4 || header.shape[2] != 4) {
+    throw Error("grasp transforms must have shape (N, 4, 4), got " + ShapeRepr(header.shape),
+                npz.string(), std::string(kTransformsMember));
+  }
+  if (header.dtype == DType::kB1) {
+    throw Error("grasp transforms must be numeric, got dtype " + DTypeDescr(header.dtype),
+                npz.string(), std::string(kTransformsMember));
+  }
+  return header.shape[0];
+}
+
+NpyHeader ReadGraspHeader(const NpzReader& reader) {
+  if (!reader.Contains(kTransformsKey)) {
+    throw Error("grasp file has no transforms.npy array", reader.path().string());
+  }
+  NpyHeader header = reader.ReadHeader(kTransformsKey);
+  CheckGraspHeader(header, reader.path());
+  return header;
+}
+
+/// Reads all rows (rows == nullptr) or `rows` of an already checked transforms array.
+GraspSet ReadGrasps(const NpzReader& reader, const NpyHeader& header,
+                    const std::vector<size_t>* rows) {
+  const size_t n = header.shape[0];
+  GraspSet out;
+  out.source = reader.path();
+  out.stored_dtype = header.dtype;
+  NpyArray array;
+  if (rows != nullptr) {
+    for (size_t r : *rows) {
+      if (r >= n) {
+        throw Error("grasp row " + std::to_string(r) + " out of range (file has " +
+                        std::to_string(n) + ")",
+                    reader.path().string(), std::string(kTransformsMember));
+      }
+    }
+    out.indices = *rows;
+    array = reader.ReadRows(kTransformsKey, *rows);
+  } else {
+    out.indices.resize(n);
+    std::iota(out.indices.begin(), out.indices.end(), size_t{0});
+    array = reader.Read(kTransformsKey);
+  }
+  const size_t count = out.indices.size();
+  if (array.num_elements() != count * 16) {
+    throw Error("grasp transforms: read " + std::to_string(array.num_elements()) +
+                    " values, expected " + std::to_string(count * 16),
+                reader.path().string(), std::string(kTransformsMember));
+  }
+  out.poses.resize(count);
+  const bool f8 = array.dtype == DType::kF8;
+  for (size_t i = 0; i < count; ++i) {
+    Mat4& pose = out.poses[i];
+    if (f8) {
+      std::memcpy(pose.m.data(), array.data.data() + i * 16 * sizeof(double),
+                  16 * sizeof(double));
+    } else {
+      for (size_t k = 0; k < 16; ++k) pose.m[k] = array.AsDouble(i * 16 + k);
+    }
+    for (double v : pose.m) {
+      if (!std::isfinite(v)) {
+        throw Error("grasp " + std::to_string(out.indices[i]) + " has a non-finite value",
+                    reader.path().string(), std::string(kTransformsMember));
+      }
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+GraspSet ReadGraspFile(const fs::path& npz, const std::vector<size_t>* rows) {
+  NpzReader reader(npz);
+  const NpyHeader header = ReadGraspHeader(reader);
+  return ReadGrasps(reader, header, rows);
+}
+
+size_t CountGraspFileRows(const fs::path& npz) {
+  NpzReader reader(npz);
+  return ReadGraspHeader(reader).shape[0];
+}
+
+GraspSet LoadGraspFile(const fs::path& npz, size_t num_grasps, uint64_t seed) {
+  NpzReader reader(npz);
+  const NpyHeader header = ReadGraspHeader(reader);
+  const size_t n = header.shape[0];
+  if (n <= num_grasps) return ReadGrasps(reader, header, nullptr);
+  const std::vector<size_t> rows = SubsampleIndices(n, num_grasps, seed);
+  return ReadGrasps(reader, header, &rows);
+}
+
+GraspSet LoadPackedGrasps(const PackedLibrary& library, const PackedGraspRef& ref,
+                          const fs::path& source, size_t num_grasps, uint64_t seed) {
+  const size_t n = ref.count;
+  GraspSet out;
+  out.source = source;
+  out.stored_dtype = ref.stored_dtype;
+  if (n <= num_grasps) {
+    out.poses = library.ReadGrasps(ref);
+    out.indices.resize(n);
+    std::iota(out.indices.begin(), out.indices.end(), size_t{0});
+  } else {
+    out.indices = SubsampleIndices(n, num_grasps, seed);
+    out.poses = library.ReadGrasps(ref, &out.indices);
+  }
+  return out;
+}
+
+std::vector<size_t> SubsampleIndices(size_t n, size_t k, uint64_t seed) {
+  std::vector<size_t> out;
+  if (n <= k) {
+    out.resize(n);
+    std::iota(out.begin(), out.end(), size_t{0});
+    return out;
+  }
+  // Partial Fisher-Yates: step i swaps slot i with slot i + UniformInt(n - i) and emits slot i.
+  // Large n with small k keeps only the displaced slots (same draws, same result).
+  Rng rng(seed);
+  out.reserve(k);
+  if (n <= 4096 || n <= 8 * k) {
+    std::vector<size_t> slots(n);
+    std::iota(slots.begin(), slots.end(), size_t{0});
+    for (size_t i = 0; i < k; ++i) {
+      const size_t j = i + static_cast<size_t>(rng.UniformInt(n - i));
+      std::swap(slots[i], slots[j]);
+      out.push_back(slots[i]);
+    }
+    return out;
+  }
+  std::unordered_map<size_t, size_t> displaced;
+  displaced.reserve(2 * k);
+  auto slot = [&](size_t i) {
+    auto it = displaced.find(i);
+    return it == displaced.end() ? i : it->second;
+  };
+  for (size_t i = 0; i < k; ++i) {
+    const size_t j = i + static_cast<size_t>(rng.UniformInt(n - i));
+    const size_t vi = slot(i), vj = slot(j);
+    displaced[j] = vi;
+    out.push_back(vj);
+  }
+  return out;
+}
+
+std::vector<Mat4> GraspsInWorld(const Mat4& body_pose, std::span<const Mat4> grasps,
+                                bool include_flipped) {
+  std::vector<Mat4> out;
+  out.reserve(grasps.size() * (include_flipped ? 2 : 1));
+  for (const Mat4& g : grasps) out.push_back(body_pose * g);
+  if (include_flipped) {
+    // W * Rz(180 deg) with the exact rotation diag(-1, -1, 1): negate the x and y columns.
+    for (size_t i = 0; i < grasps.size(); ++i) {
+      Mat4 flipped = out[i];
+      for (int r = 0; r < 3; ++r) {
+        flipped(r, 0) = -flipped(r, 0);
+        flipped(r, 1) = -flipped(r, 1);
+      }
+      out.push_back(flipped);
+    }
+  }
+  return out;
+}
+
+}  // namespace mlspaces

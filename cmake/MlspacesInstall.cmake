@@ -1,7 +1,8 @@
 # `cmake --install` and find_package(mlspaces CONFIG).
 #
-# Installs the public headers, one static library per layer, the `mlspaces` command, the
-# bundled robots (share/mlspaces/robots) and a CMake package in lib/cmake/mlspaces:
+# Installs the public headers, one library per layer (static; shared with
+# -DBUILD_SHARED_LIBS=ON), the `mlspaces` command, the bundled robots (share/mlspaces/robots)
+# and a CMake package in lib/cmake/mlspaces:
 #
 #   find_package(mlspaces 0.1 CONFIG REQUIRED)            # or COMPONENTS core library ...
 #   target_link_libraries(app PRIVATE mlspaces::mlspaces)  # every layer that was built

@@ -85,6 +85,8 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "mlspaces: error: %s\n", e.what());
     return 1;
   } catch (const std::exception& e) {
+    // The libraries throw mlspaces::Error (MuJoCo's sim::MujocoError included) for every bad
+    // input; what arrives here is a bug (a std::logic_error bug check) or out of memory.
     std::fprintf(stderr, "mlspaces: internal error: %s\n", e.what());
     return 1;
   }

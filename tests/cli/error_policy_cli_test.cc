@@ -33,10 +33,10 @@ void ExpectOneLineError(const CliResult& r, const std::string& expect) {
 }
 
 // The environment of every run: no caller's install dirs, pins or remote.
-std::string Env(const fs::path& tmp) {
+std::string Env(const TempDir& tmp) {
   return "env -u MLSPACES_ASSETS_DIR -u MLSPACES_PINNED_ASSETS_FILE -u MLSPACES_REMOTE_URL "
          "MLSPACES_CACHE_DIR=" + ShellQuote((tmp / "cache").string()) +
-         " HOME=" + ShellQuote(tmp.string()) + " ";
+         " HOME=" + ShellQuote(tmp.path().string()) + " ";
 }
 
 TEST(ErrorPolicyCli, PackOfAMissingLibrary) {
@@ -46,13 +46,21 @@ TEST(ErrorPolicyCli, PackOfAMissingLibrary) {
 }
 
 TEST(ErrorPolicyCli, InstallFromARemoteWithoutThePackage) {
-  // The fetch path: the listing / package is not at the remote.
+  // The remote's listing is missing and the source unknown.
   TempDir tmp;
   fs::create_directories(tmp / "remote");
   ExpectOneLineError(RunCli({"install", "--library", "nosuch", "--remote",
                              (tmp / "remote").string(), "-q"},
                             Env(tmp)),
                      "nosuch");
+}
+
+TEST(ErrorPolicyCli, InstallFromAnUnreachableRemote) {
+  // The fetch path (curl): nothing listens on port 1; retries end in one Error.
+  TempDir tmp;
+  ExpectOneLineError(
+      RunCli({"install", "--library", "thor", "--remote", "http://127.0.0.1:1", "-q"}, Env(tmp)),
+      "curl error");
 }
 
 TEST(ErrorPolicyCli, InstallWithABadPinFile) {

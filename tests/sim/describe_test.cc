@@ -12,6 +12,7 @@ namespace {
 namespace fs = std::filesystem;
 
 constexpr const char* kXml = R"(<mujoco>
+  <compiler angle="radian"/>
   <worldbody>
     <camera name="overhead" pos="0 0 2"/>
     <body name="arm" pos="0 0 0.5">
@@ -58,7 +59,7 @@ TEST(DescribeModelTest, ListsBodiesJointsActuatorsAndCameras) {
   EXPECT_EQ(*d.actuators[0].ctrlrange, (std::array<double, 2>{-0.5, 0.5}));
   ASSERT_EQ(d.cameras.size(), 1u);
   EXPECT_EQ(d.cameras[0].body, "world");
-  EXPECT_EQ(d.cameras[0].pos, (Vec3{0, 0, 2}));
+  EXPECT_EQ(d.cameras[0].name, "overhead");
 }
 
 TEST(DescribeModelTest, JsonFormKeepsTheInspectLayout) {

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace mlspaces {
@@ -11,6 +12,12 @@ namespace mlspaces {
 enum class Severity { kError, kWarning };
 
 struct Diagnostic {
+  Diagnostic() = default;
+  Diagnostic(std::string path, std::string field, std::string message, std::string uid = {},
+             Severity severity = Severity::kError)
+      : path(std::move(path)), field(std::move(field)), message(std::move(message)),
+        uid(std::move(uid)), severity(severity) {}
+
   std::string path;   ///< the file or folder concerned; may be empty
   std::string field;  ///< where in it: JSON pointer, HDF5 path, "line N", member; may be empty
   std::string message;

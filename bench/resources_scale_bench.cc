@@ -120,7 +120,7 @@ int main(int argc, char** argv) {
     sink += lib->ReadGrasps(ref, &rows).size();
   }, 20000);
   Report("grasps: Registry::LoadGrasps (50)", 100000, [&](size_t i) {
-    sink += registry.LoadGrasps({uids[i], "", {filter.begin(), filter.end()}}, 50, i).poses.size();
+    sink += registry.LoadGrasps({uids[i], "", filter}, 50, i).poses.size();
   }, 20000);
   std::printf("resident memory: %ld kB before opening, %ld kB after all of the above "
               "(%zu checksum)\n", rss0, RssKb(), sink % 10);

@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "mlspaces/core/error.h"
 #include "mlspaces/core/json.h"
 #include "mlspaces/core/npy.h"
 #include "mlspaces/core/npz.h"
@@ -61,7 +62,6 @@ std::vector<std::pair<std::string, NpyArray>> SampleArrays() {
 }
 
 void WriteNpySeeds(const fs::path& dir) {
-  int i = 0;
   for (const auto& [name, array] : SampleArrays()) {
     Write(dir / (name + ".npy"), SerializeNpy(array));
     NpyWriteOptions be;
@@ -70,7 +70,6 @@ void WriteNpySeeds(const fs::path& dir) {
     NpyWriteOptions f;
     f.fortran_order = true;
     Write(dir / (name + "_f.npy"), SerializeNpy(array, f));
-    ++i;
   }
   // A shape long enough that the header needs format 2.0.
   std::vector<size_t> shape(40, 1);

@@ -129,7 +129,10 @@ Annotation LoadAnnotationImpl(std::string_view uid, const std::string& library, 
   // Merge into a skeleton copy to find collisions with the JSON and between arrays: an
   // array's place holds null there, so a later key under it crosses a non-object.
   Json skeleton = out.json;
-  for (auto& [key, array] : arrays) {
+  for (auto& entry : arrays) {
+    // Named, not a structured binding: clang 14 (the fuzz build) cannot capture those.
+    const std::string& key = entry.first;
+    NpyArray& array = entry.second;
     const std::vector<std::string> parts = SplitKey(key);
     auto collision = [&] {
       return Error("Key " + key + " from npz metadata already exists in metadata for uid=" + uid_str,

@@ -326,7 +326,10 @@ struct Installer::Impl {
     std::map<const InstalledSource*, std::vector<uint32_t>> by_source;  // archive indexes
     for (const auto& item : plan.archives) by_source[item.source].push_back(item.index);
     std::atomic<uint64_t> done{0};
-    for (auto& [src, indexes] : by_source) {
+    for (auto& entry : by_source) {
+      // Named, not a structured binding: clang 14 (the fuzz build) cannot capture those.
+      const InstalledSource* src = entry.first;
+      std::vector<uint32_t>& indexes = entry.second;
       FileLock lock(src->dir / ".mlspaces" / "lock", [&](long pid) {
         Note("waiting for the installer with pid " + std::to_string(pid) + " (" +
              src->dir.string() + ")");

@@ -17,6 +17,7 @@
 #include <mujoco/mujoco.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdint>
 #include <exception>
@@ -24,17 +25,16 @@
 #include <memory>
 #include <optional>
 #include <string>
-#include <vector>
-#include <algorithm>
 #include <system_error>
+#include <vector>
 
-#include "mlspaces/library/registry.h"
 #include "mlspaces/datagen/config.h"
 #include "mlspaces/datagen/env.h"
 #include "mlspaces/datagen/episode_runner.h"
 #include "mlspaces/datagen/recorder.h"
 #include "mlspaces/datagen/robot_view.h"
 #include "mlspaces/datagen/task_sampler.h"
+#include "mlspaces/library/registry.h"
 #include "mlspaces/sim/scene.h"
 
 namespace {
@@ -133,8 +133,7 @@ void BM_DatagenEpisode(benchmark::State& state) {
   std::optional<dg::Recorder> recorder;
   fs::path out;
   if (mode == 2) {
-    out = fs::temp_directory_path() /
-          ("mlspaces_datagen_bench_" + std::to_string(::getpid()));
+    out = fs::temp_directory_path() / ("mlspaces_datagen_bench_" + std::to_string(::getpid()));
     dg::RecorderOptions options;
     options.dir = out / "house_0";
     recorder.emplace(options);
@@ -159,8 +158,8 @@ void BM_DatagenEpisode(benchmark::State& state) {
   const double wall_s = Since(t0);
   const double episodes = static_cast<double>(state.iterations());
   state.counters["episodes_per_hour"] = wall_s > 0 ? 3600.0 * episodes / wall_s : 0;
-  state.counters["steps_per_s"] = benchmark::Counter(static_cast<double>(physics_steps),
-                                                     benchmark::Counter::kIsRate);
+  state.counters["steps_per_s"] =
+      benchmark::Counter(static_cast<double>(physics_steps), benchmark::Counter::kIsRate);
   state.counters["policy_steps_per_ep"] = static_cast<double>(policy_steps) / episodes;
   state.counters["success_pct"] = 100.0 * static_cast<double>(successes) / episodes;
   if (recorder) state.counters["written"] = static_cast<double>(written);

@@ -1,8 +1,7 @@
 // MP4 writing speed (VideoWriter: RGB -> yuv420p -> libx264 -> MP4, fsync + rename) at a
-// camera-like 640x368 (32 frames per iteration), crf 25, for the x264 presets "veryfast" (our default) and "medium" (the
-// original's, x264's default); and ProbeVideo's full decode. items_per_second = frames per
-// second; bytes_per_frame = file size / frames.
-// Run:
+// camera-like 640x368 (32 frames per iteration), crf 25, for the x264 presets "veryfast" (our
+// default) and "medium" (the original's, x264's default); and ProbeVideo's full decode.
+// items_per_second = frames per second; bytes_per_frame = file size / frames. Run:
 //   build/bench/datagen_video_bench --benchmark_repetitions=5
 //     --benchmark_report_aggregates_only=true
 #include <benchmark/benchmark.h>

@@ -20,9 +20,9 @@
 #include <string>
 #include <vector>
 
-#include "mlspaces/library/annotation.h"
 #include "mlspaces/core/files.h"
 #include "mlspaces/core/json.h"
+#include "mlspaces/library/annotation.h"
 #include "mlspaces/library/packed_store.h"
 #include "mlspaces/resources/packed_store_writer.h"
 
@@ -75,8 +75,8 @@ void BuildStore(Store& s, size_t n) {
     char name[64];
     std::snprintf(name, sizeof name, "objaverse_%03u", a);
     archives.push_back(std::string(name) + ".tar.zst");
-    shards.push_back(std::make_unique<GraspShardWriter>(
-        s.dir / std::string(kGraspShardDir) / (std::string(name) + ".mlsg")));
+    shards.push_back(std::make_unique<GraspShardWriter>(s.dir / std::string(kGraspShardDir) /
+                                                        (std::string(name) + ".mlsg")));
   }
   std::mt19937_64 rng(42);
   PackedStoreWriter writer(s.dir, "bench", archives);
@@ -178,9 +178,10 @@ void PrintLocatePercentiles(const Store& s) {
     return v[k];
   };
   const double p50 = pct(ns, 0.50), p99 = pct(ns, 0.99), p999 = pct(ns, 0.999);
-  std::printf("locate p50 %.0f ns p99 %.0f ns (p99.9 %.0f ns; %zu of %zu found; "
-              "%zu assets; steady_clock pair alone p50 %.0f ns, included)\n",
-              p50, p99, p999, found, kLookups, s.uids.size(), pct(clock_ns, 0.5));
+  std::printf(
+      "locate p50 %.0f ns p99 %.0f ns (p99.9 %.0f ns; %zu of %zu found; "
+      "%zu assets; steady_clock pair alone p50 %.0f ns, included)\n",
+      p50, p99, p999, found, kLookups, s.uids.size(), pct(clock_ns, 0.5));
 }
 
 void PrintResidentMemory(const Store& s) {
@@ -197,13 +198,15 @@ void PrintResidentMemory(const Store& s) {
   const long index_rss = MappedRssKb(kUidIndexFile), meta_rss = MappedRssKb(kMetadataStoreFile);
   const auto index_size = fs::file_size(s.dir / std::string(kUidIndexFile));
   const auto meta_size = fs::file_size(s.dir / std::string(kMetadataStoreFile));
-  std::printf("open (first, cold mapping) %.1f us; VmRSS +%ld KiB after Open, +%ld KiB after "
-              "Open + 10,000 lookups (%zu found); files: uid_index.mlsx %.1f MiB, "
-              "metadata.mlsm %.1f MiB; resident of their mappings now: %ld KiB / %ld KiB (file pages, shared with the page "
-              "cache; whole large folios are mapped at a time); RssAnon +%ld KiB\n",
-              std::chrono::duration<double, std::micro>(t1 - t0).count(), after_open - before,
-              after_lookups - before, found, index_size / 1048576.0, meta_size / 1048576.0,
-              index_rss, meta_rss, anon_after - anon_before);
+  std::printf(
+      "open (first, cold mapping) %.1f us; VmRSS +%ld KiB after Open, +%ld KiB after "
+      "Open + 10,000 lookups (%zu found); files: uid_index.mlsx %.1f MiB, "
+      "metadata.mlsm %.1f MiB; resident of their mappings now: %ld KiB / %ld KiB (file pages, "
+      "shared with the page "
+      "cache; whole large folios are mapped at a time); RssAnon +%ld KiB\n",
+      std::chrono::duration<double, std::micro>(t1 - t0).count(), after_open - before,
+      after_lookups - before, found, index_size / 1048576.0, meta_size / 1048576.0, index_rss,
+      meta_rss, anon_after - anon_before);
 }
 
 void BM_Open(benchmark::State& state) {
@@ -241,7 +244,8 @@ void BM_LoadAnnotation(benchmark::State& state) {
   const auto lib = PackedLibrary::Open(g_store->dir, "bench");
   std::mt19937_64 rng(4);
   std::vector<PackedAsset> assets;
-  for (int i = 0; i < 4096; ++i) assets.push_back(*lib->Find(g_store->uids[rng() % g_store->uids.size()]));
+  for (int i = 0; i < 4096; ++i)
+    assets.push_back(*lib->Find(g_store->uids[rng() % g_store->uids.size()]));
   size_t i = 0;
   for (auto _ : state) {
     auto a = lib->LoadAnnotation(assets[i++ & 4095]);

@@ -13,8 +13,8 @@
 #include "mlspaces/core/files.h"
 #include "mlspaces/core/json.h"
 #include "mlspaces/core/npz.h"
-#include "mlspaces/library/registry.h"
 #include "mlspaces/core/rng.h"
+#include "mlspaces/library/registry.h"
 
 namespace mlspaces {
 namespace {
@@ -181,6 +181,5 @@ BENCHMARK(BM_LoadPickupGrasps50Of1000);
 
 }  // namespace
 }  // namespace mlspaces
-
 
 BENCHMARK_MAIN();

@@ -17,9 +17,9 @@
 #include <string>
 #include <vector>
 
+#include "mlspaces/core/rng.h"
 #include "mlspaces/library/packed_store.h"
 #include "mlspaces/library/registry.h"
-#include "mlspaces/core/rng.h"
 
 namespace {
 
@@ -98,32 +98,41 @@ int main(int argc, char** argv) {
   for (size_t i = 0; i < misses.size(); ++i) misses[i] = "missing_" + std::to_string(i) + "_x";
 
   size_t sink = 0;
-  Report("locate: PackedLibrary::Find (hit)", uids.size(),
-         [&](size_t i) { sink += lib->Find(uids[i])->archive; }, 1000, 2000);
+  Report(
+      "locate: PackedLibrary::Find (hit)", uids.size(),
+      [&](size_t i) { sink += lib->Find(uids[i])->archive; }, 1000, 2000);
   Report("locate: PackedLibrary::Find (miss)", misses.size(),
          [&](size_t i) { sink += lib->Find(misses[i]).has_value(); });
   Report("locate: Registry::Locate (path + archive)", 200000,
          [&](size_t i) { sink += registry.Locate(uids[i])->mjcf_path.native().size(); });
-  Report("annotation: PackedLibrary::LoadAnnotation", 200000, [&](size_t i) {
-    sink += lib->LoadAnnotation(*lib->Find(uids[i]))->json.size();
-  }, 2000);
+  Report(
+      "annotation: PackedLibrary::LoadAnnotation", 200000,
+      [&](size_t i) { sink += lib->LoadAnnotation(*lib->Find(uids[i]))->json.size(); }, 2000);
   Report("annotation: Registry::GetAnnotation (first)", 100000,
          [&](size_t i) { sink += registry.GetAnnotation(uids[i])->json.size(); });
   Report("annotation: Registry::GetAnnotation (again)", 100000,
          [&](size_t i) { sink += registry.GetAnnotation(uids[i])->json.size(); });
   const std::vector<std::string> filter = {name + "/droid"};
-  Report("grasps: PackedLibrary::ReadGrasps (50 rows)", 100000, [&](size_t i) {
-    const PackedAsset asset = *lib->Find(uids[i]);
-    const PackedGraspRef ref = *lib->FindGrasps(asset, "droid", "");
-    std::vector<size_t> rows(std::min<size_t>(50, ref.count));
-    for (size_t r = 0; r < rows.size(); ++r) rows[r] = r;
-    sink += lib->ReadGrasps(ref, &rows).size();
-  }, 20000);
-  Report("grasps: Registry::LoadGrasps (50)", 100000, [&](size_t i) {
-    sink += registry.LoadGrasps({uids[i], "", filter}, 50, i).poses.size();
-  }, 20000);
-  std::printf("resident memory: %ld kB before opening, %ld kB after all of the above "
-              "(%zu checksum)\n", rss0, RssKb(), sink % 10);
+  Report(
+      "grasps: PackedLibrary::ReadGrasps (50 rows)", 100000,
+      [&](size_t i) {
+        const PackedAsset asset = *lib->Find(uids[i]);
+        const PackedGraspRef ref = *lib->FindGrasps(asset, "droid", "");
+        std::vector<size_t> rows(std::min<size_t>(50, ref.count));
+        for (size_t r = 0; r < rows.size(); ++r) rows[r] = r;
+        sink += lib->ReadGrasps(ref, &rows).size();
+      },
+      20000);
+  Report(
+      "grasps: Registry::LoadGrasps (50)", 100000,
+      [&](size_t i) {
+        sink += registry.LoadGrasps({uids[i], "", filter}, 50, i).poses.size();
+      },
+      20000);
+  std::printf(
+      "resident memory: %ld kB before opening, %ld kB after all of the above "
+      "(%zu checksum)\n",
+      rss0, RssKb(), sink % 10);
 
   // Resident memory of a process that only opens the library and locates 10,000 UIDs.
   std::fflush(stdout);
@@ -134,8 +143,10 @@ int main(int argc, char** argv) {
     auto fresh = PackedLibrary::Open(dir, name);
     const long opened = RssKb();
     for (size_t i = 0; i < 10000; ++i) sink += fresh->Find(uids[i])->archive;
-    std::printf("resident memory, fresh process: +%ld kB after Open, +%ld kB after 10,000 "
-                "locates\n", opened - before, RssKb() - before);
+    std::printf(
+        "resident memory, fresh process: +%ld kB after Open, +%ld kB after 10,000 "
+        "locates\n",
+        opened - before, RssKb() - before);
     std::fflush(stdout);
     ::_exit(0);
   }

@@ -106,15 +106,16 @@ int WriteAsset(const fs::path& dir, const std::string& uid, int target_verts, bo
   std::string geom_mat;
   if (textured) {
     mlspaces::WriteFileAtomic(d / (uid + ".png"), Png(tex_size, tex_size, noise, rng));
-    asset += "    <texture name=\"tex\" type=\"2d\" file=\"" + uid + ".png\"/>\n"
+    asset += "    <texture name=\"tex\" type=\"2d\" file=\"" + uid +
+             ".png\"/>\n"
              "    <material name=\"mat\" texture=\"tex\"/>\n";
     geom_mat = " material=\"mat\"";
   }
-  mlspaces::WriteFileAtomic(
-      d / (uid + ".xml"),
-      "<mujoco model=\"" + uid + "\">\n  <asset>\n" + asset + "  </asset>\n  <worldbody>\n" +
-          "    <body name=\"" + uid + "\">\n      <freejoint/>\n      <geom type=\"mesh\" mesh=\"" +
-          uid + "\"" + geom_mat + "/>\n    </body>\n  </worldbody>\n</mujoco>\n");
+  mlspaces::WriteFileAtomic(d / (uid + ".xml"),
+                            "<mujoco model=\"" + uid + "\">\n  <asset>\n" + asset +
+                                "  </asset>\n  <worldbody>\n" + "    <body name=\"" + uid +
+                                "\">\n      <freejoint/>\n      <geom type=\"mesh\" mesh=\"" + uid +
+                                "\"" + geom_mat + "/>\n    </body>\n  </worldbody>\n</mujoco>\n");
   mlspaces::WriteFileAtomic(d / (uid + ".json"),
                             "{\"assetId\": \"" + uid + "\", \"category\": \"blob\"}");
   return n;
@@ -164,13 +165,14 @@ void RunLibrary(const fs::path& dir, int count, double lo, double hi, std::mt199
   for (int i = 0; i < count; ++i) {
     char uid[32];
     std::snprintf(uid, sizeof uid, "obj_%04d", i);
-    total_verts += WriteAsset(dir, uid, static_cast<int>(std::exp(logn(rng))), i % 10 == 0,
-                              512, false, rng);
+    total_verts +=
+        WriteAsset(dir, uid, static_cast<int>(std::exp(logn(rng))), i % 10 == 0, 512, false, rng);
     xmls.push_back(dir / uid / (std::string(uid) + ".xml"));
   }
-  std::printf("\n%d assets, %.0f..%.0f vertices (%.0f on average), every 10th textured, "
-              "generated in %.1f s\n",
-              count, lo, hi, static_cast<double>(total_verts) / count, Seconds(t));
+  std::printf(
+      "\n%d assets, %.0f..%.0f vertices (%.0f on average), every 10th textured, "
+      "generated in %.1f s\n",
+      count, lo, hi, static_cast<double>(total_verts) / count, Seconds(t));
   double bare = 0;
   for (const fs::path& x : xmls) bare += BareLoad(x);
   std::printf("  bare mj_loadXML + mj_makeData, 1 thread : %7.1f assets/s (%.2f ms/asset)\n",
@@ -185,10 +187,11 @@ void RunLibrary(const fs::path& dir, int count, double lo, double hi, std::mt199
     auto r = mlspaces::sim::ComputeAssetMetadata(dir, o, c);
     double s = Seconds(t);
     cpu = CpuSeconds() - cpu;
-    std::printf("  compute-metadata, %d thread%s        : %7.1f assets/s (%.2f ms/asset wall, "
-                "%.2f ms CPU/asset, %zu ok, %zu failed)\n",
-                threads, threads == 1 ? " " : "s", count / s, 1000 * s / count,
-                1000 * cpu / count, r.computed, r.failures.size());
+    std::printf(
+        "  compute-metadata, %d thread%s        : %7.1f assets/s (%.2f ms/asset wall, "
+        "%.2f ms CPU/asset, %zu ok, %zu failed)\n",
+        threads, threads == 1 ? " " : "s", count / s, 1000 * s / count, 1000 * cpu / count,
+        r.computed, r.failures.size());
   }
   fs::remove_all(dir);
 }
@@ -234,8 +237,8 @@ int main(int argc, char** argv) {
         std::fprintf(stderr, "fast and full compile disagree on %s\n", uid);
         return 1;
       }
-      bitwise = bitwise && f1.mass == f2.mass && f1.aabb_min == f2.aabb_min &&
-                f1.aabb_max == f2.aabb_max;
+      bitwise =
+          bitwise && f1.mass == f2.mass && f1.aabb_min == f2.aabb_min && f1.aabb_max == f2.aabb_max;
     }
     std::printf("%-9s: bare load %.2f ms, our facts %.2f ms (full compile %.2f ms), %s\n", uid,
                 1000 * b / reps, 1000 * fast / reps, 1000 * full / reps,

@@ -83,8 +83,8 @@ void WriteNpzSeeds(const fs::path& dir) {
     NpzWriteOptions options;
     options.compress = compress;
     WriteNpz(dir / (compress ? "all_deflate.npz" : "all_stored.npz"), arrays, options);
-    WriteNpz(dir / (compress ? "grasps_deflate.npz" : "grasps_stored.npz"),
-             {arrays.back()}, options);
+    WriteNpz(dir / (compress ? "grasps_deflate.npz" : "grasps_stored.npz"), {arrays.back()},
+             options);
   }
 }
 
@@ -129,8 +129,8 @@ std::string FramedStore(const fs::path& work, int num_assets, bool with_grasps) 
       a.library = "seed";
       a.json = SampleJson();
       a.json["index"] = i;
-      a.arrays.emplace_back("/clip", NpyArray::FromDoubles(DType::kF4, {2}, std::vector<double>{
-                                                                             0.5, -1.0}));
+      a.arrays.emplace_back("/clip",
+                            NpyArray::FromDoubles(DType::kF4, {2}, std::vector<double>{0.5, -1.0}));
       in.annotation = &a;
     }
     if (with_grasps) {

@@ -12,8 +12,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const std::span<const uint8_t> bytes(data, size);
   try {
     ParseNpyHeader(bytes, "fuzz.npy");
-  } catch (const Error&) {
-  }
+  } catch (const Error&) {}
   NpyArray array;
   try {
     array = ParseNpy(bytes, "fuzz.npy");
@@ -23,8 +22,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (array.data.size() != array.num_elements() * DTypeSize(array.dtype)) std::abort();
   for (size_t i = 0; i < array.num_elements() && i < 64; ++i) (void)array.AsDouble(i);
   const std::string again = SerializeNpy(array);
-  const NpyArray back = ParseNpy(
-      {reinterpret_cast<const uint8_t*>(again.data()), again.size()}, "fuzz-again.npy");
+  const NpyArray back =
+      ParseNpy({reinterpret_cast<const uint8_t*>(again.data()), again.size()}, "fuzz-again.npy");
   if (back.dtype != array.dtype || back.shape != array.shape || back.data != array.data) {
     std::abort();
   }

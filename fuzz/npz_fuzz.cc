@@ -24,10 +24,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
           const NpyArray some = reader.ReadRows(key, rows);
           if (some.shape.empty() || some.shape[0] != rows.size()) std::abort();
         }
-      } catch (const Error&) {
-      }
+      } catch (const Error&) {}
     }
-  } catch (const Error&) {
-  }
+  } catch (const Error&) {}
   return 0;
 }

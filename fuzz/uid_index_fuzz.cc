@@ -44,12 +44,10 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
           (void)lib->GraspShardPath(ref.archive);
         }
         if (std::shared_ptr<const Annotation> a = lib->LoadAnnotation(asset)) (void)a->ToJson();
-      } catch (const Error&) {
-      }
+      } catch (const Error&) {}
     }
     (void)lib->Find("no such uid");
     lib->Check();
-  } catch (const Error&) {
-  }
+  } catch (const Error&) {}
   return 0;
 }

@@ -91,8 +91,8 @@ inline int RunPython(const std::filesystem::path& dir, const std::string& script
                      const std::string& args, std::string* output = nullptr) {
   const std::filesystem::path file = dir / "script.py", err = dir / "script.err";
   std::ofstream(file) << script;
-  const std::string cmd = std::string(MLSPACES_PYTHON) + " " + file.string() + " " + args +
-                          " 2>" + ShellQuote(err.string());
+  const std::string cmd = std::string(MLSPACES_PYTHON) + " " + file.string() + " " + args + " 2>" +
+                          ShellQuote(err.string());
   FILE* pipe = ::popen(cmd.c_str(), "r");
   if (pipe == nullptr) return -1;
   std::string out;
@@ -131,7 +131,8 @@ inline CliResult RunProgram(const std::string& program, const std::vector<std::s
   const int status = std::system(cmd.c_str());
   CliResult r;
   r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  r.sigkilled = (WIFSIGNALED(status) && WTERMSIG(status) == SIGKILL) || r.exit_code == 128 + SIGKILL;
+  r.sigkilled =
+      (WIFSIGNALED(status) && WTERMSIG(status) == SIGKILL) || r.exit_code == 128 + SIGKILL;
   r.out = Slurp(io / "out");
   r.err = Slurp(io / "err");
   return r;
@@ -235,7 +236,8 @@ inline std::filesystem::path CopyExampleLibrary(const std::filesystem::path& dir
 
 /// Minimal metadata JSON for a generated asset.
 inline std::string MinimalMetadata(const std::string& uid) {
-  return "{\n    \"assetId\": \"" + uid + "\",\n    \"category\": \"block\",\n"
+  return "{\n    \"assetId\": \"" + uid +
+         "\",\n    \"category\": \"block\",\n"
          "    \"synset\": \"block.n.01\"\n}";
 }
 

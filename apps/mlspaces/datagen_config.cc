@@ -29,8 +29,8 @@ void DatagenConfigFlags::AddTo(CLI::App& app) {
            uint64_t value = 0;
            const auto [ptr, ec] = std::from_chars(text.data(), text.data() + text.size(), value);
            if (text.empty() || ec != std::errc() || ptr != text.data() + text.size()) {
-             throw CLI::ValidationError("--seed", "expected a whole number >= 0, got '" +
-                                                      text + "'");
+             throw CLI::ValidationError("--seed",
+                                        "expected a whole number >= 0, got '" + text + "'");
            }
            seed = value;
          },
@@ -49,8 +49,8 @@ datagen::ExperimentConfig DatagenConfigFlags::Resolve(
   const fs::path cwd = fs::current_path();
   const fs::path file(config);
   const std::string ext = file.extension().string();
-  const bool looks_like_file = ext == ".yaml" || ext == ".yml" ||
-                               config.find('/') != std::string::npos;
+  const bool looks_like_file =
+      ext == ".yaml" || ext == ".yml" || config.find('/') != std::string::npos;
   datagen::ExperimentConfig resolved;
   fs::path origin;
   if (looks_like_file || fs::is_regular_file(file)) {

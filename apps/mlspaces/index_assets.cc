@@ -5,9 +5,9 @@
 #include <string>
 
 #include "commands.h"
-#include "mlspaces/library/asset_index.h"
 #include "mlspaces/core/error.h"
 #include "mlspaces/core/progress.h"
+#include "mlspaces/library/asset_index.h"
 #ifdef MLSPACES_HAVE_SIM
 #include "mlspaces/sim/compute_metadata.h"
 #endif
@@ -47,8 +47,8 @@ int RunComputeMetadata(const IndexAssetsFlags& flags) {
     std::fprintf(stderr, "mlspaces: error: %s\n", failure.message.c_str());
   }
   std::printf("Computed metadata: %zu assets (%zu computed, %zu reused, %zu failed).\n",
-              report.computed + report.reused, report.computed,
-              report.reused, report.failures.size());
+              report.computed + report.reused, report.computed, report.reused,
+              report.failures.size());
   std::printf("Wrote %s with %zu assets.\n", report.index.output.c_str(), report.index.count);
   return report.failures.empty() ? 0 : 1;
 #else
@@ -79,8 +79,7 @@ void AddIndexAssets(CLI::App& app, Action& action) {
   CLI::App* sub = app.add_subcommand(
       "index-assets", "Index an asset library: <uid>.xml + <uid>.json -> assets_index.json");
   sub->add_option("DIR", flags->dir, "Asset library folder")->required();
-  sub->add_option("-o,--output", flags->output,
-                  "Output file (default: DIR/assets_index.json)");
+  sub->add_option("-o,--output", flags->output, "Output file (default: DIR/assets_index.json)");
   sub->add_flag("--overwrite", flags->overwrite, "Replace an existing output file");
   sub->add_flag("--suppress-missing-metadata", flags->suppress_missing_metadata,
                 "Skip XMLs without a sibling <uid>.json, with a warning");

@@ -21,8 +21,8 @@ int Run(const IndexGraspsFlags& flags) {
   options.output = flags.output;
   options.overwrite = flags.overwrite;
   IndexReport report = WriteGraspIndex(flags.dir, options);
-  std::printf("Wrote %s with %zu robots / %zu grasp files.\n", report.output.c_str(),
-              report.robots, report.count);
+  std::printf("Wrote %s with %zu robots / %zu grasp files.\n", report.output.c_str(), report.robots,
+              report.count);
   return 0;
 }
 
@@ -35,8 +35,7 @@ void AddIndexGrasps(CLI::App& app, Action& action) {
       "Index a grasp library: <uid>/<robot>/grasps.npz and joint_grasps_<joint>.npz -> "
       "grasps_index.json");
   sub->add_option("DIR", flags->dir, "Grasp library folder")->required();
-  sub->add_option("-o,--output", flags->output,
-                  "Output file (default: DIR/grasps_index.json)");
+  sub->add_option("-o,--output", flags->output, "Output file (default: DIR/grasps_index.json)");
   sub->add_flag("--overwrite", flags->overwrite, "Replace an existing output file");
   sub->callback([&action, flags] { action = [flags] { return Run(*flags); }; });
 }

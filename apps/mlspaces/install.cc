@@ -52,7 +52,9 @@ int RunInstall(const InstallFlags& flags) {
   for (const std::string& w : flags.where) where.push_back(WhereFilter::Parse(w));
   InstallOptions options;
   options.parallel_downloads = flags.jobs;
-  options.note = [](const std::string& text) { std::fprintf(stderr, "mlspaces: %s\n", text.c_str()); };
+  options.note = [](const std::string& text) {
+    std::fprintf(stderr, "mlspaces: %s\n", text.c_str());
+  };
   std::unique_ptr<ProgressBar> bar;
   options.progress = [&](uint64_t done, uint64_t total) {
     if (bar) bar->Update(static_cast<size_t>(done / 1000), Mb(done) + " of " + Mb(total));
@@ -60,10 +62,11 @@ int RunInstall(const InstallFlags& flags) {
   Installer installer(flags.remote.Settings(), options);
   const InstallPlan plan = flags.library.empty() ? installer.PlanUids(flags.uids)
                                                  : installer.PlanLibrary(flags.library, where);
-  std::printf("%zu assets in %zu archives to install: %s to download (%s unpacked); "
-              "%zu archives already installed\n",
-              plan.assets, plan.archives.size(), Mb(plan.download_bytes).c_str(),
-              Mb(plan.unpacked_bytes).c_str(), plan.already_installed);
+  std::printf(
+      "%zu assets in %zu archives to install: %s to download (%s unpacked); "
+      "%zu archives already installed\n",
+      plan.assets, plan.archives.size(), Mb(plan.download_bytes).c_str(),
+      Mb(plan.unpacked_bytes).c_str(), plan.already_installed);
   std::fflush(stdout);
   if (flags.dry_run || plan.archives.empty()) return 0;
   bar = std::make_unique<ProgressBar>("install", static_cast<size_t>(plan.download_bytes / 1000),
@@ -100,8 +103,9 @@ int RunVerify(const VerifyFlags& flags) {
 void AddInstall(CLI::App& app, Action& action) {
   auto flags = std::make_shared<InstallFlags>();
   CLI::App* sub = app.add_subcommand(
-      "install", "Download, verify and install packaged assets (with their grasps) by UID, or "
-                 "a whole library (--library NAME [--where KEY=VALUE])");
+      "install",
+      "Download, verify and install packaged assets (with their grasps) by UID, or "
+      "a whole library (--library NAME [--where KEY=VALUE])");
   sub->add_option("UID", flags->uids, "Asset UIDs");
   sub->add_option("--library", flags->library, "Install a whole library (source name)");
   sub->add_option("--where", flags->where,

@@ -44,8 +44,8 @@ int Run(const LocateFlags& flags) {
 
 void AddLocate(CLI::App& app, Action& action) {
   auto flags = std::make_shared<LocateFlags>();
-  CLI::App* sub = app.add_subcommand(
-      "locate", "Print the asset library and absolute MJCF path of a UID");
+  CLI::App* sub =
+      app.add_subcommand("locate", "Print the asset library and absolute MJCF path of a UID");
   sub->add_option("UID", flags->uid, "Asset UID")->required();
   sub->add_flag("--json", flags->json, "Print a JSON object instead of text");
   flags->libraries.AddTo(*sub);

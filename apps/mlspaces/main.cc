@@ -12,7 +12,9 @@ namespace mlspaces::cli {
 void AddInspect(CLI::App& app, Action& action);
 #endif
 
-void Warn(const std::string& text) { std::fprintf(stderr, "mlspaces: warning: %s\n", text.c_str()); }
+void Warn(const std::string& text) {
+  std::fprintf(stderr, "mlspaces: warning: %s\n", text.c_str());
+}
 
 CLI::Validator PositiveInteger() {
   return CLI::Validator(

@@ -28,14 +28,15 @@ int Run(PackFlags& flags) {
   const PackReport r = PackLibrary(flags.library_dir, flags.out_dir, flags.options);
   bar.Finish();
   for (const std::string& w : r.warnings) Warn(w);
-  std::printf("Packed %zu assets (%zu grasps in %zu sets) into %zu archives: %.1f MB "
-              "(%.1f MB unpacked)\n",
-              r.assets, r.grasps, r.grasp_sets, r.archives, r.archive_bytes / 1e6,
-              r.unpacked_bytes / 1e6);
+  std::printf(
+      "Packed %zu assets (%zu grasps in %zu sets) into %zu archives: %.1f MB "
+      "(%.1f MB unpacked)\n",
+      r.assets, r.grasps, r.grasp_sets, r.archives, r.archive_bytes / 1e6, r.unpacked_bytes / 1e6);
   std::printf("package: %s\n", r.package_dir.c_str());
-  std::printf("Serve %s (or use it as a file:// remote) and run:\n"
-              "  MLSPACES_REMOTE_URL=<its URL> mlspaces install --library %s\n",
-              flags.out_dir.c_str(), r.name.c_str());
+  std::printf(
+      "Serve %s (or use it as a file:// remote) and run:\n"
+      "  MLSPACES_REMOTE_URL=<its URL> mlspaces install --library %s\n",
+      flags.out_dir.c_str(), r.name.c_str());
   return 0;
 }
 
@@ -43,9 +44,10 @@ int Run(PackFlags& flags) {
 
 void AddPack(CLI::App& app, Action& action) {
   auto flags = std::make_shared<PackFlags>();
-  CLI::App* sub = app.add_subcommand(
-      "pack", "Publish a user asset + grasp library as a versioned package (archives, "
-              "manifest with SHA-256s, UID index, metadata and grasp stores)");
+  CLI::App* sub =
+      app.add_subcommand("pack",
+                         "Publish a user asset + grasp library as a versioned package (archives, "
+                         "manifest with SHA-256s, UID index, metadata and grasp stores)");
   sub->add_option("LIBRARY_DIR", flags->library_dir, "Asset library (with assets_index.json)")
       ->required();
   sub->add_option("OUT_DIR", flags->out_dir,

@@ -57,13 +57,12 @@ int Run(const InspectFlags& flags) {
   }
   if (!model.joints.empty()) std::printf("joints:\n");
   for (const sim::JointDescription& j : model.joints) {
-    std::printf("  %-24s %-6s body %s%s%s\n", Name(j.name).c_str(), j.type.c_str(),
-                j.body.c_str(), j.range ? " range " : "", j.range ? Vec(*j.range).c_str() : "");
+    std::printf("  %-24s %-6s body %s%s%s\n", Name(j.name).c_str(), j.type.c_str(), j.body.c_str(),
+                j.range ? " range " : "", j.range ? Vec(*j.range).c_str() : "");
   }
   if (!model.actuators.empty()) std::printf("actuators:\n");
   for (const sim::ActuatorDescription& a : model.actuators) {
-    std::printf("  %-24s %s %s\n", Name(a.name).c_str(), a.transmission.c_str(),
-                a.target.c_str());
+    std::printf("  %-24s %s %s\n", Name(a.name).c_str(), a.transmission.c_str(), a.target.c_str());
   }
   if (!model.cameras.empty()) std::printf("cameras:\n");
   for (const sim::CameraDescription& c : model.cameras) {
@@ -80,8 +79,7 @@ void AddInspect(CLI::App& app, Action& action) {
   auto flags = std::make_shared<InspectFlags>();
   CLI::App* sub = app.add_subcommand(
       "inspect", "Compose and compile an MJCF; print bodies, joints, actuators and cameras");
-  sub->add_option("FILE", flags->file, "MJCF file (MuJoCo 3 <frame>/<attach> allowed)")
-      ->required();
+  sub->add_option("FILE", flags->file, "MJCF file (MuJoCo 3 <frame>/<attach> allowed)")->required();
   sub->add_flag("--json", flags->json, "Print JSON for scripts");
   sub->add_flag("--emit-mjcf", flags->emit, "Print the flat MJCF handed to MuJoCo 2.2.2");
   sub->callback([&action, flags] { action = [flags] { return Run(*flags); }; });

@@ -26,8 +26,10 @@ void AddValidate(CLI::App& app, Action& action) {
   auto dir = std::make_shared<std::string>();
   CLI::App* sub = app.add_subcommand(
       "validate", "Check a library folder: index entries, files, metadata types, grasp poses");
-  sub->add_option("LIBRARY_DIR", *dir, "Library folder (with assets_index.json and/or "
-                                       "grasps_index.json)")->required();
+  sub->add_option("LIBRARY_DIR", *dir,
+                  "Library folder (with assets_index.json and/or "
+                  "grasps_index.json)")
+      ->required();
   sub->callback([&action, dir] { action = [dir] { return Run(*dir); }; });
 }
 

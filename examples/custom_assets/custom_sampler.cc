@@ -88,8 +88,7 @@ int main(int argc, char** argv) {
   }
   try {
     // 1. The config: a YAML file (relative paths resolve against its folder), then our changes.
-    dg::ExperimentConfig config =
-        dg::LoadConfigFile(argv[1], dg::ConfigRegistry::WithBuiltins());
+    dg::ExperimentConfig config = dg::LoadConfigFile(argv[1], dg::ConfigRegistry::WithBuiltins());
     config.task_sampler_config.task_sampler_class = "my_block_pickup";
     if (argc > 2) config.output_dir = std::filesystem::absolute(argv[2]).lexically_normal();
     if (argc > 3) config.task_sampler_config.samples_per_house = ParseEpisodes(argv[3]);

@@ -15,10 +15,10 @@ namespace mlspaces::examples {
 /// translation 0.
 inline std::vector<std::pair<std::string, NpyArray>> RedBlockGrasps() {
   const double pose[16] = {
-      1, 0, 0, 0,   //
-      0, -1, 0, 0,  //
-      0, 0, -1, 0,  //
-      0, 0, 0, 1,   //
+      1, 0,  0,  0,  //
+      0, -1, 0,  0,  //
+      0, 0,  -1, 0,  //
+      0, 0,  0,  1,  //
   };
   std::vector<std::pair<std::string, NpyArray>> arrays;
   arrays.emplace_back("transforms", NpyArray::FromDoubles({1, 4, 4}, pose));

@@ -3,10 +3,10 @@
 //   make_example_grasps OUT.npz          write it
 //   make_example_grasps --check FILE     regenerate into a temp file and compare bytes with
 //                                        FILE; exit 1 when they differ
+#include <unistd.h>
 #include <cstdio>
 #include <filesystem>
 #include <string>
-#include <unistd.h>
 
 #include "example_grasps.h"
 #include "mlspaces/core/error.h"
@@ -38,8 +38,7 @@ int main(int argc, char** argv) {
     std::error_code ec;
     fs::remove(tmp, ec);
     if (fresh != mlspaces::ReadFile(argv[2])) {
-      std::fprintf(stderr, "%s is out of date: regenerate it with make_example_grasps\n",
-                   argv[2]);
+      std::fprintf(stderr, "%s is out of date: regenerate it with make_example_grasps\n", argv[2]);
       return 1;
     }
     std::printf("%s: up to date\n", argv[2]);

@@ -24,8 +24,8 @@ constexpr const char* kCounterVar = "MLSPACES_CRASH_COUNTER";
 
 struct CrashState {
   bool enabled = false;
-  uint64_t at = 0;                         // 0: never
-  std::atomic<uint64_t> local{0};          // the count without a counter file
+  uint64_t at = 0;                          // 0: never
+  std::atomic<uint64_t> local{0};           // the count without a counter file
   std::atomic<uint64_t>* shared = nullptr;  // in the counter file's mapping
 
   CrashState() {
@@ -42,8 +42,7 @@ struct CrashState {
     if (counter != nullptr && *counter != '\0') {
       const int fd = ::open(counter, O_RDWR | O_CREAT | O_CLOEXEC, 0644);
       if (fd < 0) {
-        throw Error(std::string("cannot open the crash counter: ") + std::strerror(errno),
-                    counter);
+        throw Error(std::string("cannot open the crash counter: ") + std::strerror(errno), counter);
       }
       struct stat st {};
       // Every opener grows the file to 8 bytes; ftruncate to the same size is harmless when

@@ -13,16 +13,15 @@ std::string Diagnostic::ToString() const {
   return out;
 }
 
-void Diagnostics::Error(std::string path, std::string field, std::string message,
-                        std::string uid) {
-  items_.push_back(Diagnostic{std::move(path), std::move(field), std::move(message),
-                              std::move(uid), Severity::kError});
+void Diagnostics::Error(std::string path, std::string field, std::string message, std::string uid) {
+  items_.push_back(Diagnostic{std::move(path), std::move(field), std::move(message), std::move(uid),
+                              Severity::kError});
 }
 
 void Diagnostics::Warning(std::string path, std::string field, std::string message,
                           std::string uid) {
-  items_.push_back(Diagnostic{std::move(path), std::move(field), std::move(message),
-                              std::move(uid), Severity::kWarning});
+  items_.push_back(Diagnostic{std::move(path), std::move(field), std::move(message), std::move(uid),
+                              Severity::kWarning});
 }
 
 size_t Diagnostics::errors() const {

@@ -8,9 +8,9 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <chrono>
 #include <cstdio>
 #include <cstdlib>
-#include <chrono>
 #include <cstring>
 #include <string>
 #include <thread>
@@ -66,8 +66,8 @@ FileLock::FileLock(const std::filesystem::path& path, std::function<void(long)> 
     } else {
       // flock has no timeout; poll with LOCK_NB. The holder's death releases the lock at
       // once, so a short interval keeps the hand-over quick.
-      const auto deadline = std::chrono::steady_clock::now() +
-                            std::chrono::duration<double>(timeout_s);
+      const auto deadline =
+          std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
       for (;;) {
         if (::flock(fd_, LOCK_EX | LOCK_NB) == 0) break;
         if (errno != EWOULDBLOCK && errno != EINTR) {

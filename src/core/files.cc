@@ -19,9 +19,9 @@ namespace fs = std::filesystem;
 std::string ReadFileAt(int dir_fd, const char* path, const fs::path& path_for_errors) {
   int fd = ::openat(dir_fd, path, O_RDONLY | O_CLOEXEC);
   if (fd < 0) {
-    throw Error(errno == ENOENT ? "file not found"
-                                : std::string("cannot open: ") + std::strerror(errno),
-                path_for_errors.string());
+    throw Error(
+        errno == ENOENT ? "file not found" : std::string("cannot open: ") + std::strerror(errno),
+        path_for_errors.string());
   }
   std::string out;
   char buf[16 * 1024];

@@ -74,11 +74,16 @@ J Convert(simdjson::dom::element e) {
       const int64_t v = ValueOf(e.get_int64());
       return v >= 0 ? J(static_cast<uint64_t>(v)) : J(v);
     }
-    case element_type::UINT64: return J(ValueOf(e.get_uint64()));
-    case element_type::DOUBLE: return J(ValueOf(e.get_double()));
-    case element_type::STRING: return J(std::string(ValueOf(e.get_string())));
-    case element_type::BOOL: return J(ValueOf(e.get_bool()));
-    case element_type::NULL_VALUE: return J(nullptr);
+    case element_type::UINT64:
+      return J(ValueOf(e.get_uint64()));
+    case element_type::DOUBLE:
+      return J(ValueOf(e.get_double()));
+    case element_type::STRING:
+      return J(std::string(ValueOf(e.get_string())));
+    case element_type::BOOL:
+      return J(ValueOf(e.get_bool()));
+    case element_type::NULL_VALUE:
+      return J(nullptr);
   }
   return J();
 }
@@ -110,15 +115,23 @@ J ParseAny(std::string_view text, const std::string& path_for_errors) {
 template <class J>
 std::string TypeName(const J& value) {
   switch (value.type()) {
-    case nlohmann::json::value_t::null: return "null";
-    case nlohmann::json::value_t::object: return "object";
-    case nlohmann::json::value_t::array: return "array";
-    case nlohmann::json::value_t::string: return "string";
-    case nlohmann::json::value_t::boolean: return "boolean";
+    case nlohmann::json::value_t::null:
+      return "null";
+    case nlohmann::json::value_t::object:
+      return "object";
+    case nlohmann::json::value_t::array:
+      return "array";
+    case nlohmann::json::value_t::string:
+      return "string";
+    case nlohmann::json::value_t::boolean:
+      return "boolean";
     case nlohmann::json::value_t::number_integer:
-    case nlohmann::json::value_t::number_unsigned: return "integer";
-    case nlohmann::json::value_t::number_float: return "number";
-    default: return "value";
+    case nlohmann::json::value_t::number_unsigned:
+      return "integer";
+    case nlohmann::json::value_t::number_float:
+      return "number";
+    default:
+      return "value";
   }
 }
 
@@ -143,9 +156,6 @@ FlatJson ParseFlatJsonFile(const std::filesystem::path& path) {
 std::string JsonTypeName(const Json& value) { return TypeName(value); }
 std::string JsonTypeName(const FlatJson& value) { return TypeName(value); }
 
-std::string DumpJsonIndent4(const Json& value) {
-  return value.dump(4, ' ', /*ensure_ascii=*/true);
-}
-
+std::string DumpJsonIndent4(const Json& value) { return value.dump(4, ' ', /*ensure_ascii=*/true); }
 
 }  // namespace mlspaces

@@ -89,7 +89,8 @@ void ParallelFor(size_t n, int threads, const std::function<void(size_t)>& body)
   if (n == 0) return;
   Pool pool(n);
   auto work = [&] {
-    pool.Work(body, [](size_t) { return true; }, [](size_t) {});
+    pool.Work(
+        body, [](size_t) { return true; }, [](size_t) {});
   };
   {
     Joiner joiner;

@@ -52,8 +52,8 @@ void ProgressBar::Draw(size_t done) {
     std::fprintf(stderr, "\r%s [%s] %zu/%zu (%.0f/s)\x1b[K", label_.c_str(), bar.c_str(), done,
                  total_, rate);
   } else {
-    std::fprintf(stderr, "\r%s [%s] %zu/%zu %s\x1b[K", label_.c_str(), bar.c_str(), done,
-                 total_, note_.c_str());
+    std::fprintf(stderr, "\r%s [%s] %zu/%zu %s\x1b[K", label_.c_str(), bar.c_str(), done, total_,
+                 note_.c_str());
   }
   std::fflush(stderr);
 }

@@ -100,8 +100,7 @@ ChildExit Child::Wait() {
   ChildExit exit;
   if (pid_ <= 0 || waited_) return exit;
   int status = 0;
-  while (::waitpid(pid_, &status, 0) < 0 && errno == EINTR) {
-  }
+  while (::waitpid(pid_, &status, 0) < 0 && errno == EINTR) {}
   waited_ = true;
   if (WIFSIGNALED(status)) {
     exit.signaled = true;

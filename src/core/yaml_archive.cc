@@ -222,8 +222,8 @@ void YamlReader::CheckKeys(const YAML::Node& node, const std::string& key,
     if (std::find(names.begin(), names.end(), name) == names.end()) {
       const std::string hint = DidYouMean(name, names);
       Fail(kv.first, YamlChildKey(key, name),
-           "unknown key (" + (hint.empty() ? "" : hint + " ") +
-               "valid keys: " + JoinNames(names) + ")");
+           "unknown key (" + (hint.empty() ? "" : hint + " ") + "valid keys: " + JoinNames(names) +
+               ")");
     }
   }
 }

@@ -29,8 +29,10 @@ std::vector<double> NoisyArmTarget(std::span<const double> q_cmd, std::span<cons
     const double sigma_p = config.action_scale_factor * std::sqrt(dx2);
     const double sigma_r = config.rotation_noise_scale * sigma_p;
     std::array<double, 6> noise{};
-    for (int i = 0; i < 3; ++i) noise[i] = rng.TruncatedNormal(sigma_p, config.max_tcp_position_noise);
-    for (int i = 3; i < 6; ++i) noise[i] = rng.TruncatedNormal(sigma_r, config.max_tcp_rotation_noise);
+    for (int i = 0; i < 3; ++i)
+      noise[i] = rng.TruncatedNormal(sigma_p, config.max_tcp_position_noise);
+    for (int i = 3; i < 6; ++i)
+      noise[i] = rng.TruncatedNormal(sigma_r, config.max_tcp_rotation_noise);
     if (sigma_p > 0) {
       const std::vector<double> dq = DampedLeastSquares(jac, n, noise, 1e-6);
       for (size_t k = 0; k < n; ++k) q[k] += dq[k];

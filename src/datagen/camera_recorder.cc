@@ -41,8 +41,7 @@ CameraSystem::CameraSystem(const mjModel* m, const CameraSystemConfig& config)
       const std::string& body = c.reference_body_names.at(0);
       cam.body_id = mj_name2id(m, mjOBJ_BODY, body.c_str());
       if (cam.body_id < 0) {
-        throw Error("body '" + body + "' is not in the model", "",
-                    field + ".reference_body_names");
+        throw Error("body '" + body + "' is not in the model", "", field + ".reference_body_names");
       }
       cam.offset = c.camera_offset;
       cam.rot = QuatToMat(c.camera_quaternion);
@@ -79,8 +78,8 @@ void CameraSystem::AppendParams(const sim::CameraView& v, int width, int height,
   const auto& [c2w_param, ext_param, int_param] = schema::kSensorParams;
   if (params.empty()) {
     for (const schema::SensorParam& p : schema::kSensorParams) {
-      params[p.name] = Series(DType::kFloat64, {static_cast<size_t>(p.rows),
-                                                static_cast<size_t>(p.cols)});
+      params[p.name] =
+          Series(DType::kFloat64, {static_cast<size_t>(p.rows), static_cast<size_t>(p.cols)});
     }
   }
   // Columns: right (x), -up (-y), forward (-z), position.
@@ -159,16 +158,15 @@ void CameraRecorder::Capture(const mjData* d) {
     const sim::CameraView view = system_.View(i, d);
     CameraSystem::AppendParams(view, system_.width(), system_.height(), records_[i].params);
     auto t0 = Clock::now();
-    renderer_->Render(d, view, rgb_buf_.data(),
-                      config_.record_depth ? depth_buf_.data() : nullptr);
+    renderer_->Render(d, view, rgb_buf_.data(), config_.record_depth ? depth_buf_.data() : nullptr);
     render_seconds_ += Since(t0);
     t0 = Clock::now();
     rgb_[i]->AddFrame(rgb_buf_.data());
     if (config_.record_depth) {
       const double scale = 255.0 / config_.depth_max_m;
       for (size_t p = 0; p < depth_buf_.size(); ++p) {
-        const auto g = static_cast<unsigned char>(
-            std::clamp(std::lround(depth_buf_[p] * scale), 0L, 255L));
+        const auto g =
+            static_cast<unsigned char>(std::clamp(std::lround(depth_buf_[p] * scale), 0L, 255L));
         grey_buf_[3 * p] = grey_buf_[3 * p + 1] = grey_buf_[3 * p + 2] = g;
       }
       depth_[i]->AddFrame(grey_buf_.data());

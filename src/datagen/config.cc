@@ -23,8 +23,8 @@ ExperimentConfig LoadConfigFile(const fs::path& file, const ConfigRegistry& regi
   }
   if (!root.IsMap()) reader.Fail(root, "", "expected a mapping, got " + DescribeYaml(root));
   if (const YAML::Node base = root["base"]) {
-    if (!base.IsScalar()) reader.Fail(base, "base", "expected a config name, got " +
-                                                        DescribeYaml(base));
+    if (!base.IsScalar())
+      reader.Fail(base, "base", "expected a config name, got " + DescribeYaml(base));
     try {
       config = registry.Make(base.Scalar());
     } catch (const Error& e) {
@@ -40,8 +40,10 @@ void ApplyOverride(ExperimentConfig& config, std::string_view assignment,
                    const fs::path& base_dir) {
   const size_t eq = assignment.find('=');
   if (eq == std::string_view::npos || eq == 0) {
-    throw UsageError("--set expects KEY=VALUE (e.g. task_sampler_config.samples_per_house=4), "
-                     "got '" + std::string(assignment) + "'");
+    throw UsageError(
+        "--set expects KEY=VALUE (e.g. task_sampler_config.samples_per_house=4), "
+        "got '" +
+        std::string(assignment) + "'");
   }
   const std::string key(assignment.substr(0, eq));
   const std::string text(assignment.substr(eq + 1));
@@ -69,9 +71,7 @@ void ResolvePaths(ExperimentConfig& config, const fs::path& base_dir) {
   ResolveYamlPaths(config, base_dir);
 }
 
-std::string DumpConfig(const ExperimentConfig& config) {
-  return DumpYaml(config);
-}
+std::string DumpConfig(const ExperimentConfig& config) { return DumpYaml(config); }
 
 uint64_t ConfigHash(const ExperimentConfig& config) { return HashString(DumpConfig(config)); }
 

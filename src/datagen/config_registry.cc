@@ -61,8 +61,7 @@ ConfigRegistry ConfigRegistry::WithBuiltins() {
   return registry;
 }
 
-void ConfigRegistry::RegisterConfig(const std::string& name, ConfigFactory factory,
-                                    bool replace) {
+void ConfigRegistry::RegisterConfig(const std::string& name, ConfigFactory factory, bool replace) {
   if (name.empty() || std::any_of(name.begin(), name.end(), [](char c) {
         return std::isspace(static_cast<unsigned char>(c));
       })) {

@@ -23,10 +23,12 @@ class Checker {
     Check(v >= 1, key, "must be >= 1, got " + std::to_string(v));
   }
   void NonNegative(double v, const std::string& key) const {
-    Check(std::isfinite(v) && v >= 0, key, "must be a finite number >= 0, got " + FormatYamlDouble(v));
+    Check(std::isfinite(v) && v >= 0, key,
+          "must be a finite number >= 0, got " + FormatYamlDouble(v));
   }
   void PositiveReal(double v, const std::string& key) const {
-    Check(std::isfinite(v) && v > 0, key, "must be a finite number > 0, got " + FormatYamlDouble(v));
+    Check(std::isfinite(v) && v > 0, key,
+          "must be a finite number > 0, got " + FormatYamlDouble(v));
   }
   /// a / b is a whole number.
   void Divides(double a, double b, const std::string& key, const std::string& what) const {
@@ -53,8 +55,8 @@ class Checker {
 
 void Validate(const ExperimentConfig& c, const fs::path& origin) {
   Checker k(origin);
-  k.Check(c.num_envs == 1, "num_envs", "only 1 environment per worker is supported, got " +
-                                           std::to_string(c.num_envs));
+  k.Check(c.num_envs == 1, "num_envs",
+          "only 1 environment per worker is supported, got " + std::to_string(c.num_envs));
   k.Positive(c.num_workers, "num_workers");
   k.PositiveReal(c.policy_dt_ms, "policy_dt_ms");
   k.PositiveReal(c.ctrl_dt_ms, "ctrl_dt_ms");
@@ -147,8 +149,7 @@ void Validate(const ExperimentConfig& c, const fs::path& origin) {
               cam.img_resolution[0] <= 8192 && cam.img_resolution[1] <= 8192,
           "camera_config.img_resolution", "width and height must be in 16..8192");
   k.Check(cam.depth_max_m > 0, "camera_config.depth_max_m", "must be > 0");
-  k.Check(cam.video_crf >= 0 && cam.video_crf <= 51, "camera_config.video_crf",
-          "must be in 0..51");
+  k.Check(cam.video_crf >= 0 && cam.video_crf <= 51, "camera_config.video_crf", "must be in 0..51");
   static const std::set<std::string> kPresets = {"ultrafast", "superfast", "veryfast", "faster",
                                                  "fast",      "medium",    "slow",     "slower",
                                                  "veryslow",  "placebo"};
@@ -159,8 +160,7 @@ void Validate(const ExperimentConfig& c, const fs::path& origin) {
     const CameraConfig& cc = cam.cameras[i];
     const std::string key = "camera_config.cameras[" + std::to_string(i) + "]";
     k.Check(!cc.name.empty(), key + ".name", "must not be empty");
-    k.Check(camera_names.insert(cc.name).second, key + ".name",
-            "duplicate camera name " + cc.name);
+    k.Check(camera_names.insert(cc.name).second, key + ".name", "duplicate camera name " + cc.name);
     k.Check(cc.fov > 0 && cc.fov < 180, key + ".fov", "must be in (0, 180) degrees");
     if (cc.type == CameraType::kMjcf) {
       k.Check(!cc.mjcf_name.empty(), key + ".mjcf_name", "an mjcf camera needs mjcf_name");

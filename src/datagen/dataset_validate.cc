@@ -94,8 +94,7 @@ namespace mlspaces::datagen {
 DatasetReport ValidateDataset(const std::filesystem::path& dir) {
   std::error_code ec;
   if (!std::filesystem::is_directory(dir, ec)) {
-    throw Error(std::filesystem::exists(dir, ec) ? "not a folder" : "no such folder",
-                dir.string());
+    throw Error(std::filesystem::exists(dir, ec) ? "not a folder" : "no such folder", dir.string());
   }
   DatasetReport report;
   dataset_check::Validator(report).Run(dir);

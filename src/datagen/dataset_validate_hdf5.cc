@@ -172,9 +172,8 @@ std::optional<std::vector<std::string>> ListLinks(hid_t loc, bool recursive) {
     static_cast<std::vector<std::string>*>(data)->push_back(name);
     return 0;
   };
-  const herr_t rc = recursive
-                        ? H5Lvisit(loc, H5_INDEX_NAME, H5_ITER_INC, cb, &names)
-                        : H5Literate(loc, H5_INDEX_NAME, H5_ITER_INC, nullptr, cb, &names);
+  const herr_t rc = recursive ? H5Lvisit(loc, H5_INDEX_NAME, H5_ITER_INC, cb, &names)
+                              : H5Literate(loc, H5_INDEX_NAME, H5_ITER_INC, nullptr, cb, &names);
   if (rc < 0) return std::nullopt;
   return names;
 }
@@ -228,8 +227,8 @@ bool Validator::Rows(const Ds& ds, const Traj& t) {
     return false;
   }
   if (t.t >= 0 && static_cast<int64_t>(ds.dims[0]) != t.t) {
-    Add(ds.path, "has " + std::to_string(ds.dims[0]) + " rows, expected " +
-                     std::to_string(t.t) + " (T, the rows of " + t.t_source + ")");
+    Add(ds.path, "has " + std::to_string(ds.dims[0]) + " rows, expected " + std::to_string(t.t) +
+                     " (T, the rows of " + t.t_source + ")");
     return false;
   }
   return true;
@@ -258,8 +257,8 @@ void Validator::ReadNumeric(const Ds& ds) {
 /// uint8 (T, L) rows, each a zero-padded JSON text (`objects`: a JSON object).
 void Validator::JsonRows(const Ds& ds, const Traj& t, bool objects) {
   if (!IsUint8(ds.type.get()) || ds.dims.size() != 2) {
-    Add(ds.path, "expected uint8 (T, L) JSON rows, got " + TypeName(ds.type.get()) + " " +
-                     Shape(ds.dims));
+    Add(ds.path,
+        "expected uint8 (T, L) JSON rows, got " + TypeName(ds.type.get()) + " " + Shape(ds.dims));
     return;
   }
   Rows(ds, t);
@@ -271,8 +270,8 @@ void Validator::JsonRows(const Ds& ds, const Traj& t, bool objects) {
   for (size_t i = 0; i < rows; ++i) {
     const char* row = reinterpret_cast<const char*>(buf.data() + i * width);
     const void* nul = std::memchr(row, 0, width);
-    const size_t len = nul != nullptr ? static_cast<size_t>(static_cast<const char*>(nul) - row)
-                                      : width;
+    const size_t len =
+        nul != nullptr ? static_cast<size_t>(static_cast<const char*>(nul) - row) : width;
     const std::string_view text(row, len);
     std::string why;
     if (std::any_of(row + len, row + width, [](char c) { return c != 0; })) {
@@ -294,7 +293,8 @@ void Validator::JsonRows(const Ds& ds, const Traj& t, bool objects) {
 }
 
 /// A string dataset or attribute's text (fixed or variable length); nullopt after a problem.
-std::optional<std::string> Validator::ReadString(hid_t obj, bool attribute, const std::string& path) {
+std::optional<std::string> Validator::ReadString(hid_t obj, bool attribute,
+                                                 const std::string& path) {
   Handle type(attribute ? H5Aget_type(obj) : H5Dget_type(obj), H5Tclose);
   Handle space(attribute ? H5Aget_space(obj) : H5Dget_space(obj), H5Sclose);
   if (type.get() < 0 || space.get() < 0) {

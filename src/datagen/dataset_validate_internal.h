@@ -28,7 +28,6 @@ using h5::Handle;
 // are a few MiB.
 constexpr double kMaxDatasetBytes = double{1 << 30};
 
-
 inline bool StartsWith(std::string_view s, std::string_view prefix) {
   return s.substr(0, prefix.size()) == prefix;
 }
@@ -87,8 +86,8 @@ struct Traj {
   hid_t g = H5I_INVALID_HID;
   std::string name;  // "traj_3"
   int64_t k = 0;
-  int64_t t = -1;        // T, -1 if unknown
-  std::string t_source;  // where T comes from
+  int64_t t = -1;                                    // T, -1 if unknown
+  std::string t_source;                              // where T comes from
   std::map<std::string, std::vector<int8_t>> flags;  // success, fail, terminated, truncated
 };
 
@@ -134,8 +133,7 @@ class Validator {
 
   /// Opens dataset `rel` below `loc`; nullopt (with a problem when `required` or when it
   /// exists but cannot be opened as a dataset) otherwise.
-  std::optional<Ds> Open(hid_t loc, const std::string& base, const std::string& rel,
-                         bool required);
+  std::optional<Ds> Open(hid_t loc, const std::string& base, const std::string& rel, bool required);
 
   /// Checks the first dimension is T.
   bool Rows(const Ds& ds, const Traj& t);
@@ -210,8 +208,8 @@ class Validator {
              const std::optional<std::pair<int, int>>& image);
 
   DatasetReport& report_;
-  std::string file_;  // the HDF5 file being checked
-  fs::path dir_;      // its folder (videos live there)
+  std::string file_;                               // the HDF5 file being checked
+  fs::path dir_;                                   // its folder (videos live there)
   std::map<std::string, std::string> video_refs_;  // video file -> "file: path" naming it
   std::set<std::string> incomplete_dirs_;          // folders whose videos may be unreferenced
   // What File() added to the two above (sent back from the child process).

@@ -49,8 +49,8 @@ void Validator::File(const fs::path& p) {
     int64_t first_missing = 0;
     while (trajs.count(first_missing) != 0) ++first_missing;
     Add("", "trajectory numbering has gaps: " + std::to_string(missing) + " of traj_0 … traj_" +
-                std::to_string(last) + " missing (first: traj_" +
-                std::to_string(first_missing) + ")");
+                std::to_string(last) + " missing (first: traj_" + std::to_string(first_missing) +
+                ")");
   }
   for (const auto& [k, name] : trajs) {
     ++report_.trajectories;
@@ -130,8 +130,8 @@ void Validator::Bools(Traj& t, const std::string& flag) {
   const hid_t type = ds->type.get();
   const H5T_class_t c = H5Tget_class(type);
   if ((c != H5T_ENUM && c != H5T_INTEGER) || H5Tget_size(type) != 1 || ds->dims.size() != 1) {
-    Add(ds->path, "expected bool (T,) (int8 enum FALSE/TRUE), got " + TypeName(type) + " " +
-                      Shape(ds->dims));
+    Add(ds->path,
+        "expected bool (T,) (int8 enum FALSE/TRUE), got " + TypeName(type) + " " + Shape(ds->dims));
     return;
   }
   if (!Rows(*ds, t)) return;
@@ -161,10 +161,10 @@ void Validator::FlagConsistency(const Traj& t) {
       if ((*fail)[i] == (*success)[i] && differ++ == 0) first = i;
     }
     if (differ > 0) {
-      Add(t.name + "/fail",
-          "row " + std::to_string(first) + " equals success (" +
-              ((*success)[first] ? "TRUE" : "FALSE") + "): fail must be !success (" +
-              std::to_string(differ) + " of " + std::to_string(success->size()) + " rows)");
+      Add(t.name + "/fail", "row " + std::to_string(first) + " equals success (" +
+                                ((*success)[first] ? "TRUE" : "FALSE") +
+                                "): fail must be !success (" + std::to_string(differ) + " of " +
+                                std::to_string(success->size()) + " rows)");
     }
   }
   for (const auto* flags : {terminated, truncated}) {
@@ -229,9 +229,9 @@ void Validator::Provenance(const Traj& t) {
     if (it == obj.end()) {
       Add(where + "/" + key, "missing" + suffix);
     } else if (!it->is_string() || it->get<std::string>().empty()) {
-      Add(where + "/" + key, (it->is_string() ? std::string("empty")
-                                              : "expected a string, got " + JsonTypeName(*it)) +
-                                 suffix);
+      Add(where + "/" + key,
+          (it->is_string() ? std::string("empty") : "expected a string, got " + JsonTypeName(*it)) +
+              suffix);
     }
   };
   non_empty_string(*p, "config_hash", path);
@@ -263,8 +263,8 @@ void Validator::Provenance(const Traj& t) {
   }
   // Optional fields, when present, must agree with the datasets.
   if (auto it = p->find("episode_index"); it != p->end() && *it != FlatJson(t.k)) {
-    Add(path + "/episode_index", it->dump() + ", expected " + std::to_string(t.k) +
-                                     " (the k of traj_<k>)");
+    Add(path + "/episode_index",
+        it->dump() + ", expected " + std::to_string(t.k) + " (the k of traj_<k>)");
   }
   if (auto it = p->find("num_steps"); it != p->end() && t.t >= 0 && *it != FlatJson(t.t)) {
     Add(path + "/num_steps", it->dump() + ", expected T = " + std::to_string(t.t));
@@ -275,8 +275,8 @@ void Validator::Provenance(const Traj& t) {
     if (it == p->end() || rows == t.flags.end() || rows->second.empty()) continue;
     const bool last = rows->second.back() != 0;
     if (!it->is_boolean() || it->get<bool>() != last) {
-      Add(path + "/" + flag, it->dump() + ", but the last row of " + t.name + "/" + flag +
-                                 " is " + (last ? "TRUE" : "FALSE"));
+      Add(path + "/" + flag, it->dump() + ", but the last row of " + t.name + "/" + flag + " is " +
+                                 (last ? "TRUE" : "FALSE"));
     }
   }
 }

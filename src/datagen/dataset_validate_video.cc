@@ -24,8 +24,8 @@ void Validator::Cameras(const Traj& t) {
       const std::string rel = std::string(schema::kSensorParam) + "/" + cam;
       Handle obj(H5Oopen(t.g, rel.c_str(), H5P_DEFAULT), H5Oclose);
       if (obj.get() < 0 || H5Iget_type(obj.get()) != H5I_GROUP) {
-        Add(param_base + "/" + cam, obj.get() < 0 ? HdfMessage("cannot open")
-                                                  : "expected a group per camera");
+        Add(param_base + "/" + cam,
+            obj.get() < 0 ? HdfMessage("cannot open") : "expected a group per camera");
         continue;
       }
       cams[cam] = std::nullopt;
@@ -43,8 +43,7 @@ void Validator::Cameras(const Traj& t) {
         if (shape != schema::kSensorParams.end() &&
             !std::equal(ds.dims.begin() + 1, ds.dims.end(), expected.begin(), expected.end())) {
           Add(ds.path, "has shape " + Shape(ds.dims) + ", expected (T, " +
-                           std::to_string(expected[0]) + ", " + std::to_string(expected[1]) +
-                           ")");
+                           std::to_string(expected[0]) + ", " + std::to_string(expected[1]) + ")");
           return;
         }
         if (key != intrinsics) {
@@ -153,9 +152,8 @@ void Validator::Video(const Traj& t, const Ds& ds, const std::string& name,
     if (info.width != w || info.height != h) {
       Add(ds.path, "video " + name + " is " + std::to_string(info.width) + "x" +
                        std::to_string(info.height) + ", expected " + std::to_string(w) + "x" +
-                       std::to_string(h) + " (the camera's " + std::to_string(image->first) +
-                       "x" + std::to_string(image->second) +
-                       " image rounded up to multiples of 16)");
+                       std::to_string(h) + " (the camera's " + std::to_string(image->first) + "x" +
+                       std::to_string(image->second) + " image rounded up to multiples of 16)");
     }
   }
 }

@@ -104,22 +104,30 @@ void InsertRobotOnPedestal(sim::Scene& scene, const RobotSpec& robot) {
   };
   const std::string xml =
       "<mujoco model=\"robot_on_pedestal\">\n"
-      "  <asset><model name=\"robot\" file=\"" + std::filesystem::absolute(robot.xml).string() +
+      "  <asset><model name=\"robot\" file=\"" +
+      std::filesystem::absolute(robot.xml).string() +
       "\"/></asset>\n"
       "  <worldbody>\n"
-      "    <body name=\"" + robot.base_body + "\" mocap=\"true\">\n"
-      "      <geom name=\"pedestal\" type=\"box\" size=\"" + num(size[0] / 2) + " " +
-      num(size[1] / 2) + " " + num(size[2] / 2) + "\" pos=\"0 0 " + num(size[2] / 2) +
+      "    <body name=\"" +
+      robot.base_body +
+      "\" mocap=\"true\">\n"
+      "      <geom name=\"pedestal\" type=\"box\" size=\"" +
+      num(size[0] / 2) + " " + num(size[1] / 2) + " " + num(size[2] / 2) + "\" pos=\"0 0 " +
+      num(size[2] / 2) +
       "\" group=\"0\" rgba=\"0.35 0.25 0.18 1\" mass=\"20\"/>\n"
-      "      <frame pos=\"0 0 " + num(size[2]) + "\">\n"
-      "        <attach model=\"robot\" body=\"" + robot.arm_root_body + "\" prefix=\"\"/>\n"
+      "      <frame pos=\"0 0 " +
+      num(size[2]) +
+      "\">\n"
+      "        <attach model=\"robot\" body=\"" +
+      robot.arm_root_body +
+      "\" prefix=\"\"/>\n"
       "      </frame>\n"
       "    </body>\n"
       "  </worldbody>\n"
       "</mujoco>\n";
-  scene.InsertRobotString(xml, std::filesystem::absolute(robot.xml).parent_path() /
-                                   "robot_on_pedestal.xml",
-                          robot.prefix, robot.base);
+  scene.InsertRobotString(
+      xml, std::filesystem::absolute(robot.xml).parent_path() / "robot_on_pedestal.xml",
+      robot.prefix, robot.base);
 }
 
 // robot_config.gravcomp on the compiled model: body_gravcomp 1 (or 0) on the arm root's
@@ -127,8 +135,8 @@ void InsertRobotOnPedestal(sim::Scene& scene, const RobotSpec& robot) {
 void SetRobotGravcomp(mjModel* m, const RobotSpec& robot) {
   const std::string root_name = robot.prefix + robot.arm_root_body;
   const int root = NameToId(m, mjOBJ_BODY, root_name);
-  if (root < 0) throw Error("robot arm root body " + root_name + " is not in the model",
-                            robot.xml.string());
+  if (root < 0)
+    throw Error("robot arm root body " + root_name + " is not in the model", robot.xml.string());
   for (int b = 1; b < m->nbody; ++b) {
     int a = b;
     while (a > 0 && a != root) a = m->body_parentid[a];

@@ -9,12 +9,12 @@
 
 #include "mlspaces/core/error.h"
 #include "mlspaces/core/progress.h"
-#include "mlspaces/library/scene_metadata.h"
+#include "mlspaces/core/se3.h"
 #include "mlspaces/core/version.h"
 #include "mlspaces/datagen/action_noise.h"
-#include "mlspaces/core/se3.h"
-#include "mlspaces/sim/mj_pose.h"
 #include "mlspaces/datagen/success.h"
+#include "mlspaces/library/scene_metadata.h"
+#include "mlspaces/sim/mj_pose.h"
 
 namespace mlspaces::datagen {
 namespace {
@@ -53,11 +53,16 @@ std::vector<double> Se3Log(const Mat4& t) {
 
 Outcome OutcomeOfFailure(PlanFailure f) {
   switch (f) {
-    case PlanFailure::kNoGrasp: return Outcome::kNoGrasp;
-    case PlanFailure::kIkFail: return Outcome::kIkFail;
-    case PlanFailure::kCollision: return Outcome::kCollision;
-    case PlanFailure::kEmptyGrasp: return Outcome::kGraspSlip;
-    case PlanFailure::kNone: break;
+    case PlanFailure::kNoGrasp:
+      return Outcome::kNoGrasp;
+    case PlanFailure::kIkFail:
+      return Outcome::kIkFail;
+    case PlanFailure::kCollision:
+      return Outcome::kCollision;
+    case PlanFailure::kEmptyGrasp:
+      return Outcome::kGraspSlip;
+    case PlanFailure::kNone:
+      break;
   }
   return Outcome::kGraspSlip;
 }
@@ -279,10 +284,14 @@ void EpisodeRunner::Observe(Episode& e, const PlannerAction* action) {
   rec.extra["policy_num_retries"].AppendInts({planner_.retries()});
   std::vector<double> panda(artic_width, 0.0);
   size_t k = 0;
-  for (double v : arm_q) if (k < artic_width) panda[k++] = v;
-  for (double v : grip_q) if (k < artic_width) panda[k++] = v;
-  for (double v : arm_v) if (k < artic_width) panda[k++] = v;
-  for (double v : grip_v) if (k < artic_width) panda[k++] = v;
+  for (double v : arm_q)
+    if (k < artic_width) panda[k++] = v;
+  for (double v : grip_q)
+    if (k < artic_width) panda[k++] = v;
+  for (double v : arm_v)
+    if (k < artic_width) panda[k++] = v;
+  for (double v : grip_v)
+    if (k < artic_width) panda[k++] = v;
   rec.env_states["articulations/" + env_.robot().articulation_name].Append(panda);
   for (const auto& [name, joint] : e.actors) {
     // Free-joint pose (xyz, quat wxyz) and velocity (linear, angular): 13 values.
@@ -304,14 +313,17 @@ void EpisodeRunner::Observe(Episode& e, const PlannerAction* action) {
     const mjContact& con = d->contact[c];
     const int b1 = m->geom_bodyid[con.geom1], b2 = m->geom_bodyid[con.geom2];
     auto in_object = [&](int b) {
-      for (; b > 0; b = m->body_parentid[b]) if (b == object) return true;
+      for (; b > 0; b = m->body_parentid[b])
+        if (b == object) return true;
       return false;
     };
     const bool o1 = in_object(b1), o2 = in_object(b2);
     if (o1 == o2) continue;
     const int g = o1 ? con.geom2 : con.geom1;
-    if (robot_.IsGripperGeom(g)) touching = true;
-    else other = true;
+    if (robot_.IsGripperGeom(g))
+      touching = true;
+    else
+      other = true;
   }
   rec.extra_json["grasp_state_pickup_obj"].steps.push_back(
       Json{{"gripper", Json{{"touching", touching}, {"held", touching && !other}}}});
@@ -325,8 +337,7 @@ void EpisodeRunner::Observe(Episode& e, const PlannerAction* action) {
   e.prev_arm_qpos = arm_q;
 }
 
-void EpisodeRunner::RecordActions(Episode& e, const PlannerAction* action,
-                                  const Mat4& base_inv) {
+void EpisodeRunner::RecordActions(Episode& e, const PlannerAction* action, const Mat4& base_inv) {
   const mjData* d = env_.data();
   const size_t n_arm = robot_.num_arm();
   const size_t n_grip = robot_.num_gripper();
@@ -463,8 +474,8 @@ void EpisodeRunner::Judge(Episode& e) {
                       " (after " + std::to_string(planner_.retries()) + " retries)";
   } else if (e.truncated && !e.terminated) {
     attempt.outcome = Outcome::kTimeout;
-    attempt.message = "the horizon of " + std::to_string(config_.task_horizon) +
-                      " policy steps ran out";
+    attempt.message =
+        "the horizon of " + std::to_string(config_.task_horizon) + " policy steps ran out";
   } else {
     attempt.outcome = Outcome::kGraspSlip;
     attempt.message = "the plan finished but the object is not held: lift " +
@@ -493,8 +504,8 @@ void EpisodeRunner::FinishRecord(Episode& e) {
     }
   }
   const std::optional<AssetLocation> where = registry_.Locate(uid);
-  meta.assets.push_back({uid, where ? where->library : std::string("unknown"), license,
-                         "pickup_obj"});
+  meta.assets.push_back(
+      {uid, where ? where->library : std::string("unknown"), license, "pickup_obj"});
   meta.mujoco_version = mj_versionString();
   meta.mlspaces_version = std::string(Version());
   // Only what is the same on every machine: the grasp file relative to its library.
@@ -513,20 +524,19 @@ void EpisodeRunner::FinishRecord(Episode& e) {
                     {"grasp_library", grasp_library},
                     {"grasp_file", grasp_file},
                     {"attempt", attempt_json}};
-  rec.obs_scene = Json{{"task_type", "pick"},
-                       {"task_description", meta.task_description},
-                       {"policy_dt_ms", config_.policy_dt_ms},
-                       {"referral_expressions",
-                        Json{{"pickup_obj_name", Json::array({Json::array({expr, 1.0})})}}},
-                       {"policy_phases", PolicyPhaseMap()},
-                       {"frozen_config",
-                        Json{{"pickup_obj_name", task.pickup_obj_name},
+  rec.obs_scene = Json{
+      {"task_type", "pick"},
+      {"task_description", meta.task_description},
+      {"policy_dt_ms", config_.policy_dt_ms},
+      {"referral_expressions", Json{{"pickup_obj_name", Json::array({Json::array({expr, 1.0})})}}},
+      {"policy_phases", PolicyPhaseMap()},
+      {"frozen_config", Json{{"pickup_obj_name", task.pickup_obj_name},
                              {"robot_base_pose", ToArray7(task.robot_base_pose)},
                              {"pickup_obj_start_pose", ToArray7(task.pickup_obj_start_pose)},
                              {"pickup_obj_goal_pose", ToArray7(task.pickup_obj_goal_pose)},
                              {"config_hash", meta.config_hash}}},
-                       {"text", "pick " + task.pickup_obj_name},
-                       {"object_name", task.pickup_obj_name}};
+      {"text", "pick " + task.pickup_obj_name},
+      {"object_name", task.pickup_obj_name}};
   e.result.record = std::move(rec);
 }
 

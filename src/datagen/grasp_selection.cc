@@ -174,9 +174,9 @@ GraspCollisionChecker::GraspCollisionChecker(const sim::MjcfComposer& scene, con
   // The scene with the probe attached last (so its body, joint and geoms come after the
   // sim model's), compiled from the scene's spec.
   sim::MjcfComposer with_probe = scene;
-  with_probe.AttachString("<mujoco model=\"grasp_probe\"><worldbody>" + body +
-                              "</worldbody></mujoco>",
-                          scene.path().parent_path() / "grasp_probe.xml", "world", "", Pose{});
+  with_probe.AttachString(
+      "<mujoco model=\"grasp_probe\"><worldbody>" + body + "</worldbody></mujoco>",
+      scene.path().parent_path() / "grasp_probe.xml", "world", "", Pose{});
   model_ = with_probe.Compile();
   mjModel* m = model_.get();
 

@@ -96,8 +96,8 @@ IkSolver::IkSolver(const mjModel* m, std::string_view site, std::span<const std:
       rest_.push_back(limited_[i] ? 0.5 * (lower_[i] + upper_[i]) : 0.0);
     }
   } else if (rest.size() != qpos_adr_.size()) {
-    throw mlspaces::Error("IK: the rest pose has " + std::to_string(rest.size()) +
-                          " values for " + std::to_string(qpos_adr_.size()) + " joints");
+    throw mlspaces::Error("IK: the rest pose has " + std::to_string(rest.size()) + " values for " +
+                          std::to_string(qpos_adr_.size()) + " joints");
   } else {
     rest_.assign(rest.begin(), rest.end());
   }

@@ -137,8 +137,8 @@ AttemptRecord AttemptRecord::FromJson(const Json& json, const std::string& path,
     const Json& v = Need(json, key, path, field);
     if (!v.is_number_integer() || (v.is_number_unsigned() && v.get<uint64_t>() > uint64_t(max)) ||
         v.get<int64_t>() < 0 || v.get<int64_t>() > max) {
-      Bad(path, field, key, "expected an integer in 0.." + std::to_string(max) + ", got " +
-                                v.dump());
+      Bad(path, field, key,
+          "expected an integer in 0.." + std::to_string(max) + ", got " + v.dump());
     }
     return v.get<int64_t>();
   };
@@ -161,9 +161,9 @@ AttemptRecord AttemptRecord::FromJson(const Json& json, const std::string& path,
   }
   for (const auto& [stage, value] : timings.items()) {
     if (!value.is_number()) {
-      throw Error("/timings/" + JsonPointerToken(stage) + ": expected number, got " +
-                      JsonTypeWord(value),
-                  path, field);
+      throw Error(
+          "/timings/" + JsonPointerToken(stage) + ": expected number, got " + JsonTypeWord(value),
+          path, field);
     }
     CheckTiming(stage, value.get<double>(), path, field);
     r.timings.emplace_back(stage, value.get<double>());
@@ -229,8 +229,7 @@ void Journal::Append(const AttemptRecord& record) {
     CheckTiming(stage, seconds, path_.string(), {});
   }
   if (!record.extra.is_null() && !record.extra.is_object()) {
-    throw Error("extra must be a JSON object, got " + JsonTypeWord(record.extra),
-                path_.string());
+    throw Error("extra must be a JSON object, got " + JsonTypeWord(record.extra), path_.string());
   }
   // dump() escapes nothing that could be a newline: control characters become \uXXXX.
   const std::string line = record.ToJson().dump() + "\n";
@@ -321,12 +320,10 @@ std::string FormatSummary(const JournalSummary& s) {
                 "success rate: %.1f%% of attempts (%lld/%lld), %.1f%% of episodes (%lld/%lld)\n",
                 100.0 * s.success_rate(), static_cast<long long>(s.count(Outcome::kSuccess)),
                 static_cast<long long>(s.attempts), pct(s.successful_episodes, s.episodes),
-                static_cast<long long>(s.successful_episodes),
-                static_cast<long long>(s.episodes));
+                static_cast<long long>(s.successful_episodes), static_cast<long long>(s.episodes));
   out += buf;
   if (!s.stages.empty()) {
-    std::snprintf(buf, sizeof buf, "%-24s %12s %8s %12s\n", "stage", "mean s", "runs",
-                  "total s");
+    std::snprintf(buf, sizeof buf, "%-24s %12s %8s %12s\n", "stage", "mean s", "runs", "total s");
     out += buf;
     for (const JournalSummary::Stage& st : s.stages) {
       std::snprintf(buf, sizeof buf, "%-24s %12.6f %8lld %12.3f\n", st.name.c_str(),

@@ -62,14 +62,15 @@ MergeReport MergeRuns(const std::vector<fs::path>& inputs, const fs::path& outpu
   std::vector<std::pair<const WorkItem*, fs::path>> found;
   const std::vector<WorkItem> items = PlanWorkItems(*config);
   for (const WorkItem& item : items) {
-    const fs::path rel = fs::path(item.scene_name()) / (BatchFileStem(item.batch, item.num_batches) + ".h5");
+    const fs::path rel =
+        fs::path(item.scene_name()) / (BatchFileStem(item.batch, item.num_batches) + ".h5");
     std::optional<fs::path> where;
     for (const fs::path& in : inputs) {
       if (!fs::is_regular_file(in / rel)) continue;
       if (where) {
-        throw Error("two inputs hold " + rel.string() + ": " + where->string() + " and " +
-                        in.string(),
-                    output.string());
+        throw Error(
+            "two inputs hold " + rel.string() + ": " + where->string() + " and " + in.string(),
+            output.string());
       }
       where = in;
     }
@@ -125,9 +126,9 @@ MergeReport MergeRuns(const std::vector<fs::path>& inputs, const fs::path& outpu
   for (const AttemptRecord& r : all) lines += r.ToJson().dump() + "\n";
   report.attempts = static_cast<int64_t>(all.size());
   WriteFileAtomic(output / "journal.jsonl", lines);
-  WriteFileAtomic(output / "summary.txt",
-                  "data hash " + hash + ", merged from " + std::to_string(inputs.size()) +
-                      " folders\n" + FormatSummary(Summarize(all)));
+  WriteFileAtomic(output / "summary.txt", "data hash " + hash + ", merged from " +
+                                              std::to_string(inputs.size()) + " folders\n" +
+                                              FormatSummary(Summarize(all)));
   WriteFileAtomic(output / "config.yaml", config_text);  // last: marks the folder complete
   return report;
 }

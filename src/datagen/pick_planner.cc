@@ -5,8 +5,8 @@
 #include <cmath>
 #include <utility>
 
-#include "mlspaces/library/registry.h"
 #include "mlspaces/core/se3.h"
+#include "mlspaces/library/registry.h"
 #include "mlspaces/sim/mj_pose.h"
 
 namespace mlspaces::datagen {
@@ -27,18 +27,23 @@ Mat4 BodyPose(const mjData* d, int body) { return ToMat4(sim::BodyPose(d, body))
 }  // namespace
 
 Json PolicyPhaseMap() {
-  return Json{{"unknown", 0}, {"gripper-open", 1}, {"pregrasp", 2}, {"grasp", 3},
-              {"gripper-close", 4}, {"lift", 5},  {"preplace", 6}, {"place", 7},
-              {"retreat", 8},  {"go_home", 9}};
+  return Json{{"unknown", 0},       {"gripper-open", 1}, {"pregrasp", 2}, {"grasp", 3},
+              {"gripper-close", 4}, {"lift", 5},         {"preplace", 6}, {"place", 7},
+              {"retreat", 8},       {"go_home", 9}};
 }
 
 const char* PlanFailureName(PlanFailure failure) {
   switch (failure) {
-    case PlanFailure::kNone: return "none";
-    case PlanFailure::kNoGrasp: return "no_grasp";
-    case PlanFailure::kIkFail: return "ik_fail";
-    case PlanFailure::kCollision: return "collision";
-    case PlanFailure::kEmptyGrasp: return "empty_grasp";
+    case PlanFailure::kNone:
+      return "none";
+    case PlanFailure::kNoGrasp:
+      return "no_grasp";
+    case PlanFailure::kIkFail:
+      return "ik_fail";
+    case PlanFailure::kCollision:
+      return "collision";
+    case PlanFailure::kEmptyGrasp:
+      return "empty_grasp";
   }
   return "unknown";
 }
@@ -142,8 +147,7 @@ PlanFailure PickPlanner::Plan(const mjData* d) {
   std::vector<double> q_grasp;
   const GraspSelection chosen = SelectGrasp(
       candidates, tcp, object,
-      probe_ ? std::function<bool(const Mat4&)>(
-                   [&](const Mat4& g) { return !probe_->Collides(g); })
+      probe_ ? std::function<bool(const Mat4&)>([&](const Mat4& g) { return !probe_->Collides(g); })
              : nullptr,
       [&](const Mat4& g) {
         if (!config_.filter_feasible_grasps) return true;
@@ -173,9 +177,8 @@ PlanFailure PickPlanner::Plan(const mjData* d) {
                  (name ? std::string(name) : std::to_string(hits[0].sim_geom)) + ")";
         }
       }
-      return finish(PlanFailure::kNoGrasp,
-                    "every one of " + std::to_string(chosen.ranked.size()) +
-                        " ranked grasps collides with the scene" + what);
+      return finish(PlanFailure::kNoGrasp, "every one of " + std::to_string(chosen.ranked.size()) +
+                                               " ranked grasps collides with the scene" + what);
     }
     return finish(PlanFailure::kNoGrasp, "no feasible grasp: IK failed for all " +
                                              std::to_string(chosen.num_ik_checked) +
@@ -187,7 +190,8 @@ PlanFailure PickPlanner::Plan(const mjData* d) {
   const Mat4 lift = RaisedBy(grasp_, config_.postgrasp_z_offset);
   // The three poses must be reachable (the original's single-pose IK checks).
   std::vector<double> q = q_now;
-  if (!SolveIk(pregrasp, q, true)) return finish(PlanFailure::kIkFail, "pregrasp has no IK solution");
+  if (!SolveIk(pregrasp, q, true))
+    return finish(PlanFailure::kIkFail, "pregrasp has no IK solution");
   q = q_grasp.empty() ? q_now : q_grasp;
   if (!SolveIk(grasp_, q, true)) return finish(PlanFailure::kIkFail, "grasp has no IK solution");
   if (!SolveIk(lift, q, true)) return finish(PlanFailure::kIkFail, "lift has no IK solution");
@@ -340,12 +344,11 @@ PlannerAction PickPlanner::Act(const mjData* d) {
     const double rot_err = RotationAngle(tcp, now_target);
     if (pos_err > config_.tcp_pos_err_threshold ||
         rot_err > config_.tcp_rot_err_threshold * kDegToRad) {
-      return fail(PlanFailure::kCollision,
-                  "the TCP is " + std::to_string(pos_err) + " m / " +
-                      std::to_string(rot_err / kDegToRad) + " deg from its target");
+      return fail(PlanFailure::kCollision, "the TCP is " + std::to_string(pos_err) + " m / " +
+                                               std::to_string(rot_err / kDegToRad) +
+                                               " deg from its target");
     }
-    if (p.holding &&
-        robot_->InterFingerDistance(d) < config_.gripper_empty_threshold) {
+    if (p.holding && robot_->InterFingerDistance(d) < config_.gripper_empty_threshold) {
       return fail(PlanFailure::kEmptyGrasp, "the gripper closed on nothing");
     }
     Target ahead = target_at(elapsed + dt_policy_);
@@ -359,8 +362,8 @@ PlannerAction PickPlanner::Act(const mjData* d) {
       command_ = std::move(q);
       ik_fail_streak_ = 0;
     } else if (++ik_fail_streak_ >= config_.max_sequential_ik_failures) {
-      return fail(PlanFailure::kIkFail, "IK failed " + std::to_string(ik_fail_streak_) +
-                                            " steps in a row");
+      return fail(PlanFailure::kIkFail,
+                  "IK failed " + std::to_string(ik_fail_streak_) + " steps in a row");
     }
     return hold(false);
   }

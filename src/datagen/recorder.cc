@@ -509,12 +509,12 @@ Json Recorder::PartProvenance(int k) const {
   const std::string path = parts_[k].string();
   const std::string group = "traj_" + std::to_string(k);
   h5::QuietErrors quiet;
-  h5::Handle file(h5::Check(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), "H5Fopen", path, ""),
-                  H5Fclose);
-  h5::Handle attr(h5::Check(H5Aopen_by_name(file.get(), group.c_str(), "provenance", H5P_DEFAULT,
-                                            H5P_DEFAULT),
-                            "H5Aopen_by_name", path, group + "@provenance"),
-                  H5Aclose);
+  h5::Handle file(
+      h5::Check(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), "H5Fopen", path, ""), H5Fclose);
+  h5::Handle attr(
+      h5::Check(H5Aopen_by_name(file.get(), group.c_str(), "provenance", H5P_DEFAULT, H5P_DEFAULT),
+                "H5Aopen_by_name", path, group + "@provenance"),
+      H5Aclose);
   h5::Handle type(h5::Check(H5Aget_type(attr.get()), "H5Aget_type", path, group), H5Tclose);
   char* text = nullptr;
   h5::Check(H5Aread(attr.get(), type.get(), &text), "H5Aread", path, group + "@provenance");

@@ -88,7 +88,8 @@ void RobotView::SetArmTargets(mjData* d, std::span<const double> q) const {
     throw Error("arm target has " + std::to_string(q.size()) + " values, the arm has " +
                 std::to_string(arm_act_.size()) + " joints");
   }
-  for (size_t i = 0; i < q.size(); ++i) d->ctrl[arm_act_[i]] = ClipToCtrlRange(m_, arm_act_[i], q[i]);
+  for (size_t i = 0; i < q.size(); ++i)
+    d->ctrl[arm_act_[i]] = ClipToCtrlRange(m_, arm_act_[i], q[i]);
 }
 
 double RobotView::GripperCtrl(const mjData* d) const { return d->ctrl[gripper_act_]; }
@@ -97,9 +98,7 @@ void RobotView::SetGripperCtrl(mjData* d, double ctrl) const {
   d->ctrl[gripper_act_] = ClipToCtrlRange(m_, gripper_act_, ctrl);
 }
 
-Mat4 RobotView::TcpPose(const mjData* d) const {
-  return sim::SiteMat4(d, tcp_site_);
-}
+Mat4 RobotView::TcpPose(const mjData* d) const { return sim::SiteMat4(d, tcp_site_); }
 
 Mat4 RobotView::BasePose(const mjData* d) const {
   return ToMat4(sim::PoseFromMj(d->mocap_pos + 3 * base_mocap_, d->mocap_quat + 4 * base_mocap_));

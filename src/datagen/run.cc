@@ -23,10 +23,10 @@
 #include "mlspaces/core/files.h"
 #include "mlspaces/core/progress.h"
 #include "mlspaces/core/subprocess.h"
-#include "mlspaces/library/registry.h"
 #include "mlspaces/datagen/env.h"
 #include "mlspaces/datagen/episode_runner.h"
 #include "mlspaces/datagen/recorder.h"
+#include "mlspaces/library/registry.h"
 
 namespace mlspaces::datagen {
 namespace fs = std::filesystem;
@@ -55,8 +55,9 @@ ExperimentConfig SettleRunConfig(const ExperimentConfig& config, const fs::path&
                                  const fs::path& journal, const RunOptions& options) {
   ExperimentConfig run = config;
   if (options.shard.count > 1 && !run.seed) {
-    throw UsageError("a sharded run needs a seed (set `seed` or --seed), so that every shard "
-                     "draws the same episodes");
+    throw UsageError(
+        "a sharded run needs a seed (set `seed` or --seed), so that every shard "
+        "draws the same episodes");
   }
   if (!fs::exists(file)) {
     if (!run.seed) run.seed = DrawSeed();
@@ -65,16 +66,17 @@ ExperimentConfig SettleRunConfig(const ExperimentConfig& config, const fs::path&
   const ExperimentConfig stored = LoadConfigFile(file, ConfigRegistry::WithBuiltins());
   if (!run.seed) run.seed = stored.seed;
   if (DataConfigHashHex(stored) != DataConfigHashHex(run)) {
-    throw Error("the folder holds a run of another config (data hash " +
-                    DataConfigHashHex(stored) + ", this one " + DataConfigHashHex(run) +
+    throw Error("the folder holds a run of another config (data hash " + DataConfigHashHex(stored) +
+                    ", this one " + DataConfigHashHex(run) +
                     "): choose another output folder, or remove this one to start over",
                 file.string());
   }
   std::error_code ec;
   if (!options.resume && fs::file_size(journal, ec) > 0 && !ec) {
-    throw Error("the folder already holds this run: pass --resume to continue it, or choose "
-                "another output folder",
-                file.string());
+    throw Error(
+        "the folder already holds this run: pass --resume to continue it, or choose "
+        "another output folder",
+        file.string());
   }
   return run;
 }
@@ -102,8 +104,8 @@ class ItemRunner {
 
   // `registry` and `sampler` are the run's (a forked worker uses its own copies of them).
   ItemRunner(const ExperimentConfig& config, const Registry& registry, TaskSampler& sampler,
-             const fs::path& folder, const std::vector<AttemptRecord>& earlier,
-             sim::GlBackend gl, Emit emit)
+             const fs::path& folder, const std::vector<AttemptRecord>& earlier, sim::GlBackend gl,
+             Emit emit)
       : config_(config),
         folder_(folder),
         earlier_(earlier),
@@ -171,8 +173,8 @@ class ItemRunner {
       runner_options.scene_name = scene;
       runner_options.video_dir = rec_options.dir;
       runner_options.gl_backend = gl_;
-      runner_ = std::make_unique<EpisodeRunner>(*env_, sampler_, registry_, config_,
-                                                runner_options);
+      runner_ =
+          std::make_unique<EpisodeRunner>(*env_, sampler_, registry_, config_, runner_options);
       env_house_ = item.house;
     }
     int64_t sequential_rejects = 0;
@@ -201,7 +203,9 @@ class ItemRunner {
           }
         }
       }
-      Json message{{"item", index}, {"attempt", result.attempt.ToJson()}, {"kept", keep},
+      Json message{{"item", index},
+                   {"attempt", result.attempt.ToJson()},
+                   {"kept", keep},
                    {"policy_steps", result.policy_steps},
                    {"physics_steps", result.physics_steps}};
       emit_(message);
@@ -238,12 +242,10 @@ class ItemRunner {
 };
 
 // A forked worker: runs its items, reports through `fd`; returns the exit status.
-int WorkerMain(int fd, pid_t parent, const ExperimentConfig& config,
-                             const Registry& registry, TaskSampler& sampler,
-                             const fs::path& folder,
-                             sim::GlBackend gl, int workers,
-                             const std::vector<AttemptRecord>& earlier,
-                             const std::vector<std::pair<size_t, WorkItem>>& items) {
+int WorkerMain(int fd, pid_t parent, const ExperimentConfig& config, const Registry& registry,
+               TaskSampler& sampler, const fs::path& folder, sim::GlBackend gl, int workers,
+               const std::vector<AttemptRecord>& earlier,
+               const std::vector<std::pair<size_t, WorkItem>>& items) {
   ::prctl(PR_SET_PDEATHSIG, SIGKILL);  // a killed parent takes its workers along
   if (::getppid() != parent) ::_exit(3);
   ::signal(SIGPIPE, SIG_IGN);
@@ -282,8 +284,7 @@ Shard ParseShard(std::string_view text) {
     return !part.empty() && ec == std::errc() && ptr == part.data() + part.size();
   };
   if (slash == std::string_view::npos || !parse(text.substr(0, slash), s.index) ||
-      !parse(text.substr(slash + 1), s.count) || s.count < 1 || s.index < 0 ||
-      s.index >= s.count) {
+      !parse(text.substr(slash + 1), s.count) || s.count < 1 || s.index < 0 || s.index >= s.count) {
     throw UsageError("--shard: expected I/N with 0 <= I < N, got '" + std::string(text) + "'");
   }
   return s;
@@ -374,8 +375,8 @@ RunReport RunDatagen(const ExperimentConfig& input, const TaskSamplerRegistry& s
   report.seed = *config.seed;
   const std::string hash = DataConfigHashHex(config);
   if (!fs::exists(config_file)) {
-    WriteFileAtomic(config_file, "# mlspaces datagen run; data hash " + hash + "\n" +
-                                     DumpConfig(config));
+    WriteFileAtomic(config_file,
+                    "# mlspaces datagen run; data hash " + hash + "\n" + DumpConfig(config));
   }
   const std::vector<WorkItem> items = ShardItems(PlanWorkItems(config), options.shard);
   // The libraries and the sampler, before any worker starts (a bad sampler name or library
@@ -471,9 +472,9 @@ RunReport RunDatagen(const ExperimentConfig& input, const TaskSamplerRegistry& s
     }
   };
 
-  const int workers = std::max<int>(
-      1, std::min<int64_t>(options.workers > 0 ? options.workers : config.num_workers,
-                           static_cast<int64_t>(todo.size())));
+  const int workers =
+      std::max<int>(1, std::min<int64_t>(options.workers > 0 ? options.workers : config.num_workers,
+                                         static_cast<int64_t>(todo.size())));
   if (workers <= 1) {
     ItemRunner runner(config, registry, *sampler, report.folder, earlier, options.gl_backend,
                       handle);
@@ -486,8 +487,8 @@ RunReport RunDatagen(const ExperimentConfig& input, const TaskSamplerRegistry& s
       for (size_t k = w; k < todo.size(); k += workers) mine.push_back(todo[k]);
       pool.push_back(Child::Start([&](int fd) {
         for (const Child& earlier_worker : pool) ::close(earlier_worker.fd());
-        return WorkerMain(fd, self, config, registry, *sampler, report.folder,
-                          options.gl_backend, workers, earlier, mine);
+        return WorkerMain(fd, self, config, registry, *sampler, report.folder, options.gl_backend,
+                          workers, earlier, mine);
       }));
     }
     std::string first_error;

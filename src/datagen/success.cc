@@ -9,7 +9,6 @@
 namespace mlspaces::datagen {
 namespace {
 
-
 std::string GeomName(const mjModel* m, int geom) {
   const char* name = mj_id2name(m, mjOBJ_GEOM, geom);
   return name != nullptr && name[0] != '\0' ? std::string(name) : "geom " + std::to_string(geom);
@@ -26,8 +25,8 @@ bool IsRobotBody(const mjModel* m, int body, std::string_view robot_prefix) {
   return root > 0 && sim::InSubtree(m, body, root);
 }
 
-PickSuccess EvaluatePickSuccess(const mjModel* m, const mjData* d, int object_body,
-                                double start_z, std::string_view robot_prefix, double min_lift) {
+PickSuccess EvaluatePickSuccess(const mjModel* m, const mjData* d, int object_body, double start_z,
+                                std::string_view robot_prefix, double min_lift) {
   if (object_body <= 0 || object_body >= m->nbody) {
     throw UsageError("EvaluatePickSuccess: object body id " + std::to_string(object_body) +
                      " is not a body of the model (1.." + std::to_string(m->nbody - 1) + ")");
@@ -67,8 +66,7 @@ PickSuccess EvaluatePickSuccess(const mjModel* m, const mjData* d, int object_bo
   r.success = r.lifted && r.only_robot_contact;
 
   const bool robot_support =
-      r.supporting_geom >= 0 &&
-      IsRobotBody(m, m->geom_bodyid[r.supporting_geom], robot_prefix) &&
+      r.supporting_geom >= 0 && IsRobotBody(m, m->geom_bodyid[r.supporting_geom], robot_prefix) &&
       m->geom_group[r.supporting_geom] >= 0 && m->geom_group[r.supporting_geom] <= 2;
   if (r.supporting_geom < 0 || robot_support) r.reward = std::clamp(r.lift, 0.0, 1000.0);
   return r;

@@ -187,8 +187,8 @@ std::unique_ptr<TaskSampler> TaskSamplerRegistry::Create(std::string_view name,
   if (it == entries_.end()) {
     std::string valid;
     for (const std::string& n : names()) valid += (valid.empty() ? "" : ", ") + n;
-    throw Error("unknown task sampler '" + std::string(name) + "'; registered: " +
-                    (valid.empty() ? std::string("(none)") : valid),
+    throw Error("unknown task sampler '" + std::string(name) +
+                    "'; registered: " + (valid.empty() ? std::string("(none)") : valid),
                 "", "/task_sampler_config/task_sampler_class");
   }
   std::unique_ptr<TaskSampler> sampler = it->second.factory(config, run_seed);

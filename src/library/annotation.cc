@@ -7,9 +7,9 @@
 #include <cstring>
 #include <optional>
 
+#include "annotation_internal.h"
 #include "mlspaces/core/error.h"
 #include "mlspaces/core/files.h"
-#include "annotation_internal.h"
 #include "mlspaces/core/npz.h"
 
 namespace mlspaces {
@@ -60,8 +60,10 @@ Json ArrayToJson(const NpyArray& array, size_t dim, size_t& flat) {
   if (dim == array.shape.size()) {
     const size_t i = flat++;
     switch (array.dtype) {
-      case DType::kB1: return Json(array.data[i] != 0);
-      case DType::kU1: return Json(static_cast<uint64_t>(array.data[i]));
+      case DType::kB1:
+        return Json(array.data[i] != 0);
+      case DType::kU1:
+        return Json(static_cast<uint64_t>(array.data[i]));
       case DType::kI4: {
         int32_t v;
         std::memcpy(&v, array.data.data() + i * sizeof v, sizeof v);
@@ -72,7 +74,8 @@ Json ArrayToJson(const NpyArray& array, size_t dim, size_t& flat) {
         std::memcpy(&v, array.data.data() + i * sizeof v, sizeof v);
         return Json(v);
       }
-      default: return Json(array.AsDouble(i));
+      default:
+        return Json(array.AsDouble(i));
     }
   }
   Json list = Json::array();
@@ -119,8 +122,8 @@ Annotation LoadAnnotationImpl(std::string_view uid, const std::string& library, 
   // The path is only needed in an error; building it costs an allocation per lookup.
   out.json = ParseJson(text, json_full.empty() ? std::string() : json_full.string());
   if (!out.json.is_object()) {
-    throw Error("metadata must be a JSON object, got " + JsonTypeName(out.json),
-                json_full.string(), "", std::string(uid));
+    throw Error("metadata must be a JSON object, got " + JsonTypeName(out.json), json_full.string(),
+                "", std::string(uid));
   }
   if (metadata_npz == nullptr) return out;
   const std::string uid_str(uid);
@@ -135,8 +138,9 @@ Annotation LoadAnnotationImpl(std::string_view uid, const std::string& library, 
     NpyArray& array = entry.second;
     const std::vector<std::string> parts = SplitKey(key);
     auto collision = [&] {
-      return Error("Key " + key + " from npz metadata already exists in metadata for uid=" + uid_str,
-                   metadata_npz->string(), key, uid_str);
+      return Error(
+          "Key " + key + " from npz metadata already exists in metadata for uid=" + uid_str,
+          metadata_npz->string(), key, uid_str);
     };
     Json* node = &skeleton;
     for (size_t i = 0; i + 1 < parts.size(); ++i) {

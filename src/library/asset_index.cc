@@ -12,8 +12,8 @@ namespace mlspaces {
 namespace fs = std::filesystem;
 namespace {
 
-const std::string& RequireString(const FlatJson& entry, std::string_view key, const std::string& file,
-                                 const std::string& entry_pointer) {
+const std::string& RequireString(const FlatJson& entry, std::string_view key,
+                                 const std::string& file, const std::string& entry_pointer) {
   auto it = entry.find(key);
   std::string pointer = entry_pointer + "/" + std::string(key);
   if (it == entry.end()) throw Error("missing required field", file, pointer);
@@ -43,8 +43,8 @@ AssetIndex AssetIndex::Load(const fs::path& index_file) {
     entry.metadata_path = RequireString(value, "metadata_path", file, pointer);
     auto npz = value.find("metadata_npz_path");
     if (npz == value.end()) {
-      throw Error("missing required field (string or null)", file,
-                  pointer + "/metadata_npz_path", key);
+      throw Error("missing required field (string or null)", file, pointer + "/metadata_npz_path",
+                  key);
     }
     if (npz->is_string()) {
       entry.metadata_npz_path = npz->get<std::string>();
@@ -125,8 +125,8 @@ AssetIndex BuildAssetIndex(const fs::path& dir, const AssetIndexOptions& options
 }
 
 fs::path AssetIndexOutputPath(const fs::path& dir, const AssetIndexOptions& options) {
-  return internal::IndexOutputPath(internal::ResolvePath(dir), options.output,
-                                   "assets_index.json", options.overwrite);
+  return internal::IndexOutputPath(internal::ResolvePath(dir), options.output, "assets_index.json",
+                                   options.overwrite);
 }
 
 IndexReport WriteAssetIndex(const fs::path& dir, const AssetIndexOptions& options) {

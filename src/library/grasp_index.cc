@@ -19,7 +19,8 @@ constexpr std::string_view kNpz = ".npz";
 
 void RequireObject(const FlatJson& value, const std::string& file, const std::string& pointer) {
   if (!value.is_object()) {
-    throw Error("expected object, got " + JsonTypeWord(value), file, pointer.empty() ? "/" : pointer);
+    throw Error("expected object, got " + JsonTypeWord(value), file,
+                pointer.empty() ? "/" : pointer);
   }
 }
 
@@ -138,8 +139,8 @@ GraspIndex BuildGraspIndex(const fs::path& dir, IndexReport* report) {
     if (pickup) {
       auto [it, inserted] = index.grasp_paths[robot].try_emplace(uid, rel);
       if (!inserted) {
-        throw Error("duplicate grasps for robot '" + robot + "' and uid '" + uid + "': " +
-                        it->second + " and " + rel,
+        throw Error("duplicate grasps for robot '" + robot + "' and uid '" + uid +
+                        "': " + it->second + " and " + rel,
                     {}, {}, uid);
       }
       return;
@@ -150,8 +151,7 @@ GraspIndex BuildGraspIndex(const fs::path& dir, IndexReport* report) {
       throw Error("empty joint name (expected joint_grasps_<joint>.npz)", d.AbsChild(name), {},
                   uid);
     }
-    auto [it, inserted] =
-        index.articulated_grasp_paths[robot][uid].try_emplace(joint_name, rel);
+    auto [it, inserted] = index.articulated_grasp_paths[robot][uid].try_emplace(joint_name, rel);
     if (!inserted) {
       throw Error("duplicate joint grasps for robot '" + robot + "', uid '" + uid +
                       "' and joint '" + joint_name + "': " + it->second + " and " + rel,

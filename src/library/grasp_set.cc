@@ -56,9 +56,9 @@ GraspSet ReadGrasps(const NpzReader& reader, const NpyHeader& header,
   if (rows != nullptr) {
     for (size_t r : *rows) {
       if (r >= n) {
-        throw Error("grasp row " + std::to_string(r) + " out of range (file has " +
-                        std::to_string(n) + ")",
-                    reader.path().string(), std::string(kTransformsMember));
+        throw Error(
+            "grasp row " + std::to_string(r) + " out of range (file has " + std::to_string(n) + ")",
+            reader.path().string(), std::string(kTransformsMember));
       }
     }
     out.indices = *rows;
@@ -79,8 +79,7 @@ GraspSet ReadGrasps(const NpzReader& reader, const NpyHeader& header,
   for (size_t i = 0; i < count; ++i) {
     Mat4& pose = out.poses[i];
     if (f8) {
-      std::memcpy(pose.m.data(), array.data.data() + i * 16 * sizeof(double),
-                  16 * sizeof(double));
+      std::memcpy(pose.m.data(), array.data.data() + i * 16 * sizeof(double), 16 * sizeof(double));
     } else {
       for (size_t k = 0; k < 16; ++k) pose.m[k] = array.AsDouble(i * 16 + k);
     }

@@ -124,9 +124,8 @@ void LibraryConfig::ApplyTo(Registry& registry) const {
                  [&] { registry.RegisterAssetLibrary(spec.name, spec.dir); });
   }
   for (const GraspLibrarySpec& spec : grasp_libraries) {
-    WithLocation(spec.origin_file.string(), spec.origin_line, [&] {
-      registry.RegisterGraspLibrary(spec.name, spec.dir, spec.asset_library);
-    });
+    WithLocation(spec.origin_file.string(), spec.origin_line,
+                 [&] { registry.RegisterGraspLibrary(spec.name, spec.dir, spec.asset_library); });
   }
 }
 

@@ -64,16 +64,27 @@ std::vector<WalkEntry> ListSorted(const std::string& abs) {
       if (type == DT_UNKNOWN) {
         struct stat st {};
         if (::fstatat(fd, name, &st, AT_SYMLINK_NOFOLLOW) == 0) {
-          if (S_ISREG(st.st_mode)) type = DT_REG;
-          else if (S_ISDIR(st.st_mode)) type = DT_DIR;
-          else if (S_ISLNK(st.st_mode)) type = DT_LNK;
+          if (S_ISREG(st.st_mode))
+            type = DT_REG;
+          else if (S_ISDIR(st.st_mode))
+            type = DT_DIR;
+          else if (S_ISLNK(st.st_mode))
+            type = DT_LNK;
         }
       }
       switch (type) {
-        case DT_REG: entry.kind = WalkEntry::Kind::kFile; break;
-        case DT_DIR: entry.kind = WalkEntry::Kind::kDir; break;
-        case DT_LNK: entry.kind = WalkEntry::Kind::kSymlink; break;
-        default: entry.kind = WalkEntry::Kind::kOther; break;
+        case DT_REG:
+          entry.kind = WalkEntry::Kind::kFile;
+          break;
+        case DT_DIR:
+          entry.kind = WalkEntry::Kind::kDir;
+          break;
+        case DT_LNK:
+          entry.kind = WalkEntry::Kind::kSymlink;
+          break;
+        default:
+          entry.kind = WalkEntry::Kind::kOther;
+          break;
       }
       entries.push_back(std::move(entry));
     }
@@ -133,8 +144,10 @@ bool WalkDir::HasFile(std::string_view name) const {
                              [](const WalkEntry& e, std::string_view n) { return e.name < n; });
   if (it == entries.end() || it->name != name) return false;
   switch (it->kind) {
-    case WalkEntry::Kind::kFile: return true;
-    case WalkEntry::Kind::kDir: return false;
+    case WalkEntry::Kind::kFile:
+      return true;
+    case WalkEntry::Kind::kDir:
+      return false;
     default: {
       bool exists = false;
       bool is_dir = StatIsDir(AbsChild(name), &exists);
@@ -163,13 +176,27 @@ void AppendJsonString(std::string& out, std::string_view s) {
   for (char ch : s) {
     auto c = static_cast<unsigned char>(ch);
     switch (c) {
-      case '"': out += "\\\""; break;
-      case '\\': out += "\\\\"; break;
-      case '\b': out += "\\b"; break;
-      case '\f': out += "\\f"; break;
-      case '\n': out += "\\n"; break;
-      case '\r': out += "\\r"; break;
-      case '\t': out += "\\t"; break;
+      case '"':
+        out += "\\\"";
+        break;
+      case '\\':
+        out += "\\\\";
+        break;
+      case '\b':
+        out += "\\b";
+        break;
+      case '\f':
+        out += "\\f";
+        break;
+      case '\n':
+        out += "\\n";
+        break;
+      case '\r':
+        out += "\\r";
+        break;
+      case '\t':
+        out += "\\t";
+        break;
       default:
         if (c < 0x20) {
           out += "\\u00";

@@ -133,9 +133,15 @@ class MsgpackDecoder {
     if (b >= 0x90 && b <= 0x9f) return Array(out, b & 0x0f, depth);
     if (b >= 0x80 && b <= 0x8f) return Map(out, b & 0x0f, depth);
     switch (b) {
-      case 0xc0: out = nullptr; return true;
-      case 0xc2: out = false; return true;
-      case 0xc3: out = true; return true;
+      case 0xc0:
+        out = nullptr;
+        return true;
+      case 0xc2:
+        out = false;
+        return true;
+      case 0xc3:
+        out = true;
+        return true;
       case 0xca: {
         uint32_t bits;
         if (!BigEndian(bits)) return false;
@@ -148,24 +154,83 @@ class MsgpackDecoder {
         out = std::bit_cast<double>(bits);
         return true;
       }
-      case 0xcc: { uint8_t v; if (!BigEndian(v)) return false; out = uint64_t{v}; return true; }
-      case 0xcd: { uint16_t v; if (!BigEndian(v)) return false; out = uint64_t{v}; return true; }
-      case 0xce: { uint32_t v; if (!BigEndian(v)) return false; out = uint64_t{v}; return true; }
-      case 0xcf: { uint64_t v; if (!BigEndian(v)) return false; out = v; return true; }
-      case 0xd0: { uint8_t v; if (!BigEndian(v)) return false; out = int64_t{static_cast<int8_t>(v)}; return true; }
-      case 0xd1: { uint16_t v; if (!BigEndian(v)) return false; out = int64_t{static_cast<int16_t>(v)}; return true; }
-      case 0xd2: { uint32_t v; if (!BigEndian(v)) return false; out = int64_t{static_cast<int32_t>(v)}; return true; }
-      case 0xd3: { uint64_t v; if (!BigEndian(v)) return false; out = static_cast<int64_t>(v); return true; }
-      case 0xd9: case 0xda: case 0xdb: {
+      case 0xcc: {
+        uint8_t v;
+        if (!BigEndian(v)) return false;
+        out = uint64_t{v};
+        return true;
+      }
+      case 0xcd: {
+        uint16_t v;
+        if (!BigEndian(v)) return false;
+        out = uint64_t{v};
+        return true;
+      }
+      case 0xce: {
+        uint32_t v;
+        if (!BigEndian(v)) return false;
+        out = uint64_t{v};
+        return true;
+      }
+      case 0xcf: {
+        uint64_t v;
+        if (!BigEndian(v)) return false;
+        out = v;
+        return true;
+      }
+      case 0xd0: {
+        uint8_t v;
+        if (!BigEndian(v)) return false;
+        out = int64_t{static_cast<int8_t>(v)};
+        return true;
+      }
+      case 0xd1: {
+        uint16_t v;
+        if (!BigEndian(v)) return false;
+        out = int64_t{static_cast<int16_t>(v)};
+        return true;
+      }
+      case 0xd2: {
+        uint32_t v;
+        if (!BigEndian(v)) return false;
+        out = int64_t{static_cast<int32_t>(v)};
+        return true;
+      }
+      case 0xd3: {
+        uint64_t v;
+        if (!BigEndian(v)) return false;
+        out = static_cast<int64_t>(v);
+        return true;
+      }
+      case 0xd9:
+      case 0xda:
+      case 0xdb: {
         --p_;
         out = Json(Json::value_t::string);
         return Key(out.get_ref<std::string&>());
       }
-      case 0xdc: { uint16_t n; if (!BigEndian(n)) return false; return Array(out, n, depth); }
-      case 0xdd: { uint32_t n; if (!BigEndian(n)) return false; return Array(out, n, depth); }
-      case 0xde: { uint16_t n; if (!BigEndian(n)) return false; return Map(out, n, depth); }
-      case 0xdf: { uint32_t n; if (!BigEndian(n)) return false; return Map(out, n, depth); }
-      default: return false;  // bin, ext, reserved: never written for JSON values
+      case 0xdc: {
+        uint16_t n;
+        if (!BigEndian(n)) return false;
+        return Array(out, n, depth);
+      }
+      case 0xdd: {
+        uint32_t n;
+        if (!BigEndian(n)) return false;
+        return Array(out, n, depth);
+      }
+      case 0xde: {
+        uint16_t n;
+        if (!BigEndian(n)) return false;
+        return Map(out, n, depth);
+      }
+      case 0xdf: {
+        uint32_t n;
+        if (!BigEndian(n)) return false;
+        return Map(out, n, depth);
+      }
+      default:
+        return false;  // bin, ext, reserved: never written for JSON values
     }
   }
 

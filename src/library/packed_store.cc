@@ -97,10 +97,9 @@ PackedAsset PackedLibrary::Impl::Record(uint32_t r) const {
   if (uint64_t{a.first_grasp} + a.num_grasps > num_grasps) {
     Damaged("grasp range out of bounds", a.uid);
   }
-  if (a.metadata_size != 0 &&
-      (a.metadata_offset < kHeaderSize || a.metadata_offset % 8 != 0 ||
-       a.metadata_size < kMetaRecordHeader || SatAdd(a.metadata_offset, a.metadata_size) >
-                                                  meta_records_end)) {
+  if (a.metadata_size != 0 && (a.metadata_offset < kHeaderSize || a.metadata_offset % 8 != 0 ||
+                               a.metadata_size < kMetaRecordHeader ||
+                               SatAdd(a.metadata_offset, a.metadata_size) > meta_records_end)) {
     Damaged("metadata record out of bounds of " + meta_path, a.uid);
   }
   return a;
@@ -343,8 +342,8 @@ const Shard& PackedLibrary::Impl::GetShard(uint32_t archive) const {
   if (const Shard* s = shards[archive].load(std::memory_order_acquire)) return *s;
   const fs::path path = dir / GraspShardMember(archives[archive]);
   auto shard = std::make_unique<Shard>();
-  shard->map.Open(path, "grasp shard " + path.string() +
-                            " is not installed (install the UID first)",
+  shard->map.Open(path,
+                  "grasp shard " + path.string() + " is not installed (install the UID first)",
                   MADV_NORMAL);
   const uint8_t* h = shard->map.data();
   CheckMagic(h, kShardMagic, path);
@@ -413,8 +412,7 @@ std::vector<Mat4> PackedLibrary::ReadGrasps(const PackedGraspRef& ref,
 void PackedLibrary::Check() const {
   const Impl& m = *impl_;
   const uint8_t* h = m.index.data();
-  if (Load<uint64_t>(h + kIdxChecksum) !=
-      Checksum(h + kHeaderSize, m.index.size() - kHeaderSize)) {
+  if (Load<uint64_t>(h + kIdxChecksum) != Checksum(h + kHeaderSize, m.index.size() - kHeaderSize)) {
     throw Error("checksum mismatch", m.index_path);
   }
   const uint8_t* mh = m.meta.data();
@@ -451,7 +449,8 @@ void PackedLibrary::Check() const {
     next_grasp += a.num_grasps;
     const std::vector<PackedGraspRef> refs = Grasps(a);
     for (size_t g = 1; g < refs.size(); ++g) {
-      if (!(std::tie(refs[g - 1].robot, refs[g - 1].joint) < std::tie(refs[g].robot, refs[g].joint))) {
+      if (!(std::tie(refs[g - 1].robot, refs[g - 1].joint) <
+            std::tie(refs[g].robot, refs[g].joint))) {
         m.Damaged("grasp refs not sorted", a.uid);
       }
     }

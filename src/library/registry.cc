@@ -12,7 +12,6 @@
 #include <fcntl.h>
 #include <unistd.h>
 
-
 #include <algorithm>
 #include <atomic>
 #include <cstdlib>
@@ -36,9 +35,7 @@ namespace {
 
 struct StringHash {
   using is_transparent = void;
-  size_t operator()(std::string_view s) const noexcept {
-    return std::hash<std::string_view>{}(s);
-  }
+  size_t operator()(std::string_view s) const noexcept { return std::hash<std::string_view>{}(s); }
 };
 template <class V>
 using StringMap = std::unordered_map<std::string, V, StringHash, std::equal_to<>>;
@@ -110,7 +107,7 @@ struct Registry::Impl {
     uint32_t library = 0;    ///< index into user_libraries
     int32_t duplicate = -1;  ///< index into user_duplicates, or -1
     const AssetEntry* entry = nullptr;
-    std::string_view mjcf;   ///< absolute; in the library's arena, right after the key
+    std::string_view mjcf;  ///< absolute; in the library's arena, right after the key
   };
   /// A built-in library's lazily scanned stem -> MJCF map.
   struct BuiltinScan {
@@ -133,10 +130,10 @@ struct Registry::Impl {
   };
   struct GraspLibrary {
     GraspLibraryInfo info;
-    const PackedLibrary* packed = nullptr;     ///< packed grasp library: its store
-    const PackedEntry* packed_entry = nullptr; ///< its installed-archive cache
-    StringMap<fs::path> pickup;                ///< uid -> absolute path
-    StringMap<StringMap<fs::path>> joints;     ///< uid -> joint -> absolute path
+    const PackedLibrary* packed = nullptr;      ///< packed grasp library: its store
+    const PackedEntry* packed_entry = nullptr;  ///< its installed-archive cache
+    StringMap<fs::path> pickup;                 ///< uid -> absolute path
+    StringMap<StringMap<fs::path>> joints;      ///< uid -> joint -> absolute path
   };
 
   Options options;
@@ -145,7 +142,7 @@ struct Registry::Impl {
   std::vector<DuplicateUid> user_duplicates;  ///< among user libraries, priority order
   StringMap<std::unique_ptr<GraspLibrary>> grasp_libraries;
   StringMap<std::vector<std::string>> grasp_lists;  ///< asset library -> grasp libraries
-  uint64_t generation = 0;  ///< bumped by every registration
+  uint64_t generation = 0;                          ///< bumped by every registration
 
   mutable BuiltinScan thor_scan, objaverse_scan;
   const BuiltinScan empty_scan;
@@ -257,8 +254,7 @@ struct Registry::Impl {
     if (!options.assets_dir) return &empty_scan;
     BuiltinScan& scan = library == kThor ? thor_scan : objaverse_scan;
     std::call_once(scan.once, [&] {
-      ScanMjcfs(*options.assets_dir / "objects" / std::string(library), std::string(library),
-                scan);
+      ScanMjcfs(*options.assets_dir / "objects" / std::string(library), std::string(library), scan);
     });
     return &scan;
   }
@@ -699,8 +695,7 @@ std::optional<AssetLocation> Registry::Locate(std::string_view uid) const {
 AssetLocation Registry::LocateOrThrow(std::string_view uid) const {
   std::optional<AssetLocation> loc = Locate(uid);
   if (!loc) {
-    throw Error(std::string(uid) + " not found in asset libraries " +
-                    QuotedList(asset_libraries()),
+    throw Error(std::string(uid) + " not found in asset libraries " + QuotedList(asset_libraries()),
                 "", "", std::string(uid));
   }
   return std::move(*loc);
@@ -727,9 +722,9 @@ std::shared_ptr<const Annotation> Registry::GetAnnotation(std::string_view uid) 
   const Impl::UserAssetLibrary& lib = *impl.user_libraries[rec->library];
   const AssetEntry& entry = *rec->entry;
   // Loaded outside the lock so first-time loads of different UIDs run in parallel.
-  auto annotation = std::make_shared<const Annotation>(internal::LoadAnnotationAt(
-      lib.dir_fd, lib.dir, uid, lib.name, entry.metadata_path,
-      entry.metadata_npz_path ? &*entry.metadata_npz_path : nullptr));
+  auto annotation = std::make_shared<const Annotation>(
+      internal::LoadAnnotationAt(lib.dir_fd, lib.dir, uid, lib.name, entry.metadata_path,
+                                 entry.metadata_npz_path ? &*entry.metadata_npz_path : nullptr));
   std::lock_guard<std::mutex> lock(impl.annotation_mutex);
   auto [it, inserted] = impl.annotations.try_emplace(std::string(uid), std::move(annotation));
   return it->second;

@@ -48,8 +48,7 @@ std::optional<Json> LoadSceneMetadata(const fs::path& xml) {
   if (!file) return std::nullopt;
   Json meta = ParseJsonFile(*file);
   if (!meta.is_object()) {
-    throw Error("scene metadata must be a JSON object, got " + JsonTypeName(meta),
-                file->string());
+    throw Error("scene metadata must be a JSON object, got " + JsonTypeName(meta), file->string());
   }
   auto objects = meta.find("objects");
   if (objects != meta.end() && !objects->is_object()) {

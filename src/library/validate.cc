@@ -143,8 +143,8 @@ class Validator {
         const std::string field_pointer = pointer + "/" + std::string(kFields[i]);
         auto f = entry.find(kFields[i]);
         if (f == entry.end()) {
-          Add(file, field_pointer, i == 2 ? "missing required field (string or null)"
-                                          : "missing required field");
+          Add(file, field_pointer,
+              i == 2 ? "missing required field (string or null)" : "missing required field");
           continue;
         }
         paths[i] = CheckPath(file, field_pointer, *f, /*nullable=*/i == 2);
@@ -219,8 +219,9 @@ class Validator {
         Add(file, "/synset", "expected string, got " + JsonTypeWord(*it));
       } else if (!IsSynsetName(it->get_ref<const std::string&>())) {
         Add(file, "/synset",
-            "'" + it->get<std::string>() + "' is not a WordNet synset name (word.pos.NN, "
-            "e.g. block.n.01)");
+            "'" + it->get<std::string>() +
+                "' is not a WordNet synset name (word.pos.NN, "
+                "e.g. block.n.01)");
       }
     }
     if (auto it = meta.find("description_short"); it != meta.end()) {
@@ -255,8 +256,8 @@ class Validator {
     ExpectBool(file, meta, "isObjaverse");
     if (auto it = meta.find("split"); it != meta.end() && !it->is_null()) {
       if (!it->is_string()) {
-        Add(file, "/split", "expected \"train\", \"val\", \"test\" or null, got " +
-                                JsonTypeWord(*it));
+        Add(file, "/split",
+            "expected \"train\", \"val\", \"test\" or null, got " + JsonTypeWord(*it));
       } else {
         const std::string& s = it->get_ref<const std::string&>();
         if (s != "train" && s != "val" && s != "test") {
@@ -336,29 +337,33 @@ class Validator {
       }
     };
     if (auto it = root.find("grasp_paths"); it != root.end()) {
-      ForEachMember(file, "/grasp_paths", *it, [&](const std::string&, const FlatJson& uids,
-                                                   const std::string& p1) {
-        ForEachMember(file, p1, uids, [&](const std::string& uid, const FlatJson& path,
-                                          const std::string& p2) {
-          check_uid(p2, uid);
-          if (auto full = CheckPath(file, p2, path, false)) ValidateGraspFile(*full);
-        });
-      });
+      ForEachMember(file, "/grasp_paths", *it,
+                    [&](const std::string&, const FlatJson& uids, const std::string& p1) {
+                      ForEachMember(
+                          file, p1, uids,
+                          [&](const std::string& uid, const FlatJson& path, const std::string& p2) {
+                            check_uid(p2, uid);
+                            if (auto full = CheckPath(file, p2, path, false))
+                              ValidateGraspFile(*full);
+                          });
+                    });
     }
     if (auto it = root.find("articulated_grasp_paths"); it != root.end()) {
-      ForEachMember(file, "/articulated_grasp_paths", *it, [&](const std::string&,
-                                                               const FlatJson& uids,
-                                                               const std::string& p1) {
-        ForEachMember(file, p1, uids, [&](const std::string& uid, const FlatJson& joints,
-                                          const std::string& p2) {
-          check_uid(p2, uid);
-          ForEachMember(file, p2, joints, [&](const std::string& joint, const FlatJson& path,
-                                              const std::string& p3) {
-            if (joint.empty()) Add(file, p3, "empty joint name");
-            if (auto full = CheckPath(file, p3, path, false)) ValidateGraspFile(*full);
+      ForEachMember(
+          file, "/articulated_grasp_paths", *it,
+          [&](const std::string&, const FlatJson& uids, const std::string& p1) {
+            ForEachMember(
+                file, p1, uids,
+                [&](const std::string& uid, const FlatJson& joints, const std::string& p2) {
+                  check_uid(p2, uid);
+                  ForEachMember(
+                      file, p2, joints,
+                      [&](const std::string& joint, const FlatJson& path, const std::string& p3) {
+                        if (joint.empty()) Add(file, p3, "empty joint name");
+                        if (auto full = CheckPath(file, p3, path, false)) ValidateGraspFile(*full);
+                      });
+                });
           });
-        });
-      });
     }
   }
 
@@ -395,8 +400,7 @@ class Validator {
         Add(file, kMember, "no grasps (shape (0, 4, 4))");
         return;
       }
-      const double tolerance =
-          header.dtype == DType::kF2 ? kOrthoToleranceHalf : kOrthoTolerance;
+      const double tolerance = header.dtype == DType::kF2 ? kOrthoToleranceHalf : kOrthoTolerance;
       std::vector<double> v = reader.Read("transforms").ToDoubles();
       CheckTransforms(file, v, s[0], tolerance);
     } catch (const Error& e) {
@@ -425,8 +429,8 @@ class Validator {
         fail(not_finite, g, 0);
         continue;
       }
-      double row = std::max({std::abs(m[12]), std::abs(m[13]), std::abs(m[14]),
-                             std::abs(m[15] - 1.0)});
+      double row =
+          std::max({std::abs(m[12]), std::abs(m[13]), std::abs(m[14]), std::abs(m[15] - 1.0)});
       if (row > kLastRowTolerance) fail(last_row, g, row);
       // R is m[r*4 + c] for r, c < 3; check R^T R = I.
       double worst = 0;
@@ -446,8 +450,8 @@ class Validator {
       if (f.count == 0) return;
       char worst[64];
       std::snprintf(worst, sizeof worst, "%.3g", f.worst);
-      std::string message = std::to_string(f.count) + " of " + std::to_string(n) +
-                            " grasps " + what + " (first: grasp " + std::to_string(f.first);
+      std::string message = std::to_string(f.count) + " of " + std::to_string(n) + " grasps " +
+                            what + " (first: grasp " + std::to_string(f.first);
       if (!measure.empty()) message += ", worst " + measure + " = " + worst;
       Add(file, "transforms.npy", message + ")");
     };

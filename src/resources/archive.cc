@@ -129,9 +129,10 @@ la_ssize_t WriteCallback(struct archive*, void* client, const void* buffer, size
 void CheckMemberPath(const std::string& path, const std::string& archive) {
   for (const std::string& part : SplitPath(path)) {
     if (part.empty() || part == "." || part == "..") {
-      throw Error("member path must be relative, '/'-separated, without '.', '..' or empty "
-                  "components",
-                  archive, path);
+      throw Error(
+          "member path must be relative, '/'-separated, without '.', '..' or empty "
+          "components",
+          archive, path);
     }
   }
 }
@@ -236,7 +237,9 @@ class TarReader {
   TarReader(const TarReader&) = delete;
   TarReader& operator=(const TarReader&) = delete;
 
-  struct archive* handle() { return a_; }
+  struct archive* handle() {
+    return a_;
+  }
   const std::string& name() const { return name_; }
 
   /// Throws an Error naming the archive and the member being read (or the last one read).
@@ -265,7 +268,8 @@ class TarReader {
       const int r = archive_read_next_header(a_, &entry);
       if (r == ARCHIVE_EOF) break;
       if (r < ARCHIVE_WARN) Fail("cannot read member header");
-      const char* raw = Utf8OrRaw(archive_entry_pathname_utf8(entry), archive_entry_pathname(entry));
+      const char* raw =
+          Utf8OrRaw(archive_entry_pathname_utf8(entry), archive_entry_pathname(entry));
       current_ = raw == nullptr ? "" : raw;
       Member m = Check(entry, files);
       visit(m);
@@ -276,8 +280,7 @@ class TarReader {
     // frame and the end of the stream are verified too.
     const void* buffer;
     ssize_t n;
-    while ((n = state_.Next(&buffer)) > 0) {
-    }
+    while ((n = state_.Next(&buffer)) > 0) {}
     if (n < 0) throw Error(state_.error, name_, last_.empty() ? "" : "after member " + last_);
   }
 
@@ -314,7 +317,8 @@ class TarReader {
       m.kind = Member::kDir;
     } else if (type == AE_IFLNK) {
       m.kind = Member::kSymlink;
-      const char* target = Utf8OrRaw(archive_entry_symlink_utf8(entry), archive_entry_symlink(entry));
+      const char* target =
+          Utf8OrRaw(archive_entry_symlink_utf8(entry), archive_entry_symlink(entry));
       m.link = target == nullptr ? "" : target;
       CheckSymlinkTarget(m, raw);
     } else {
@@ -349,8 +353,7 @@ class TarReader {
       if (part.empty() || part == ".") continue;
       if (part == "..") {
         if (down) {
-          throw Error("symlink target '" + m.link + "' has '..' after a name; refused", name_,
-                      raw);
+          throw Error("symlink target '" + m.link + "' has '..' after a name; refused", name_, raw);
         }
         ++up;
       } else {
@@ -395,8 +398,7 @@ Fd OpenDirs(int root_fd, const std::vector<std::string>& parts, size_t count,
     }
     if (fd < 0) {
       if (errno == ELOOP || errno == ENOTDIR) {
-        throw Error("member path passes through a symlink or a file ('" + parts[i] +
-                        "'); refused",
+        throw Error("member path passes through a symlink or a file ('" + parts[i] + "'); refused",
                     archive, member);
       }
       throw Error(Errno("cannot open folder"), archive, member);
@@ -468,7 +470,7 @@ uint64_t WriteTarZst(const fs::path& out, std::span<const ArchiveMember> members
     if (in.fd < 0 || ::fstat(in.fd, &st) != 0) throw Error(Errno("cannot open"), source);
     if (!S_ISREG(st.st_mode)) throw Error("not a regular file", source);
     std::unique_ptr<archive_entry, void (*)(archive_entry*)> entry(archive_entry_new(),
-                                                                    archive_entry_free);
+                                                                   archive_entry_free);
     archive_entry_set_pathname(entry.get(), m.path.c_str());
     archive_entry_set_filetype(entry.get(), AE_IFREG);
     archive_entry_set_perm(entry.get(), 0644);

@@ -17,8 +17,8 @@
 #include <stdexcept>
 #include <thread>
 
-#include "mlspaces/core/error.h"
 #include "mlspaces/core/crash_point.h"
+#include "mlspaces/core/error.h"
 #include "mlspaces/core/files.h"
 #include "mlspaces/resources/sha256.h"
 
@@ -113,10 +113,10 @@ struct Transfer {
   bool discard = false;         // an error page: not written
   bool bad_range = false;       // 206 that does not start where we asked
   bool sink_failed = false;
-  bool stalled = false;         // no byte for options->stall_timeout_s
-  std::string content_range;    // of the last response
+  bool stalled = false;       // no byte for options->stall_timeout_s
+  std::string content_range;  // of the last response
   const FetchOptions* options = nullptr;
-  curl_off_t last_now = -1;     // progress at last_change
+  curl_off_t last_now = -1;  // progress at last_change
   std::chrono::steady_clock::time_point last_change = std::chrono::steady_clock::now();
 };
 
@@ -214,9 +214,7 @@ struct Attempt {
   bool http_error() const { return status >= 400; }
   bool ok() const { return code == CURLE_OK && !http_error(); }
   /// The file is not there: HTTP 404, or a file:// path that cannot be read.
-  bool not_found() const {
-    return status == 404 || code == CURLE_FILE_COULDNT_READ_FILE;
-  }
+  bool not_found() const { return status == 404 || code == CURLE_FILE_COULDNT_READ_FILE; }
   /// Worth another attempt: the network or the server may do better next time.
   bool transient() const {
     if (sink_failed) return false;

@@ -18,9 +18,9 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cerrno>
 #include <cstring>
-#include <atomic>
 #include <map>
 #include <mutex>
 #include <set>
@@ -28,13 +28,13 @@
 
 #include "mlspaces/core/crash_point.h"
 #include "mlspaces/core/error.h"
-#include "mlspaces/library/annotation.h"
+#include "mlspaces/core/file_lock.h"
 #include "mlspaces/core/files.h"
 #include "mlspaces/core/json.h"
 #include "mlspaces/core/parallel.h"
+#include "mlspaces/library/annotation.h"
 #include "mlspaces/resources/archive.h"
 #include "mlspaces/resources/fetch.h"
-#include "mlspaces/core/file_lock.h"
 #include "mlspaces/resources/sha256.h"
 
 namespace mlspaces {
@@ -73,7 +73,8 @@ bool JsonValueMatches(const Json& v, const std::string& want) {
 WhereFilter WhereFilter::Parse(const std::string& flag) {
   const size_t eq = flag.find('=');
   if (eq == std::string::npos || eq == 0) {
-    throw UsageError("--where expects KEY=VALUE (KEY a field or a JSON pointer), got '" + flag + "'");
+    throw UsageError("--where expects KEY=VALUE (KEY a field or a JSON pointer), got '" + flag +
+                     "'");
   }
   return WhereFilter{flag.substr(0, eq), flag.substr(eq + 1)};
 }
@@ -118,7 +119,8 @@ struct Installer::Impl {
       auto s = t->second.find(name);
       if (s != t->second.end() && !s->second.empty()) return s->second;
       if (s != t->second.end()) {
-        throw Error(type + "/" + name + " has no pinned version: pin one in a pin file "
+        throw Error(type + "/" + name +
+                    " has no pinned version: pin one in a pin file "
                     "(MLSPACES_PINNED_ASSETS_FILE or --pins)");
       }
     }
@@ -173,12 +175,13 @@ struct Installer::Impl {
     const fs::path manifest_path = src.dir / std::string(kPackageManifestFile);
     if (!IsFile(manifest_path)) {
       FileLock lock(src.dir / ".mlspaces" / "lock", [&](long pid) {
-        Note("waiting for the installer with pid " + std::to_string(pid) + " (" +
-             src.dir.string() + ")");
+        Note("waiting for the installer with pid " + std::to_string(pid) + " (" + src.dir.string() +
+             ")");
       });
       if (!IsFile(manifest_path)) {
         RemoveDeadTempFiles(src.dir);  // a set-up killed mid-write (nothing extracted yet)
-        const std::string url = settings.Url(type, name, version, std::string(kPackageManifestFile));
+        const std::string url =
+            settings.Url(type, name, version, std::string(kPackageManifestFile));
         std::string text;
         try {
           text = FetchToString(url, Fetch());
@@ -247,8 +250,8 @@ struct Installer::Impl {
     // Pack writes the manifest's archives in the UID index's order: archive i is entry i.
     const std::vector<PackageArchive>& list = src.manifest.archives;
     if (archive >= list.size() || list[archive].name != name) {
-      throw Error("archive " + name + " of the UID index is not entry " +
-                      std::to_string(archive) + " of the manifest (mismatched package files)",
+      throw Error("archive " + name + " of the UID index is not entry " + std::to_string(archive) +
+                      " of the manifest (mismatched package files)",
                   (src.dir / std::string(kPackageManifestFile)).string());
     }
     const PackageArchive* a = &list[archive];
@@ -505,7 +508,9 @@ std::vector<Installer::Problem> Installer::Verify(const std::vector<std::string>
         }
         const FileDigest d = Sha256File(file);
         if (d.size != size) {
-          problems.push_back({file.string(), "", "size " + std::to_string(d.size) + ", expected " + std::to_string(size)});
+          problems.push_back(
+              {file.string(), "",
+               "size " + std::to_string(d.size) + ", expected " + std::to_string(size)});
           return false;
         }
         if (d.sha256 != sha) {
@@ -525,8 +530,10 @@ std::vector<Installer::Problem> Installer::Verify(const std::vector<std::string>
         if (!IsFile(listing_path)) {
           problems.push_back({listing_path.string(), "", "missing"});
           good = false;
-        } else if (listing_text = ReadFile(listing_path); Sha256Hex(listing_text) != a.members_sha256) {
-          problems.push_back({listing_path.string(), "", "SHA-256 differs from the manifest's members_sha256"});
+        } else if (listing_text = ReadFile(listing_path);
+                   Sha256Hex(listing_text) != a.members_sha256) {
+          problems.push_back(
+              {listing_path.string(), "", "SHA-256 differs from the manifest's members_sha256"});
           good = false;
         } else {
           const FlatJson listing = ParseFlatJson(listing_text, listing_path.string());
@@ -536,7 +543,8 @@ std::vector<Installer::Problem> Installer::Verify(const std::vector<std::string>
               good = false;
               continue;
             }
-            good &= check(dir / rel, info["size"].get<uint64_t>(), info["sha256"].get<std::string>());
+            good &=
+                check(dir / rel, info["size"].get<uint64_t>(), info["sha256"].get<std::string>());
           }
         }
         if (!good && repair) {

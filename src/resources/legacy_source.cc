@@ -16,8 +16,8 @@
 #include "mlspaces/core/files.h"
 #include "mlspaces/core/json.h"
 #include "mlspaces/library/packed_store.h"
-#include "mlspaces/resources/packed_store_writer.h"
 #include "mlspaces/resources/package.h"
+#include "mlspaces/resources/packed_store_writer.h"
 
 namespace mlspaces {
 namespace fs = std::filesystem;
@@ -28,7 +28,9 @@ namespace {
 /// decompression bomb is an Error rather than an allocation failure.
 constexpr size_t kMaxInflated = size_t{8} << 30;
 
-bool HasGzipMagic(const unsigned char* p, size_t n) { return n >= 2 && p[0] == 0x1f && p[1] == 0x8b; }
+bool HasGzipMagic(const unsigned char* p, size_t n) {
+  return n >= 2 && p[0] == 0x1f && p[1] == 0x8b;
+}
 
 /// Inflates a gzip file (several members are concatenated, as gzip(1) does).
 std::string Gunzip(const std::string& data, const std::string& path) {
@@ -138,8 +140,8 @@ void WalkTrie(const FlatJson& trie, const std::string& archive, uint32_t archive
                   file, Pointer(archive, keys, &key));
     }
     if (!value.is_object()) {
-      throw Error("expected object (a folder, or {} for a file), got " + JsonTypeWord(value),
-                  file, Pointer(archive, keys, &key));
+      throw Error("expected object (a folder, or {} for a file), got " + JsonTypeWord(value), file,
+                  Pointer(archive, keys, &key));
     }
     rel.resize(f.prefix_len);
     if (!rel.empty()) rel += '/';
@@ -160,8 +162,8 @@ void WalkTrie(const FlatJson& trie, const std::string& archive, uint32_t archive
       warnings.push_back(archive + ": " + rel + ": a file named only \".xml\" has no UID; ignored");
       continue;
     }
-    out.push_back({rel.substr(name_start, rel.size() - name_start - kXml.size()), archive_index,
-                   rel});
+    out.push_back(
+        {rel.substr(name_start, rel.size() - name_start - kXml.size()), archive_index, rel});
   }
 }
 
@@ -172,9 +174,10 @@ LegacyIndexReport BuildLegacyIndex(const fs::path& version_dir, const std::strin
   const std::string file = tries_path.string();
   std::error_code ec;
   if (!fs::exists(tries_path, ec)) {
-    throw Error("no MolmoSpaces tries file (is this a source version folder of the original's "
-                "resource manager?)",
-                file);
+    throw Error(
+        "no MolmoSpaces tries file (is this a source version folder of the original's "
+        "resource manager?)",
+        file);
   }
   if (!IsFile(tries_path)) throw Error("not a regular file", file);
   const FlatJson root = [&] {
@@ -182,9 +185,9 @@ LegacyIndexReport BuildLegacyIndex(const fs::path& version_dir, const std::strin
     return ParseFlatJson(json, file);
   }();
   if (!root.is_object()) {
-    throw Error("expected an object {archive name: trie} at the top level, got " +
-                    JsonTypeWord(root),
-                file);
+    throw Error(
+        "expected an object {archive name: trie} at the top level, got " + JsonTypeWord(root),
+        file);
   }
   if (root.size() > UINT32_MAX) throw Error("too many archives for one index", file);
 
@@ -274,9 +277,10 @@ std::vector<ObjectSource> FindObjectSources(const fs::path& assets_dir,
   }
   std::error_code ec;
   if (!fs::is_directory(objects, ec)) {
-    throw Error("no objects folder: nothing is installed here (set --assets-dir or "
-                "MLSPACES_ASSETS_DIR)",
-                objects.string());
+    throw Error(
+        "no objects folder: nothing is installed here (set --assets-dir or "
+        "MLSPACES_ASSETS_DIR)",
+        objects.string());
   }
   std::vector<std::string> found;
   for (const auto& entry : fs::directory_iterator(objects, ec)) {

@@ -16,20 +16,20 @@
 #include <optional>
 #include <set>
 
-#include "mlspaces/library/annotation.h"
-#include "mlspaces/library/asset_index.h"
 #include "mlspaces/core/crash_point.h"
 #include "mlspaces/core/error.h"
 #include "mlspaces/core/files.h"
-#include "mlspaces/library/grasp_index.h"
 #include "mlspaces/core/json.h"
 #include "mlspaces/core/parallel.h"
-#include "mlspaces/library/packed_store.h"
-#include "mlspaces/resources/packed_store_writer.h"
-#include "mlspaces/library/registry.h"
 #include "mlspaces/core/version.h"
+#include "mlspaces/library/annotation.h"
+#include "mlspaces/library/asset_index.h"
+#include "mlspaces/library/grasp_index.h"
+#include "mlspaces/library/packed_store.h"
+#include "mlspaces/library/registry.h"
 #include "mlspaces/resources/archive.h"
 #include "mlspaces/resources/package.h"
+#include "mlspaces/resources/packed_store_writer.h"
 #include "mlspaces/resources/sha256.h"
 
 namespace mlspaces {
@@ -38,8 +38,8 @@ namespace fs = std::filesystem;
 namespace {
 
 struct Unit {
-  std::string dir;                  ///< relative folder ("" = root-level asset)
-  std::vector<std::string> uids;    ///< sorted
+  std::string dir;                ///< relative folder ("" = root-level asset)
+  std::vector<std::string> uids;  ///< sorted
 };
 
 struct ArchivePlan {
@@ -107,8 +107,8 @@ std::string Gzip(const std::string& data) {
 }
 
 /// The files of a unit, sorted, relative to the library root.
-std::vector<std::string> UnitFiles(const fs::path& root, const Unit& unit,
-                                   const AssetIndex& index, const std::set<std::string>& skip,
+std::vector<std::string> UnitFiles(const fs::path& root, const Unit& unit, const AssetIndex& index,
+                                   const std::set<std::string>& skip,
                                    std::vector<std::string>& warnings) {
   std::vector<std::string> files;
   if (unit.dir.empty()) {
@@ -117,8 +117,9 @@ std::vector<std::string> UnitFiles(const fs::path& root, const Unit& unit,
       files.push_back(e.object_path);
       files.push_back(e.metadata_path);
       if (e.metadata_npz_path) files.push_back(*e.metadata_npz_path);
-      const std::string plain = ParentOf(e.object_path).empty() ? uid + ".json"
-                                                                 : ParentOf(e.object_path) + "/" + uid + ".json";
+      const std::string plain = ParentOf(e.object_path).empty()
+                                    ? uid + ".json"
+                                    : ParentOf(e.object_path) + "/" + uid + ".json";
       if (IsFile(root / plain)) files.push_back(plain);
     }
   } else {
@@ -146,7 +147,8 @@ std::vector<std::string> UnitFiles(const fs::path& root, const Unit& unit,
   std::sort(files.begin(), files.end());
   files.erase(std::unique(files.begin(), files.end()), files.end());
   for (const std::string& f : files) {
-    if (!IsFile(root / f)) throw Error("file named by the asset index is missing", (root / f).string());
+    if (!IsFile(root / f))
+      throw Error("file named by the asset index is missing", (root / f).string());
   }
   return files;
 }
@@ -158,9 +160,9 @@ PackReport PackLibrary(const fs::path& library_dir, const fs::path& out_dir, Pac
                         fs::absolute(library_dir).lexically_normal().filename();
   const fs::path index_file = root / "assets_index.json";
   if (!IsFile(index_file)) {
-    throw Error("no assets_index.json here: run `mlspaces index-assets " + library_dir.string() +
-                    "` first",
-                root.string());
+    throw Error(
+        "no assets_index.json here: run `mlspaces index-assets " + library_dir.string() + "` first",
+        root.string());
   }
   if (options.name.empty()) options.name = root.filename().string();
   if (options.version.empty()) options.version = TodayUtc();
@@ -295,8 +297,8 @@ PackReport PackLibrary(const fs::path& library_dir, const fs::path& out_dir, Pac
       in.archive = static_cast<uint32_t>(i);
       std::optional<fs::path> npz;
       if (e.metadata_npz_path) npz = root / *e.metadata_npz_path;
-      auto annotation = std::make_unique<Annotation>(LoadAnnotation(
-          uid, options.name, root / e.metadata_path, npz ? &*npz : nullptr));
+      auto annotation = std::make_unique<Annotation>(
+          LoadAnnotation(uid, options.name, root / e.metadata_path, npz ? &*npz : nullptr));
       in.annotation = annotation.get();
       r.annotations.push_back(std::move(annotation));
       if (auto g = grasps_of.find(uid); g != grasps_of.end()) {
@@ -381,22 +383,22 @@ PackReport PackLibrary(const fs::path& library_dir, const fs::path& out_dir, Pac
     tries[archive] = std::move(trie);
   };
   std::set<std::string> robots;
-  ParallelForOrdered<ArchiveResult>(n, options.threads, window, build, [&](size_t i,
-                                                                          ArchiveResult&& r) {
-    for (const PackedAssetInput& a : r.assets) {
-      store.Add(a);
-      for (const auto& g : a.grasps) robots.insert(g.robot);
-    }
-    report.grasp_sets += r.grasp_sets;
-    report.grasps += r.grasps;
-    report.warnings.insert(report.warnings.end(), r.warnings.begin(), r.warnings.end());
-    report.archive_bytes += r.archive.size;
-    report.unpacked_bytes += r.archive.unpacked_bytes;
-    sizes[r.archive.name] = static_cast<double>(r.archive.size) / (1024.0 * 1024.0);
-    add_trie(r.archive.name, r.members);
-    if (options.progress) options.progress(i + 1, n);
-    manifest.archives.push_back(std::move(r.archive));
-  });
+  ParallelForOrdered<ArchiveResult>(
+      n, options.threads, window, build, [&](size_t i, ArchiveResult&& r) {
+        for (const PackedAssetInput& a : r.assets) {
+          store.Add(a);
+          for (const auto& g : a.grasps) robots.insert(g.robot);
+        }
+        report.grasp_sets += r.grasp_sets;
+        report.grasps += r.grasps;
+        report.warnings.insert(report.warnings.end(), r.warnings.begin(), r.warnings.end());
+        report.archive_bytes += r.archive.size;
+        report.unpacked_bytes += r.archive.unpacked_bytes;
+        sizes[r.archive.name] = static_cast<double>(r.archive.size) / (1024.0 * 1024.0);
+        add_trie(r.archive.name, r.members);
+        if (options.progress) options.progress(i + 1, n);
+        manifest.archives.push_back(std::move(r.archive));
+      });
 
   store.Finish();
   for (std::string_view file : {kUidIndexFile, kMetadataStoreFile}) {

@@ -56,7 +56,9 @@ class Reader {
       if (!known) Fail(key, "unknown field");
     }
   }
-  std::string Pointer(const std::string& key) const { return pointer_ + "/" + JsonPointerToken(key); }
+  std::string Pointer(const std::string& key) const {
+    return pointer_ + "/" + JsonPointerToken(key);
+  }
 
  private:
   const Json& object_;
@@ -78,7 +80,8 @@ std::string PackageManifest::Serialize() const {
   out["num_grasps"] = num_grasps;
   out["robots"] = robots;
   Json files_json = Json::object();
-  for (const auto& [file, info] : files) files_json[file] = {{"size", info.size}, {"sha256", info.sha256}};
+  for (const auto& [file, info] : files)
+    files_json[file] = {{"size", info.size}, {"sha256", info.sha256}};
   out["files"] = std::move(files_json);
   Json archives_json = Json::array();
   for (const PackageArchive& a : archives) {
@@ -101,10 +104,9 @@ PackageManifest PackageManifest::Parse(const std::string& text, const std::strin
                 "num_assets", "num_grasp_sets", "num_grasps", "robots", "files", "archives"});
   if (top.String("format") != "mlspaces-package") top.Fail("format", "not an mlspaces package");
   if (top.Count("format_version") != kPackageFormatVersion) {
-    top.Fail("format_version", "unsupported format version " +
-                                   std::to_string(top.Count("format_version")) +
-                                   " (this mlspaces reads " +
-                                   std::to_string(kPackageFormatVersion) + ")");
+    top.Fail("format_version",
+             "unsupported format version " + std::to_string(top.Count("format_version")) +
+                 " (this mlspaces reads " + std::to_string(kPackageFormatVersion) + ")");
   }
   PackageManifest m;
   m.data_type = top.String("data_type");
@@ -131,8 +133,8 @@ PackageManifest PackageManifest::Parse(const std::string& text, const std::strin
   if (!archives.is_array()) top.Fail("archives", "expected array, got " + JsonTypeName(archives));
   for (size_t i = 0; i < archives.size(); ++i) {
     Reader r(archives[i], origin, "/archives/" + std::to_string(i));
-    r.OnlyKeys({"name", "size", "sha256", "unpacked_bytes", "assets", "members_file",
-                "members_sha256"});
+    r.OnlyKeys(
+        {"name", "size", "sha256", "unpacked_bytes", "assets", "members_file", "members_sha256"});
     PackageArchive a;
     a.name = r.String("name");
     if (a.name.empty() || a.name.find('/') != std::string::npos || a.name[0] == '.') {
@@ -152,6 +154,5 @@ PackageManifest PackageManifest::Parse(const std::string& text, const std::strin
 PackageManifest PackageManifest::Load(const std::filesystem::path& file) {
   return Parse(ReadFile(file), file.string());
 }
-
 
 }  // namespace mlspaces

@@ -148,8 +148,7 @@ uint64_t GraspShardWriter::Append(std::span<const Mat4> poses) {
   for (size_t i = 0; i < poses.size(); ++i) {
     for (double v : poses[i].m) {
       if (!std::isfinite(v)) {
-        throw Error("non-finite value in grasp pose " + std::to_string(i),
-                    impl_->path.string());
+        throw Error("non-finite value in grasp pose " + std::to_string(i), impl_->path.string());
       }
     }
   }
@@ -199,8 +198,8 @@ std::string EncodeMetadataRecord(const std::string& uid, const Annotation& a,
   {
     Json check;
     if (!DecodeMsgpackJson(msgpack, check)) {
-      throw Error("annotation JSON holds binary values, which metadata JSON cannot", error_path,
-                  "", uid);
+      throw Error("annotation JSON holds binary values, which metadata JSON cannot", error_path, "",
+                  uid);
     }
   }
   if (uid.size() > UINT32_MAX || msgpack.size() > UINT32_MAX || a.arrays.size() > UINT32_MAX) {
@@ -269,15 +268,14 @@ struct PackedStoreWriter::Impl {
   fs::path dir;
   std::string library;
   std::vector<std::string> archives;
-  std::deque<WriterEntry> entries;               // stable addresses for `uids`
+  std::deque<WriterEntry> entries;  // stable addresses for `uids`
   std::unordered_set<std::string_view> uids;
-  OutFile stream;                                // metadata records in Add order
+  OutFile stream;  // metadata records in Add order
   bool finished = false;
 
   std::string MetaPath() const { return (dir / kMetadataStoreFile).string(); }
   std::string IndexPath() const { return (dir / kUidIndexFile).string(); }
-  void WriteMetadata(const std::vector<WriterEntry*>& sorted,
-                     std::vector<uint64_t>& offsets);
+  void WriteMetadata(const std::vector<WriterEntry*>& sorted, std::vector<uint64_t>& offsets);
   void WriteIndex(const std::vector<WriterEntry*>& sorted, const std::vector<uint64_t>& offsets);
 };
 
@@ -508,7 +506,8 @@ void PackedStoreWriter::Impl::WriteIndex(const std::vector<WriterEntry*>& sorted
   Pad8(out);
   out += strings.data();
   Pad8(out);
-  PutAt<uint64_t>(out, kIdxChecksum, XXH3_64bits(out.data() + kHeaderSize, out.size() - kHeaderSize));
+  PutAt<uint64_t>(out, kIdxChecksum,
+                  XXH3_64bits(out.data() + kHeaderSize, out.size() - kHeaderSize));
   WriteFileAtomic(dir / kUidIndexFile, out, true);
 }
 

@@ -45,12 +45,15 @@ const SourceVersions& BuiltinSourceVersions() {
   // grasps. Robot and scene sources are known by name; their versions are not in the spec we
   // follow, so they are left unpinned (pin them in a pin file to install them).
   static const SourceVersions kTable = {
-      {"objects", {{"thor", "20251117"}, {"objaverse", "20260131"},
-                   {"objathor_metadata", "20260129"}}},
+      {"objects",
+       {{"thor", "20251117"}, {"objaverse", "20260131"}, {"objathor_metadata", "20260129"}}},
       {"grasps", {{"droid", "20251116"}, {"droid_objaverse", "20251218"}}},
       {"robots", {{"franka_droid", ""}}},
-      {"scenes", {{"ithor", ""}, {"procthor-10k", ""}, {"procthor-objaverse", ""},
-                  {"holodeck-objaverse", ""}}},
+      {"scenes",
+       {{"ithor", ""},
+        {"procthor-10k", ""},
+        {"procthor-objaverse", ""},
+        {"holodeck-objaverse", ""}}},
   };
   return kTable;
 }

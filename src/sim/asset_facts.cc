@@ -41,8 +41,8 @@ struct Box {
 // Point c + R * local, R row-major (MuJoCo xmat).
 void Xform(const double* xpos, const double* xmat, const double local[3], double out[3]) {
   for (int i = 0; i < 3; ++i) {
-    out[i] = xpos[i] + xmat[3 * i] * local[0] + xmat[3 * i + 1] * local[1] +
-             xmat[3 * i + 2] * local[2];
+    out[i] =
+        xpos[i] + xmat[3 * i] * local[0] + xmat[3 * i + 1] * local[1] + xmat[3 * i + 2] * local[2];
   }
 }
 

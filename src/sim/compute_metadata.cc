@@ -16,9 +16,8 @@ Json MakeComputedMetadata(const Json& source, const AssetFacts& facts) {
   Json out = source;
   if (!out.contains("mass")) out["mass"] = facts.mass;
   if (!out.contains("boundingBox")) {
-    out["boundingBox"] = {{"x", facts.bounding_box[0]},
-                          {"y", facts.bounding_box[1]},
-                          {"z", facts.bounding_box[2]}};
+    out["boundingBox"] = {
+        {"x", facts.bounding_box[0]}, {"y", facts.bounding_box[1]}, {"z", facts.bounding_box[2]}};
   }
   out["aabb"] = {{"min", {facts.aabb_min[0], facts.aabb_min[1], facts.aabb_min[2]}},
                  {"max", {facts.aabb_max[0], facts.aabb_max[1], facts.aabb_max[2]}}};

@@ -8,21 +8,31 @@ namespace {
 
 const char* JointType(int t) {
   switch (t) {
-    case mjJNT_FREE: return "free";
-    case mjJNT_BALL: return "ball";
-    case mjJNT_SLIDE: return "slide";
-    default: return "hinge";
+    case mjJNT_FREE:
+      return "free";
+    case mjJNT_BALL:
+      return "ball";
+    case mjJNT_SLIDE:
+      return "slide";
+    default:
+      return "hinge";
   }
 }
 
 const char* TrnType(int t) {
   switch (t) {
-    case mjTRN_JOINT: return "joint";
-    case mjTRN_JOINTINPARENT: return "jointinparent";
-    case mjTRN_TENDON: return "tendon";
-    case mjTRN_SITE: return "site";
-    case mjTRN_BODY: return "body";
-    default: return "slidercrank";
+    case mjTRN_JOINT:
+      return "joint";
+    case mjTRN_JOINTINPARENT:
+      return "jointinparent";
+    case mjTRN_TENDON:
+      return "tendon";
+    case mjTRN_SITE:
+      return "site";
+    case mjTRN_BODY:
+      return "body";
+    default:
+      return "slidercrank";
   }
 }
 
@@ -80,7 +90,8 @@ ModelDescription DescribeModel(const MjcfComposer& composer, const std::string& 
     out.actuators.push_back(std::move(actuator));
   }
   for (int c = 0; c < m->ncam; ++c) {
-    out.cameras.push_back({MjName(m, mjOBJ_CAMERA, c), MjName(m, mjOBJ_BODY, m->cam_bodyid[c]),
+    out.cameras.push_back({MjName(m, mjOBJ_CAMERA, c),
+                           MjName(m, mjOBJ_BODY, m->cam_bodyid[c]),
                            {d->cam_xpos[3 * c], d->cam_xpos[3 * c + 1], d->cam_xpos[3 * c + 2]},
                            m->cam_fovy[c]});
   }
@@ -124,8 +135,7 @@ Json ToJson(const ModelDescription& description) {
   out["actuators"] = actuators;
   Json cameras = Json::array();
   for (const CameraDescription& c : description.cameras) {
-    cameras.push_back(
-        {{"name", c.name}, {"body", c.body}, {"pos", Vec(c.pos)}, {"fovy", c.fovy}});
+    cameras.push_back({{"name", c.name}, {"body", c.body}, {"pos", Vec(c.pos)}, {"fovy", c.fovy}});
   }
   out["cameras"] = cameras;
   Json warnings = Json::array();

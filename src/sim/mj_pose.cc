@@ -17,7 +17,9 @@ Mat4 FrameToMat4(const mjtNum* pos, const mjtNum* xmat) {
   return ToMat4({pos[0], pos[1], pos[2]}, rot);
 }
 
-Pose BodyPose(const mjData* d, int body) { return PoseFromMj(d->xpos + 3 * body, d->xquat + 4 * body); }
+Pose BodyPose(const mjData* d, int body) {
+  return PoseFromMj(d->xpos + 3 * body, d->xquat + 4 * body);
+}
 
 Mat4 SiteMat4(const mjData* d, int site) {
   return FrameToMat4(d->site_xpos + 3 * site, d->site_xmat + 9 * site);

@@ -66,8 +66,7 @@ SpecPtr Parse(const SourceRoot& root) {
 }
 
 fs::path ResolveIn(const fs::path& dir, const std::string& sub, const std::string& file) {
-  const fs::path base = sub.empty() ? dir : fs::path(sub).is_absolute() ? fs::path(sub)
-                                                                         : dir / sub;
+  const fs::path base = sub.empty() ? dir : fs::path(sub).is_absolute() ? fs::path(sub) : dir / sub;
   return (base / file).lexically_normal();
 }
 
@@ -108,8 +107,8 @@ void AbsolutizeFiles(mjSpec* spec, const SourceRoot& root) {
 /// silently drops when the reference does not resolve.
 int CountReferrers(mjSpec* spec) {
   int n = 0;
-  for (mjtObj type : {mjOBJ_ACTUATOR, mjOBJ_SENSOR, mjOBJ_TENDON, mjOBJ_EQUALITY, mjOBJ_PAIR,
-                      mjOBJ_EXCLUDE}) {
+  for (mjtObj type :
+       {mjOBJ_ACTUATOR, mjOBJ_SENSOR, mjOBJ_TENDON, mjOBJ_EQUALITY, mjOBJ_PAIR, mjOBJ_EXCLUDE}) {
     for (mjsElement* e = mjs_firstElement(spec, type); e; e = mjs_nextElement(spec, e)) ++n;
   }
   return n;
@@ -219,8 +218,8 @@ std::string NameUnnamedDefaults(std::string xml) {
       --depth;
       continue;
     }
-    if (xml.compare(at, 8, "<default") != 0 || (xml[at + 8] != '>' && xml[at + 8] != '/' &&
-                                                 xml[at + 8] != ' ')) {
+    if (xml.compare(at, 8, "<default") != 0 ||
+        (xml[at + 8] != '>' && xml[at + 8] != '/' && xml[at + 8] != ' ')) {
       continue;
     }
     const size_t end = xml.find('>', at);
@@ -283,9 +282,8 @@ struct MjcfComposer::Impl {
   }
 
   /// Attaches `child` (parsed from `root`, whose prefix is the one to put on its names).
-  std::vector<std::string> AttachSpec(mjSpec* child, SourceRoot root,
-                                      std::string_view parent_body, const Pose& pose,
-                                      std::string_view body) {
+  std::vector<std::string> AttachSpec(mjSpec* child, SourceRoot root, std::string_view parent_body,
+                                      const Pose& pose, std::string_view body) {
     mjSpec* s = spec.get();
     mjsBody* parent = Parent(parent_body);
     const mjsElement* what = child->element;
@@ -324,8 +322,7 @@ struct MjcfComposer::Impl {
     if (!attached) {
       std::vector<SourceRoot> with_child = roots;
       with_child.push_back(root);
-      internal::ThrowCompileError(error.empty() ? SpecError(s) : error,
-                                  with_child);
+      internal::ThrowCompileError(error.empty() ? SpecError(s) : error, with_child);
     }
     roots.push_back(std::move(root));
     return bodies;
@@ -394,9 +391,8 @@ std::vector<std::string> MjcfComposer::AttachString(std::string_view xml,
 }
 
 std::vector<std::string> MjcfComposer::Attach(const MjcfComposer& model,
-                                              std::string_view parent_body,
-                                              std::string_view prefix, const Pose& pose,
-                                              std::string_view body) {
+                                              std::string_view parent_body, std::string_view prefix,
+                                              const Pose& pose, std::string_view body) {
   if (&model == this) throw UsageError("Attach: a model cannot be attached to itself");
   if (model.impl_->options.physics_only != impl_->options.physics_only) {
     throw UsageError("Attach: the model was composed with other ComposeOptions",
@@ -404,9 +400,9 @@ std::vector<std::string> MjcfComposer::Attach(const MjcfComposer& model,
   }
   const SourceRoot& own = model.impl_->roots.front();
   std::lock_guard<std::mutex> lock(model.impl_->mutex);
-  return impl_->AttachSpec(model.impl_->spec.get(), SourceRoot{own.path, own.text,
-                                                                std::string(prefix)},
-                           parent_body, pose, body);
+  return impl_->AttachSpec(model.impl_->spec.get(),
+                           SourceRoot{own.path, own.text, std::string(prefix)}, parent_body, pose,
+                           body);
 }
 
 std::vector<std::string> MjcfComposer::TopLevelBodies() const {
@@ -437,9 +433,9 @@ std::string MjcfComposer::Emit() const {
     if (rc < 0) break;
     xml.assign(static_cast<size_t>(rc) + 1, '\0');  // rc: the size it needs
   }
-  throw Error(std::string("MuJoCo could not write the model: ") +
-                  (error[0] ? error : "unknown error"),
-              impl_->path.string());
+  throw Error(
+      std::string("MuJoCo could not write the model: ") + (error[0] ? error : "unknown error"),
+      impl_->path.string());
 }
 
 ModelPtr MjcfComposer::Compile(const mjVFS* vfs) const {

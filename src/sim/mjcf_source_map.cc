@@ -22,8 +22,8 @@ struct Elem {
   fs::path file;
   int line = 0;
   std::string tag;
-  std::string name;  // with the prefixes of the attaches it came through; "" when unnamed
-  std::string ref;   // <include>/<model>: the resolved file; mesh, texture, ...: its file
+  std::string name;       // with the prefixes of the attaches it came through; "" when unnamed
+  std::string ref;        // <include>/<model>: the resolved file; mesh, texture, ...: its file
   bool included = false;  // from an <include>d file (MuJoCo reports line 0 for those)
 };
 
@@ -56,9 +56,9 @@ class Index {
       if (text[i] == '\n') starts.push_back(i + 1);
     }
     auto line_of = [&](pugi::xml_node n) {
-      return static_cast<int>(std::upper_bound(starts.begin(), starts.end(),
-                                               static_cast<size_t>(n.offset_debug())) -
-                              starts.begin());
+      return static_cast<int>(
+          std::upper_bound(starts.begin(), starts.end(), static_cast<size_t>(n.offset_debug())) -
+          starts.begin());
     };
     std::vector<std::pair<std::string, std::string>> attaches;  // model, prefix
     auto walk = [&](auto&& self, pugi::xml_node node) -> void {
@@ -67,9 +67,10 @@ class Index {
         Elem el{file, line_of(e), e.name(), "", "", included};
         if (const char* n = e.attribute("name").value(); *n) el.name = prefix + n;
         const std::string f = e.attribute("file").value();
-        if (!f.empty()) el.ref = el.tag == "include" || el.tag == "model"
-                                     ? (model_dir / f).lexically_normal().string()
-                                     : f;
+        if (!f.empty())
+          el.ref = el.tag == "include" || el.tag == "model"
+                       ? (model_dir / f).lexically_normal().string()
+                       : f;
         elems_.push_back(el);
         if (el.tag == "include" && !f.empty()) {
           Add(el.ref, "", model_dir, prefix, true, depth + 1, models);

@@ -34,8 +34,7 @@ struct SourceRoot {
 
 /// Throws mlspaces::Error for a message of MuJoCo's compiler (mj_compile, mjs_attach) on the
 /// model composed from `roots` (roots[0] the composed file, then the run-time attaches).
-[[noreturn]] void ThrowCompileError(std::string_view message,
-                                    const std::vector<SourceRoot>& roots);
+[[noreturn]] void ThrowCompileError(std::string_view message, const std::vector<SourceRoot>& roots);
 
 /// The <model> assets of `root` and of the files it includes: name and resolved file.
 std::vector<std::pair<std::string, std::filesystem::path>> ModelAssets(const SourceRoot& root);

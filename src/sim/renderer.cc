@@ -254,15 +254,24 @@ class GlContext {
     } else {
       const EglApi& egl = LoadEgl();
       display_ = AcquireEglDisplay(egl, platform_);
-      const EGLint attribs[] = {EGL_RED_SIZE,          8,
-                                EGL_GREEN_SIZE,        8,
-                                EGL_BLUE_SIZE,         8,
-                                EGL_ALPHA_SIZE,        8,
-                                EGL_DEPTH_SIZE,        24,
-                                EGL_STENCIL_SIZE,      8,
-                                EGL_COLOR_BUFFER_TYPE, EGL_RGB_BUFFER,
-                                EGL_SURFACE_TYPE,      EGL_PBUFFER_BIT,
-                                EGL_RENDERABLE_TYPE,   EGL_OPENGL_BIT,
+      const EGLint attribs[] = {EGL_RED_SIZE,
+                                8,
+                                EGL_GREEN_SIZE,
+                                8,
+                                EGL_BLUE_SIZE,
+                                8,
+                                EGL_ALPHA_SIZE,
+                                8,
+                                EGL_DEPTH_SIZE,
+                                24,
+                                EGL_STENCIL_SIZE,
+                                8,
+                                EGL_COLOR_BUFFER_TYPE,
+                                EGL_RGB_BUFFER,
+                                EGL_SURFACE_TYPE,
+                                EGL_PBUFFER_BIT,
+                                EGL_RENDERABLE_TYPE,
+                                EGL_OPENGL_BIT,
                                 EGL_NONE};
       EGLConfig config = nullptr;
       EGLint n = 0;
@@ -307,8 +316,7 @@ class GlContext {
     if (backend_ == GlBackend::kOsMesa) {
       const OsMesaApi& api = LoadOsMesa();
       if (api.get_current_context() == osmesa_) return;
-      if (!api.make_current(osmesa_, osmesa_buffer_.data(), GL_UNSIGNED_BYTE, width_,
-                            height_)) {
+      if (!api.make_current(osmesa_, osmesa_buffer_.data(), GL_UNSIGNED_BYTE, width_, height_)) {
         Fail(backend_, "OSMesaMakeCurrent failed");
       }
     } else {
@@ -321,7 +329,6 @@ class GlContext {
       }
     }
   }
-
 
  private:
   GlBackend backend_;
@@ -389,8 +396,8 @@ Renderer::Renderer(const mjModel* m, RenderOptions options) : impl_(std::make_un
   InstallMujocoHandlers();
   if (m == nullptr) throw UsageError("Renderer: null model");
   if (options.width <= 0 || options.height <= 0) {
-    throw UsageError("Renderer: image size must be positive, got " +
-                     std::to_string(options.width) + "x" + std::to_string(options.height));
+    throw UsageError("Renderer: image size must be positive, got " + std::to_string(options.width) +
+                     "x" + std::to_string(options.height));
   }
   if (options.max_geom <= 0) throw UsageError("Renderer: max_geom must be positive");
   const GlBackend backend = options.backend;
@@ -433,8 +440,7 @@ Renderer::Renderer(const mjModel* m, RenderOptions options) : impl_(std::make_un
 
 Renderer::~Renderer() = default;
 
-void Renderer::Render(const mjData* d, const CameraView& view, unsigned char* rgb,
-                      float* depth_m) {
+void Renderer::Render(const mjData* d, const CameraView& view, unsigned char* rgb, float* depth_m) {
   Impl& s = *impl_;
   if (d == nullptr || rgb == nullptr) throw UsageError("Renderer::Render: null data or rgb");
   if (!(view.fovy_deg > 0 && view.fovy_deg < 180)) {
@@ -475,16 +481,14 @@ void Renderer::Render(const mjData* d, const CameraView& view, unsigned char* rg
   Draw(rgb, depth_m);
 }
 
-void Renderer::RenderCamera(const mjData* d, int camera_id, unsigned char* rgb,
-                            float* depth_m) {
+void Renderer::RenderCamera(const mjData* d, int camera_id, unsigned char* rgb, float* depth_m) {
   Impl& s = *impl_;
   if (d == nullptr || rgb == nullptr) {
     throw UsageError("Renderer::RenderCamera: null data or rgb");
   }
   if (camera_id < 0 || camera_id >= s.model->ncam) {
     throw UsageError("Renderer::RenderCamera: camera id " + std::to_string(camera_id) +
-                     " out of range (the model has " + std::to_string(s.model->ncam) +
-                     " cameras)");
+                     " out of range (the model has " + std::to_string(s.model->ncam) + " cameras)");
   }
   s.gl->MakeCurrent();
   s.cam.type = mjCAMERA_FIXED;

@@ -26,9 +26,9 @@ std::string Scene::InsertAsset(const Registry& registry, std::string_view uid, c
   // Parsed and checked first, so that a bad asset leaves the scene as it was.
   const MjcfComposer asset(loc.mjcf_path, options_);
   if (const size_t n = asset.TopLevelBodies().size(); n != 1) {
-    throw Error("an inserted asset must have exactly one top-level body, found " +
-                    std::to_string(n),
-                loc.mjcf_path.string(), "", std::string(uid));
+    throw Error(
+        "an inserted asset must have exactly one top-level body, found " + std::to_string(n),
+        loc.mjcf_path.string(), "", std::string(uid));
   }
   std::vector<std::string> bodies = composer_.Attach(asset, parent_body, p, pose);
   ++inserted_;

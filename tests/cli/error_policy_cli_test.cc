@@ -35,8 +35,8 @@ void ExpectOneLineError(const CliResult& r, const std::string& expect) {
 // The environment of every run: no caller's install dirs, pins or remote.
 std::string Env(const TempDir& tmp) {
   return "env -u MLSPACES_ASSETS_DIR -u MLSPACES_PINNED_ASSETS_FILE -u MLSPACES_REMOTE_URL "
-         "MLSPACES_CACHE_DIR=" + ShellQuote((tmp / "cache").string()) +
-         " HOME=" + ShellQuote(tmp.path().string()) + " ";
+         "MLSPACES_CACHE_DIR=" +
+         ShellQuote((tmp / "cache").string()) + " HOME=" + ShellQuote(tmp.path().string()) + " ";
 }
 
 TEST(ErrorPolicyCli, PackOfAMissingLibrary) {
@@ -49,10 +49,10 @@ TEST(ErrorPolicyCli, InstallFromARemoteWithoutThePackage) {
   // The remote's listing is missing and the source unknown.
   TempDir tmp;
   fs::create_directories(tmp / "remote");
-  ExpectOneLineError(RunCli({"install", "--library", "nosuch", "--remote",
-                             (tmp / "remote").string(), "-q"},
-                            Env(tmp)),
-                     "nosuch");
+  ExpectOneLineError(
+      RunCli({"install", "--library", "nosuch", "--remote", (tmp / "remote").string(), "-q"},
+             Env(tmp)),
+      "nosuch");
 }
 
 TEST(ErrorPolicyCli, InstallFromAnUnreachableRemote) {

@@ -59,8 +59,8 @@ TEST_F(IndexCliTest, IndexAssetsExample) {
 TEST_F(IndexCliTest, IndexGraspsExample) {
   CliResult r = RunCli({"index-grasps", lib_.string()});
   EXPECT_EQ(r.exit_code, 0) << r.err;
-  EXPECT_EQ(r.out, "Wrote " + (lib_ / "grasps_index.json").string() +
-                       " with 1 robots / 1 grasp files.\n");
+  EXPECT_EQ(r.out,
+            "Wrote " + (lib_ / "grasps_index.json").string() + " with 1 robots / 1 grasp files.\n");
   EXPECT_EQ(Slurp(lib_ / "grasps_index.json"),
             Slurp(fs::path(MLSPACES_EXAMPLES_DIR) / "custom_assets/asset_library/"
                                                     "grasps_index.json"));
@@ -105,10 +105,9 @@ TEST_F(IndexCliTest, MissingMetadata) {
   std::set<std::string> before = ListFiles(lib_);
   CliResult r = RunCli({"index-assets", lib_.string()});
   EXPECT_EQ(r.exit_code, 1);
-  const std::string message = "Expected metadata JSON for " +
-                              (lib_ / "includes/materials.xml").string() + " at " +
-                              (lib_ / "includes/materials.json").string() +
-                              ", but it was not found.";
+  const std::string message =
+      "Expected metadata JSON for " + (lib_ / "includes/materials.xml").string() + " at " +
+      (lib_ / "includes/materials.json").string() + ", but it was not found.";
   EXPECT_EQ(r.err, "mlspaces: error: " + message + "\n");
   EXPECT_EQ(ListFiles(lib_), before);
 
@@ -186,8 +185,9 @@ TEST_F(IndexCliTest, ComputeMetadataWritesComputedJson) {
 // A broken asset is reported with its file and skipped; the others are indexed; exit 1.
 TEST_F(IndexCliTest, ComputeMetadataReportsBrokenAssetAndGoesOn) {
   fs::create_directories(lib_ / "broken");
-  WriteText(lib_ / "broken/broken.xml", "<mujoco><worldbody><body><geom type=\"box\" size=\"x\"/>"
-                                        "</body></worldbody></mujoco>");
+  WriteText(lib_ / "broken/broken.xml",
+            "<mujoco><worldbody><body><geom type=\"box\" size=\"x\"/>"
+            "</body></worldbody></mujoco>");
   WriteText(lib_ / "broken/broken.json", "{\"category\": \"junk\"}");
   CliResult r = RunCli({"index-assets", lib_.string(), "--compute-metadata", "--overwrite"});
   EXPECT_EQ(r.exit_code, 1);
@@ -216,8 +216,7 @@ TEST_F(IndexCliTest, ValidateReportsProblems) {
             (lib_ / "assets_index.json").string() + ": /red_block/object_path: file not found: " +
                 (lib_ / "red_block/red_block.xml").string() + "\n" +
                 (lib_ / "red_block/red_block.json").string() +
-                ": /mass: expected number, got string\n" + "2 problems in " + lib_.string() +
-                "\n");
+                ": /mass: expected number, got string\n" + "2 problems in " + lib_.string() + "\n");
 }
 
 }  // namespace

@@ -70,8 +70,7 @@ TEST_F(LookupCliTest, LocateUnknownUidAndBadFlags) {
   CliResult r = Run({"locate", "blue_block", "--asset-library", AssetFlag()});
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_EQ(r.out, "");
-  EXPECT_EQ(r.err,
-            "mlspaces: error: blue_block not found in asset libraries ['custom_assets']\n");
+  EXPECT_EQ(r.err, "mlspaces: error: blue_block not found in asset libraries ['custom_assets']\n");
   r = Run({"locate", "red_block", "--asset-library", "custom_assets"});
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_THAT(r.err, HasSubstr("NAME=DIR"));
@@ -133,8 +132,8 @@ TEST_F(LookupCliTest, Meta) {
 }
 
 TEST_F(LookupCliTest, Grasps) {
-  CliResult r = Run({"grasps", "red_block", "--asset-library", AssetFlag(), "--grasp-library",
-                  GraspFlag()});
+  CliResult r =
+      Run({"grasps", "red_block", "--asset-library", AssetFlag(), "--grasp-library", GraspFlag()});
   EXPECT_EQ(r.exit_code, 0) << r.err;
   EXPECT_THAT(r.out, HasSubstr("library: custom_grasps/droid\n"));
   EXPECT_THAT(r.out, HasSubstr("path: " + (lib_ / "red_block/droid/grasps.npz").string()));
@@ -145,19 +144,19 @@ TEST_F(LookupCliTest, Grasps) {
                                "   0.000000  0.000000 -1.000000  0.000000\n"
                                "   0.000000  0.000000  0.000000  1.000000\n"));
 
-  r = Run({"grasps", "red_block", "--libraries", (dir_ / "ex/libraries.yaml").string(),
-           "--robot", "franka"});
+  r = Run({"grasps", "red_block", "--libraries", (dir_ / "ex/libraries.yaml").string(), "--robot",
+           "franka"});
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_THAT(r.err, HasSubstr("no grasp library for robot franka serves red_block"));
-  r = Run({"grasps", "red_block", "--libraries", (dir_ / "ex/libraries.yaml").string(),
-           "--robot", "droid"});
+  r = Run({"grasps", "red_block", "--libraries", (dir_ / "ex/libraries.yaml").string(), "--robot",
+           "droid"});
   EXPECT_EQ(r.exit_code, 0) << r.err;
 
   r = Run({"grasps", "red_block", "--asset-library", AssetFlag()});  // no grasp library
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_EQ(r.err, "mlspaces: error: No grasp file found for red_block\n");
-  r = Run({"grasps", "red_block", "--asset-library", AssetFlag(), "--grasp-library",
-           GraspFlag(), "--joint", "lid"});
+  r = Run({"grasps", "red_block", "--asset-library", AssetFlag(), "--grasp-library", GraspFlag(),
+           "--joint", "lid"});
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_THAT(r.err, HasSubstr("No joint grasp file found for red_block/lid"));
   r = Run({"grasps", "red_block", "--asset-library", AssetFlag(), "--grasp-library",
@@ -178,8 +177,8 @@ TEST_F(LookupCliTest, GraspsSubsampleAndWrite) {
   WriteNpz(lib_ / "red_block/droid/grasps.npz",
            {{"transforms", NpyArray::FromDoubles(DType::kF4, {20, 4, 4}, values)}});
   const fs::path out = dir_ / "out.npz";
-  const std::vector<std::string> base = {"grasps", "red_block", "--asset-library", AssetFlag(),
-                                         "--grasp-library", GraspFlag()};
+  const std::vector<std::string> base = {"grasps",    "red_block",       "--asset-library",
+                                         AssetFlag(), "--grasp-library", GraspFlag()};
   std::vector<std::string> args = base;
   args.insert(args.end(), {"--num", "5", "--seed", "7", "--out", out.string()});
   CliResult r = Run(args);
@@ -194,8 +193,8 @@ TEST_F(LookupCliTest, GraspsSubsampleAndWrite) {
   const std::vector<size_t> rows = SubsampleIndices(20, 5, 7);
   for (size_t i = 0; i < 5; ++i) {
     EXPECT_EQ(t.AsDouble(i * 16 + 3), static_cast<double>(rows[i]));
-    EXPECT_THAT(r.out, HasSubstr("grasp " + std::to_string(i) + " (row " +
-                                 std::to_string(rows[i]) + "):"));
+    EXPECT_THAT(
+        r.out, HasSubstr("grasp " + std::to_string(i) + " (row " + std::to_string(rows[i]) + "):"));
   }
   // All 20: a summary instead of every matrix.
   r = Run(base);

@@ -45,8 +45,7 @@ pid_t Fork(F body) {
     int code = 99;
     try {
       code = body();
-    } catch (...) {
-    }
+    } catch (...) {}
     ::_exit(code);
   }
   EXPECT_GT(pid, 0);
@@ -145,10 +144,13 @@ TEST(FileLock, KilledHolderReleasesTheLock) {
   {
     // Killed once we wait; the kernel releases the lock with the dead process, so we get it
     // with no stale-lock clean-up (the timeout is a hang guard).
-    FileLock lock(path, [&](long pid) {
-      waits.push_back(pid);
-      ::kill(holder, SIGKILL);
-    }, kGuardMs / 1000.0);
+    FileLock lock(
+        path,
+        [&](long pid) {
+          waits.push_back(pid);
+          ::kill(holder, SIGKILL);
+        },
+        kGuardMs / 1000.0);
     EXPECT_EQ(Slurp(path), std::to_string(::getpid()) + "\n");
   }
   EXPECT_THAT(waits, ::testing::ElementsAre(holder));
@@ -167,7 +169,8 @@ TEST(FileLock, IsHeldProbes) {
   EXPECT_FALSE(FileLock::IsHeld(dir / "x.lock"));
   // No lock is taken without waiting: an uncontended lock calls no on_wait.
   bool waited = false;
-  FileLock again(dir / "x.lock", [&](long) { waited = true; }, 0);
+  FileLock again(
+      dir / "x.lock", [&](long) { waited = true; }, 0);
   EXPECT_FALSE(waited);
 }
 

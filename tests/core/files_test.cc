@@ -42,7 +42,8 @@ TEST(FilesTest, WriteAllReportsAFailedWrite) {
   int fds[2];
   ASSERT_EQ(::pipe(fds), 0);
   ::close(fds[0]);
-  struct sigaction ignore {}, old {};
+  struct sigaction ignore {
+  }, old{};
   ignore.sa_handler = SIG_IGN;
   ASSERT_EQ(::sigaction(SIGPIPE, &ignore, &old), 0);
   EXPECT_FALSE(WriteAll(fds[1], "x"));

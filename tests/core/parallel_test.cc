@@ -71,8 +71,7 @@ TEST(ParallelTest, OrderedWindowBoundsWorkAhead) {
       [&](size_t i) {
         const size_t ahead = i - std::min(i, consumed.load());
         size_t m = max_ahead.load();
-        while (ahead > m && !max_ahead.compare_exchange_weak(m, ahead)) {
-        }
+        while (ahead > m && !max_ahead.compare_exchange_weak(m, ahead)) {}
         return i;
       },
       [&](size_t i, size_t&&) { consumed = i + 1; });

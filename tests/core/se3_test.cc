@@ -1,7 +1,7 @@
 // SE(3) helpers (src/core/se3.cc): quaternion round trips, rotation logs, pose
 // interpolation (linear position + slerp) and timed waypoints.
-#include "mlspaces/core/error.h"
 #include "mlspaces/core/se3.h"
+#include "mlspaces/core/error.h"
 
 #include <algorithm>
 #include <cmath>

@@ -1,7 +1,7 @@
 // Child / RunInChild / ReadChildLines: output comes back whole or line by line, exit statuses
 // and signals are reported, a throwing body exits with kBodyThrew, kills are reaped.
-#include "mlspaces/core/files.h"
 #include "mlspaces/core/subprocess.h"
+#include "mlspaces/core/files.h"
 
 #include <signal.h>
 #include <unistd.h>
@@ -58,9 +58,7 @@ TEST(SubprocessTest, LinesFromSeveralChildren) {
     }));
   }
   std::vector<std::vector<std::string>> lines(3);
-  ReadChildLines(children, [&](size_t i, std::string_view line) {
-    lines[i].emplace_back(line);
-  });
+  ReadChildLines(children, [&](size_t i, std::string_view line) { lines[i].emplace_back(line); });
   for (int c = 0; c < 3; ++c) {
     ASSERT_EQ(lines[c].size(), 50u);
     EXPECT_EQ(lines[c][0], std::to_string(c) + ":0");
@@ -90,10 +88,9 @@ TEST(SubprocessTest, KillAndThrowingHandler) {
     for (;;) ::pause();
     return 0;
   }));
-  EXPECT_THROW(ReadChildLines(more, [](size_t, std::string_view) {
-                 throw std::runtime_error("handler");
-               }),
-               std::runtime_error);
+  EXPECT_THROW(
+      ReadChildLines(more, [](size_t, std::string_view) { throw std::runtime_error("handler"); }),
+      std::runtime_error);
   // The child was killed and reaped: waiting again reports nothing new.
   EXPECT_TRUE(more[0].Wait().ok());
 }

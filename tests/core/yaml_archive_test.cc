@@ -124,7 +124,8 @@ TEST(YamlArchiveTest, ErrorsNameKeyPathAndLine) {
       {"flag: yes\n", "line 1", "flag: expected true or false, got 'yes'"},
       {"colour: grean\n", "line 1",
        "colour: expected one of red, green, got 'grean' (did you mean 'green'?)"},
-      {"inner:\n  pair: [1]\n", "line 2", "inner.pair: expected a list of 2 values, got a list of 1"},
+      {"inner:\n  pair: [1]\n", "line 2",
+       "inner.pair: expected a list of 2 values, got a list of 1"},
       {"text:\n", "line 1", "text: expected a string, got null"},
       {"flag: true\nflag: false\n", "line 2", "flag: duplicate key"},
       {"- 1\n", "line 1", "top level: expected a mapping, got a list"},
@@ -183,7 +184,8 @@ TEST(YamlArchiveTest, SetYamlKeyWalksDottedKeys) {
   };
   EXPECT_EQ(message({"inner", "xx"}, "1"),
             "--set inner.xx: unknown key (did you mean 'x'? valid keys: x, pair)");
-  EXPECT_EQ(message({"items", "3"}, "1"), "--set items: '3' is not an index of this list (1 items)");
+  EXPECT_EQ(message({"items", "3"}, "1"),
+            "--set items: '3' is not an index of this list (1 items)");
   EXPECT_EQ(message({"flag", "a"}, "1"), "--set flag: is a single value, it has no key 'a'");
   EXPECT_EQ(message({"big"}, "x"), "--set big: expected a whole number >= 0, got 'x'");
 }

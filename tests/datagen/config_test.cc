@@ -248,9 +248,9 @@ TEST_F(ConfigTest, AcceptedScalarForms) {
   EXPECT_EQ(c.tag, "null");  // quoted: a string, not null
   EXPECT_EQ(c.data_split, "123");
   EXPECT_EQ(c.task_sampler_config.max_tasks, 7);
-  EXPECT_EQ(LoadError("seed: 18446744073709551616\n").first.find("out of range") ==
-                std::string::npos,
-            false);
+  EXPECT_EQ(
+      LoadError("seed: 18446744073709551616\n").first.find("out of range") == std::string::npos,
+      false);
 }
 
 TEST_F(ConfigTest, MissingFile) {
@@ -367,8 +367,7 @@ TEST_F(ConfigTest, SetErrorsNameTheKey) {
   EXPECT_THAT(SetError("=3"), HasSubstr("--set expects KEY=VALUE"));
   EXPECT_THAT(SetError("a..b=3"), HasSubstr("empty key component"));
   EXPECT_THAT(SetError("tag=[unclosed"), HasSubstr("--set tag: invalid YAML value"));
-  EXPECT_THAT(SetError("task_config={nope: 1}"),
-              HasSubstr("--set task_config.nope: unknown key"));
+  EXPECT_THAT(SetError("task_config={nope: 1}"), HasSubstr("--set task_config.nope: unknown key"));
   // Errors leave no line: they are about the command line.
   EXPECT_THAT(SetError("task_horizon=x"), Not(HasSubstr("line")));
 }
@@ -450,8 +449,7 @@ TEST_F(ConfigTest, RegistryLookupIsCaseInsensitiveWithDidYouMean) {
   EXPECT_TRUE(registry_.Contains("customassetsdatagenconfig"));
   EXPECT_FALSE(registry_.Contains("CustomAssets"));
   EXPECT_EQ(registry_.CanonicalName("PICKBASECONFIG"), "PickBaseConfig");
-  EXPECT_EQ(registry_.Make("customAssetsDataGenConfig").tag,
-            "tutorial_franka_pick_custom_assets");
+  EXPECT_EQ(registry_.Make("customAssetsDataGenConfig").tag, "tutorial_franka_pick_custom_assets");
   EXPECT_EQ(ConfigHash(registry_.Make("pickbaseconfig")), ConfigHash(ExperimentConfig{}));
   ExpectError([&] { registry_.Make("PickBase"); },
               {"unknown config 'PickBase' (did you mean 'PickBaseConfig'? registered: "
@@ -494,10 +492,10 @@ TEST_F(ConfigTest, CliPrintsTheResolvedConfigAndHash) {
 }
 
 TEST_F(ConfigTest, CliAppliesOverridesAndFlags) {
-  const auto r = RunCli({"config", kExample.string(), "--set",
-                         "task_sampler_config.samples_per_house=4", "--set",
-                         "policy_config.max_retries=1", "--seed", "7", "--episodes", "5",
-                         "--output", "/tmp/mlspaces_out"});
+  const auto r =
+      RunCli({"config", kExample.string(), "--set", "task_sampler_config.samples_per_house=4",
+              "--set", "policy_config.max_retries=1", "--seed", "7", "--episodes", "5", "--output",
+              "/tmp/mlspaces_out"});
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_THAT(r.out, HasSubstr("\n  samples_per_house: 5\n"));  // --episodes wins over --set
   EXPECT_THAT(r.out, HasSubstr("\n  max_retries: 1\n"));

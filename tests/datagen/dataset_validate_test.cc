@@ -12,7 +12,6 @@ namespace mlspaces::datagen {
 namespace {
 
 namespace fs = std::filesystem;
-using ::testing::HasSubstr;
 using mlspaces::testing::CliResult;
 using mlspaces::testing::RunCli;
 using mlspaces::testing::RunPython;
@@ -20,6 +19,7 @@ using mlspaces::testing::ShellQuote;
 using mlspaces::testing::Slurp;
 using mlspaces::testing::TempDir;
 using mlspaces::testing::WriteText;
+using ::testing::HasSubstr;
 
 class DatasetValidateTest : public ::testing::Test {
  protected:
@@ -157,8 +157,7 @@ TEST_F(DatasetValidateTest, EveryProblemIsListed) {
   EXPECT_TRUE(Has(r, batch(), "traj_1@provenance/config_hash", "missing")) << Lines(r);
   EXPECT_TRUE(Has(r, batch(), "traj_1@provenance/seed", "expected an unsigned integer"))
       << Lines(r);
-  EXPECT_TRUE(Has(r, batch(), "traj_0/obs/sensor_data/exo_camera_1", "does not exist"))
-      << Lines(r);
+  EXPECT_TRUE(Has(r, batch(), "traj_0/obs/sensor_data/exo_camera_1", "does not exist")) << Lines(r);
 
   const CliResult cli = RunCli({"validate-dataset", run().string()});
   EXPECT_EQ(cli.exit_code, 1);
@@ -230,8 +229,7 @@ TEST_F(DatasetValidateTest, TerminatedOnMiddleRow) {
 TEST_F(DatasetValidateTest, LastRowMustEndTheEpisode) {
   Py("f['traj_0/terminated'][-1] = False\nf['traj_0/truncated'][-1] = False");
   const DatasetReport r = Validate();
-  EXPECT_TRUE(Has(r, batch(), "traj_0/terminated", "neither terminated nor truncated"))
-      << Lines(r);
+  EXPECT_TRUE(Has(r, batch(), "traj_0/terminated", "neither terminated nor truncated")) << Lines(r);
   // The provenance says terminated: it no longer matches the dataset.
   EXPECT_TRUE(Has(r, batch(), "traj_0@provenance/terminated", "last row")) << Lines(r);
 }
@@ -357,8 +355,9 @@ TEST_F(DatasetValidateTest, LeftoverTempFileAndParts) {
 TEST_F(DatasetValidateTest, TrajectoryNumberingGap) {
   Py("f.move('traj_1', 'traj_2')");
   const DatasetReport r = Validate();
-  EXPECT_TRUE(Has(r, batch(), "", "numbering has gaps: 1 of traj_0 … traj_2 missing (first: "
-                                  "traj_1)"))
+  EXPECT_TRUE(Has(r, batch(), "",
+                  "numbering has gaps: 1 of traj_0 … traj_2 missing (first: "
+                  "traj_1)"))
       << Lines(r);
   EXPECT_TRUE(Has(r, batch(), "traj_2@provenance/episode_index", "1, expected 2")) << Lines(r);
 }

@@ -105,12 +105,15 @@ TEST_F(EnvTest, ErrorsNameTheBody) {
               ::testing::ThrowsMessage<Error>(::testing::HasSubstr("'blue_block'")));
   EXPECT_THAT([&] { env_.SetBodyPose("no_such", Pose{}); },
               ::testing::ThrowsMessage<Error>(::testing::HasSubstr("'no_such'")));
-  EXPECT_THAT([&] { env_.SetBodyPose("robot_0/fr3_link4", Pose{}); },
-              ::testing::ThrowsMessage<Error>(::testing::AllOf(
-                  ::testing::HasSubstr("'robot_0/fr3_link4'"),
-                  ::testing::HasSubstr("cannot be moved"))));
-  EXPECT_THAT([&] { env_.SetBodyPose("red_block", {{0, 0, 0}, {0, 0, 0, 0}}); },
-              ::testing::ThrowsMessage<Error>(::testing::HasSubstr("zero quaternion")));
+  EXPECT_THAT(
+      [&] { env_.SetBodyPose("robot_0/fr3_link4", Pose{}); },
+      ::testing::ThrowsMessage<Error>(::testing::AllOf(::testing::HasSubstr("'robot_0/fr3_link4'"),
+                                                       ::testing::HasSubstr("cannot be moved"))));
+  EXPECT_THAT(
+      [&] {
+        env_.SetBodyPose("red_block", {{0, 0, 0}, {0, 0, 0, 0}});
+      },
+      ::testing::ThrowsMessage<Error>(::testing::HasSubstr("zero quaternion")));
 }
 
 TEST(EnvCreateTest, SharedModelAndMissingHomeNumeric) {
@@ -188,7 +191,8 @@ TEST(EnvPedestalTest, RobotStandsOnABoxAndTheBaseStaysOnTheFloor) {
   EXPECT_GE(mj_name2id(m, mjOBJ_ACTUATOR, "robot_0/gripper/fingers_actuator"), 0);
   EXPECT_GE(mj_name2id(m, mjOBJ_SITE, "robot_0/gripper/grasp_site"), 0);
   // No temp file is left behind.
-  for (const auto& e : std::filesystem::directory_iterator(std::filesystem::temp_directory_path())) {
+  for (const auto& e :
+       std::filesystem::directory_iterator(std::filesystem::temp_directory_path())) {
     EXPECT_EQ(e.path().filename().string().rfind("mlspaces_pedestal_", 0), std::string::npos);
   }
 }

@@ -259,8 +259,7 @@ TEST(EpisodeRunnerTest, RejectedTasksAreJournaledAndForgottenFieldsAreErrors) {
 
   config.task_sampler_config.task_sampler_class = "forgetful";
   Rig forgetful(config, 3, samplers);
-  testing::ExpectError([&] { forgetful.runner->Run(0); },
-                       {"forgetful", "pickup_obj_goal_pose"});
+  testing::ExpectError([&] { forgetful.runner->Run(0); }, {"forgetful", "pickup_obj_goal_pose"});
 }
 
 TEST(EpisodeRunnerTest, MismatchedTimeStepsAreErrors) {

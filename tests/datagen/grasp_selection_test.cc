@@ -15,8 +15,8 @@
 #include <gtest/gtest.h>
 #include <mujoco/mujoco.h>
 
-#include "mlspaces/library/registry.h"
 #include "mlspaces/core/se3.h"
+#include "mlspaces/library/registry.h"
 #include "mlspaces/sim/mj_pose.h"
 #include "mlspaces/sim/mujoco_handlers.h"
 #include "mlspaces/sim/scene.h"
@@ -128,9 +128,7 @@ class GraspProbeTest : public ::testing::Test {
     registry_.RegisterGraspLibrary("custom_grasps", kExample / "asset_library", "custom_assets");
   }
 
-  Mat4 BlockPose() const {
-    return ToMat4(sim::BodyPose(data_.get(), block_));
-  }
+  Mat4 BlockPose() const { return ToMat4(sim::BodyPose(data_.get(), block_)); }
 
   std::vector<Mat4> LibraryGraspsInWorld() const {
     const GraspSet set = registry_.LoadGrasps({"red_block"});

@@ -37,9 +37,8 @@ AttemptRecord Record(int64_t episode, int attempt, Outcome outcome, double plan,
 }
 
 TEST(OutcomeTest, NamesAreStableAndRoundTrip) {
-  const std::vector<std::string> expected = {"sampler_reject", "no_grasp",   "ik_fail",
-                                             "collision",      "grasp_slip", "timeout",
-                                             "success"};
+  const std::vector<std::string> expected = {"sampler_reject", "no_grasp", "ik_fail", "collision",
+                                             "grasp_slip",     "timeout",  "success"};
   ASSERT_EQ(kAllOutcomes.size(), expected.size());
   for (size_t i = 0; i < expected.size(); ++i) {
     EXPECT_EQ(static_cast<size_t>(kAllOutcomes[i]), i);

@@ -8,9 +8,9 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include "mlspaces/library/registry.h"
-#include "mlspaces/datagen/config.h"
 #include "mlspaces/core/se3.h"
+#include "mlspaces/datagen/config.h"
+#include "mlspaces/library/registry.h"
 #include "test_util.h"
 
 namespace mlspaces::datagen {
@@ -18,7 +18,8 @@ namespace {
 
 using ::testing::HasSubstr;
 
-const std::filesystem::path kExample = std::filesystem::path(MLSPACES_EXAMPLES_DIR) / "custom_assets";
+const std::filesystem::path kExample =
+    std::filesystem::path(MLSPACES_EXAMPLES_DIR) / "custom_assets";
 
 class PickPlannerTest : public ::testing::Test {
  protected:
@@ -65,8 +66,7 @@ class PickPlannerTest : public ::testing::Test {
 
 TEST_F(PickPlannerTest, PlansTheLibraryGraspAndLiftsTheBlockThroughThePhases) {
   ASSERT_EQ(grasps_.size(), 1u);
-  ASSERT_EQ(planner_.Reset(env_.data(), block_, grasps_), PlanFailure::kNone)
-      << planner_.message();
+  ASSERT_EQ(planner_.Reset(env_.data(), block_, grasps_), PlanFailure::kNone) << planner_.message();
   // Top-down at the block centre (the grasp or its flip).
   const Mat4& g = planner_.grasp_pose();
   EXPECT_NEAR(g(2, 2), -1.0, 1e-9);
@@ -141,7 +141,8 @@ TEST_F(PickPlannerTest, ObjectMovedAwayBeforeTheCloseIsRetriedAndPickedWhereItIs
   });
   ASSERT_TRUE(moved);
   ASSERT_GT(steps, 0);
-  EXPECT_FALSE(planner_.gave_up()) << planner_.message() << " " << PlanFailureName(planner_.failure());
+  EXPECT_FALSE(planner_.gave_up())
+      << planner_.message() << " " << PlanFailureName(planner_.failure());
   EXPECT_EQ(planner_.retries(), 1);
   EXPECT_EQ(planner_.failure(), PlanFailure::kEmptyGrasp);  // what the retry was for
   EXPECT_NEAR(planner_.grasp_pose()(1, 3), 0.15, 1e-6);

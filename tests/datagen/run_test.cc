@@ -54,9 +54,9 @@ std::vector<int64_t> BatchSizes(int64_t samples, int64_t per_batch) {
 }
 
 TEST(PlanWorkItemsTest, BatchesRoundHalfToEvenAndSplitEvenly) {
-  EXPECT_EQ(BatchSizes(2, 4), (std::vector<int64_t>{2}));        // round(0.5) = 0 -> 1 batch
-  EXPECT_EQ(BatchSizes(6, 4), (std::vector<int64_t>{3, 3}));     // round(1.5) = 2
-  EXPECT_EQ(BatchSizes(10, 4), (std::vector<int64_t>{5, 5}));    // round(2.5) = 2
+  EXPECT_EQ(BatchSizes(2, 4), (std::vector<int64_t>{2}));           // round(0.5) = 0 -> 1 batch
+  EXPECT_EQ(BatchSizes(6, 4), (std::vector<int64_t>{3, 3}));        // round(1.5) = 2
+  EXPECT_EQ(BatchSizes(10, 4), (std::vector<int64_t>{5, 5}));       // round(2.5) = 2
   EXPECT_EQ(BatchSizes(7, 2), (std::vector<int64_t>{2, 2, 2, 1}));  // round(3.5) = 4
   EXPECT_EQ(BatchSizes(9, 4), (std::vector<int64_t>{5, 4}));
 }
@@ -78,7 +78,8 @@ TEST(PlanWorkItemsTest, EpisodeNumbersDoNotOverlapAcrossBatches) {
 
 TEST(RunDatagenTest, WritesTrajectoriesJournalSummaryAndConfig) {
   testing::TempDir dir;
-  const RunReport report = RunDatagen(Tutorial(dir / "run", 3), TaskSamplerRegistry::WithBuiltins());
+  const RunReport report =
+      RunDatagen(Tutorial(dir / "run", 3), TaskSamplerRegistry::WithBuiltins());
   EXPECT_EQ(report.episodes_kept, 3);
   EXPECT_EQ(report.seed, 5u);
   EXPECT_EQ(report.summary.count(Outcome::kSuccess), 3);
@@ -212,7 +213,8 @@ for k in sorted(f):
   for (int64_t n; lines >> n;) {
     std::string name;
     lines >> name;
-    EXPECT_THAT(name, ::testing::MatchesRegex("episode_0000000[01]_(wrist|exo)_camera(_1)?_batch_1_of_1\\.mp4"));
+    EXPECT_THAT(name, ::testing::MatchesRegex(
+                          "episode_0000000[01]_(wrist|exo)_camera(_1)?_batch_1_of_1\\.mp4"));
     const VideoInfo info = ProbeVideo(dir / "out/house_0" / name);
     EXPECT_EQ(info.frames, n) << name;
     EXPECT_EQ(info.width, 128);
@@ -311,8 +313,11 @@ TEST(RunDatagenTest, WorkersAndShardsGiveTheSameBytes) {
                shard);
   }
   EXPECT_EQ(BatchFiles(dir / "s0").size(), 2u);  // items 0 and 3
-  testing::ExpectError([&] { MergeRuns({dir / "s0", dir / "s1"}, dir / "partial"); },
-                       {"1 of 4 batches", "--partial"});
+  testing::ExpectError(
+      [&] {
+        MergeRuns({dir / "s0", dir / "s1"}, dir / "partial");
+      },
+      {"1 of 4 batches", "--partial"});
   const MergeReport merged = MergeRuns({dir / "s0", dir / "s1", dir / "s2"}, dir / "merged");
   EXPECT_EQ(merged.batch_files, 4);
   EXPECT_EQ(merged.episodes, 8);
@@ -320,12 +325,21 @@ TEST(RunDatagenTest, WorkersAndShardsGiveTheSameBytes) {
   EXPECT_TRUE(BatchFiles(dir / "merged") == one);
   EXPECT_EQ(JournalWithoutTimings(dir / "merged/journal.jsonl"),
             JournalWithoutTimings(dir / "one/journal.jsonl"));
-  testing::ExpectError([&] { MergeRuns({dir / "s0", dir / "s1", dir / "s2"}, dir / "merged"); },
-                       {"already holds a run"});
-  testing::ExpectError([&] { MergeRuns({dir / "s0", dir / "s0"}, dir / "twice", true); },
-                       {"two inputs hold"});
-  testing::ExpectError([&] { MergeRuns({dir / "s0", dir / "one"}, dir / "mixed", true); },
-                       {"two inputs hold"});
+  testing::ExpectError(
+      [&] {
+        MergeRuns({dir / "s0", dir / "s1", dir / "s2"}, dir / "merged");
+      },
+      {"already holds a run"});
+  testing::ExpectError(
+      [&] {
+        MergeRuns({dir / "s0", dir / "s0"}, dir / "twice", true);
+      },
+      {"two inputs hold"});
+  testing::ExpectError(
+      [&] {
+        MergeRuns({dir / "s0", dir / "one"}, dir / "mixed", true);
+      },
+      {"two inputs hold"});
 
   // Two shards sharing one folder: each keeps its own journal.
   for (int i = 0; i < 2; ++i) {
@@ -365,12 +379,25 @@ TEST(DatagenCliTest, KilledAtCountedStepsAndResumedGivesTheSameDataset) {
   const std::string yaml = (kExample / "datagen.yaml").string();
   auto args = [&](const std::string& out, const std::string& workers) {
     // Small cameras (videos are part of the dataset, and a kill may hit them too).
-    return std::vector<std::string>{"datagen", yaml, "-q", "--seed", "13", "--episodes", "6",
-                                    "--set", "task_sampler_config.episodes_per_batch=2",
-                                    "--set", "camera_config.img_resolution=[96, 64]",
-                                    "--set", "camera_config.shadows=false",
-                                    "--set", "camera_config.reflections=false",
-                                    "--output", (dir / out).string(), "--resume", "--workers",
+    return std::vector<std::string>{"datagen",
+                                    yaml,
+                                    "-q",
+                                    "--seed",
+                                    "13",
+                                    "--episodes",
+                                    "6",
+                                    "--set",
+                                    "task_sampler_config.episodes_per_batch=2",
+                                    "--set",
+                                    "camera_config.img_resolution=[96, 64]",
+                                    "--set",
+                                    "camera_config.shadows=false",
+                                    "--set",
+                                    "camera_config.reflections=false",
+                                    "--output",
+                                    (dir / out).string(),
+                                    "--resume",
+                                    "--workers",
                                     workers};
   };
   const testing::CrashPoints crash(dir / "crash_counter");
@@ -431,9 +458,10 @@ TEST(DatagenCliTest, KilledAtCountedStepsAndResumedGivesTheSameDataset) {
     }
     if (HasFailure()) FAIL() << "trial " << trial << ": killed after step " << n << ", then " << m;
   }
-  std::printf("[kills] %d of %d runs killed inside the work (%llu steps); %d of %d recovering "
-              "runs killed as well\n",
-              kTrials, kTrials, static_cast<unsigned long long>(steps), second_kills, kTrials);
+  std::printf(
+      "[kills] %d of %d runs killed inside the work (%llu steps); %d of %d recovering "
+      "runs killed as well\n",
+      kTrials, kTrials, static_cast<unsigned long long>(steps), second_kills, kTrials);
 
   // Two kills from outside at unplanned moments: whether they land is reported, not judged;
   // the resumed run must still give the same dataset.
@@ -460,11 +488,11 @@ TEST(DatagenCliTest, KilledMergeAtCountedStepsRerunsToTheSameFolder) {
   testing::TempDir dir;
   const std::string yaml = (kExample / "datagen.yaml").string();
   for (const char* shard : {"0/2", "1/2"}) {
-    const testing::CliResult r = testing::RunCli(
-        {"datagen", yaml, "-q", "--seed", "4", "--episodes", "4", "--set",
-         "task_sampler_config.episodes_per_batch=1", "--set",
-         "camera_config.img_resolution=[64, 48]", "--shard", shard, "--output",
-         (dir / (std::string("s") + shard[0])).string()});
+    const testing::CliResult r =
+        testing::RunCli({"datagen", yaml, "-q", "--seed", "4", "--episodes", "4", "--set",
+                         "task_sampler_config.episodes_per_batch=1", "--set",
+                         "camera_config.img_resolution=[64, 48]", "--shard", shard, "--output",
+                         (dir / (std::string("s") + shard[0])).string()});
     ASSERT_EQ(r.exit_code, 0) << r.err;
   }
   auto merge = [&](const std::string& out) {
@@ -473,7 +501,8 @@ TEST(DatagenCliTest, KilledMergeAtCountedStepsRerunsToTheSameFolder) {
   };
   auto folder = [&](const std::string& out) {
     std::map<std::string, std::string> files;
-    for (const std::string& f : testing::ListFiles(dir / out)) files[f] = testing::Slurp(dir / out / f);
+    for (const std::string& f : testing::ListFiles(dir / out))
+      files[f] = testing::Slurp(dir / out / f);
     return files;
   };
   const testing::CrashPoints crash(dir / "crash_counter");
@@ -530,11 +559,10 @@ TEST(DatagenCliTest, RunFolderLockMakesASecondRunWait) {
   char c = 0;
   ASSERT_EQ(::read(locked[0], &c, 1), 1);
   const fs::path err = dir / "stderr.txt";
-  const pid_t run = testing::SpawnCli({"datagen", (kExample / "datagen.yaml").string(), "-q",
-                                       "--seed", "3", "--episodes", "1", "--set",
-                                       "task_config.enable_rendering=false", "--output",
-                                       out.string()},
-                                      "", err);
+  const pid_t run = testing::SpawnCli(
+      {"datagen", (kExample / "datagen.yaml").string(), "-q", "--seed", "3", "--episodes", "1",
+       "--set", "task_config.enable_rendering=false", "--output", out.string()},
+      "", err);
   ASSERT_GE(run, 0);
   const std::string waiting = "waiting for the datagen run with pid " + std::to_string(holder);
   EXPECT_TRUE(testing::WaitUntil("the second run's waiting message", [&] {
@@ -568,7 +596,8 @@ TEST(DatagenCliTest, ShardAndMergeFlags) {
                          (dir / (std::string("s") + shard[0])).string()});
     ASSERT_EQ(r.exit_code, 0) << r.err;
   }
-  r = testing::RunCli({"merge", (dir / "m").string(), (dir / "s0").string(), (dir / "s1").string()});
+  r = testing::RunCli(
+      {"merge", (dir / "m").string(), (dir / "s0").string(), (dir / "s1").string()});
   EXPECT_EQ(r.exit_code, 0) << r.err;
   EXPECT_THAT(r.out, HasSubstr("2 batch files, 2 episodes"));
 }

@@ -156,8 +156,8 @@ TEST_F(SuccessTest, LiftedButTouchingTheFloorFails) {
   // origin rose by just over 1 cm but the floor is touched.
   const int adr = m_->jnt_qposadr[m_->body_jntadr[block_]];
   const double half = 0.025 * std::sqrt(2.0);  // centre-to-edge height when tilted 45 deg
-  const double q[7] = {0.4, 0, half - 0.0002, std::cos(std::numbers::pi / 8),
-                       std::sin(std::numbers::pi / 8), 0, 0};
+  const double q[7] = {
+      0.4, 0, half - 0.0002, std::cos(std::numbers::pi / 8), std::sin(std::numbers::pi / 8), 0, 0};
   for (int i = 0; i < 7; ++i) d_->qpos[adr + i] = q[i];
   mj_forward(m_, d_);
   const PickSuccess r = Judge();

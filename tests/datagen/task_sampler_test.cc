@@ -175,9 +175,11 @@ TEST_F(TaskSamplerTest, CustomSubclassRegisteredByName) {
   EXPECT_LE(std::abs(t.pickup_obj_start_pose.pos[1]), 0.01);
   EXPECT_EQ(env_.GetBodyPose("red_block"), t.pickup_obj_start_pose);
 
-  EXPECT_THROW(registry_.Register("FIXEDBASE", [](const ExperimentConfig& c, uint64_t s) {
-    return std::make_unique<FixedBaseSampler>(c, s);
-  }), UsageError);
+  EXPECT_THROW(registry_.Register("FIXEDBASE",
+                                  [](const ExperimentConfig& c, uint64_t s) {
+                                    return std::make_unique<FixedBaseSampler>(c, s);
+                                  }),
+               UsageError);
 }
 
 TEST_F(TaskSamplerTest, UnknownNameListsValidOnes) {
@@ -217,8 +219,7 @@ TEST_F(TaskSamplerTest, MissingRequiredFieldIsANamedError) {
 TEST_F(TaskSamplerTest, PresetPickupObjectAndRandomisedArm) {
   config_.task_config.pickup_obj_name = "ghost";
   auto sampler = registry_.Create(config_, 2);
-  EXPECT_THAT([&] { sampler->SampleTask(env_, 0); },
-              ThrowsMessage<Error>(HasSubstr("'ghost'")));
+  EXPECT_THAT([&] { sampler->SampleTask(env_, 0); }, ThrowsMessage<Error>(HasSubstr("'ghost'")));
   config_.task_config.pickup_obj_name.reset();
   auto ok = registry_.Create(config_, 2);
   ok->SampleTask(env_, 0);

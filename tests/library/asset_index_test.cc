@@ -14,8 +14,8 @@
 
 #include "mlspaces/core/error.h"
 #include "mlspaces/core/files.h"
-#include "mlspaces/library/grasp_index.h"
 #include "mlspaces/core/npz.h"
+#include "mlspaces/library/grasp_index.h"
 #include "test_util.h"
 
 namespace mlspaces {
@@ -184,10 +184,9 @@ TEST(AssetIndexTest, MissingMetadataIsAnErrorUnlessSuppressed) {
   AssetIndex index = BuildAssetIndex(root, options, &report);
   EXPECT_EQ(index.entries.size(), 1u);
   ASSERT_EQ(report.warnings.size(), 1u);
-  EXPECT_EQ(report.warnings[0], "Warning: Expected metadata JSON for " +
-                                    (root / "inc/include.xml").string() + " at " +
-                                    (root / "inc/include.json").string() +
-                                    ", but it was not found. Skipping.");
+  EXPECT_EQ(report.warnings[0],
+            "Warning: Expected metadata JSON for " + (root / "inc/include.xml").string() + " at " +
+                (root / "inc/include.json").string() + ", but it was not found. Skipping.");
 }
 
 TEST(AssetIndexTest, DuplicateUidNamesBothFiles) {
@@ -210,9 +209,9 @@ TEST(AssetIndexTest, WriteRefusesExistingOutputBeforeScanning) {
   AddAsset(root, "a", "a");
   WriteText(root / "stray.xml", "<mujoco/>");  // would fail the scan
   WriteText(root / "assets_index.json", "old");
-  EXPECT_EQ(ErrorOf([&] { WriteAssetIndex(root, {}); }),
-            (root / "assets_index.json").string() +
-                " already exists. Use --overwrite to overwrite.");
+  EXPECT_EQ(
+      ErrorOf([&] { WriteAssetIndex(root, {}); }),
+      (root / "assets_index.json").string() + " already exists. Use --overwrite to overwrite.");
   EXPECT_EQ(ReadFile(root / "assets_index.json"), "old");
   // A failing scan with --overwrite leaves the old file and no temp files.
   AssetIndexOptions options;
@@ -224,8 +223,7 @@ TEST(AssetIndexTest, WriteRefusesExistingOutputBeforeScanning) {
   IndexReport report = WriteAssetIndex(root, options);
   EXPECT_EQ(report.count, 1u);
   EXPECT_EQ(report.output, root / "assets_index.json");
-  EXPECT_EQ(ListFiles(root),
-            (std::set<std::string>{"a/a.xml", "a/a.json", "assets_index.json"}));
+  EXPECT_EQ(ListFiles(root), (std::set<std::string>{"a/a.xml", "a/a.json", "assets_index.json"}));
   EXPECT_EQ(AssetIndex::Load(root / "assets_index.json").entries.at("a").object_path, "a/a.xml");
 }
 

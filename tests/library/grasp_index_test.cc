@@ -166,9 +166,9 @@ TEST(GraspIndexTest, WriteRefusesExistingOutput) {
   const fs::path root = fs::weakly_canonical(tmp.path()) / "lib";
   WriteText(root / "u/droid/grasps.npz", "");
   WriteText(root / "grasps_index.json", "old");
-  EXPECT_EQ(ErrorOf([&] { WriteGraspIndex(root, {}); }),
-            (root / "grasps_index.json").string() +
-                " already exists. Use --overwrite to overwrite.");
+  EXPECT_EQ(
+      ErrorOf([&] { WriteGraspIndex(root, {}); }),
+      (root / "grasps_index.json").string() + " already exists. Use --overwrite to overwrite.");
   EXPECT_EQ(ReadFile(root / "grasps_index.json"), "old");
   GraspIndexOptions options;
   options.overwrite = true;

@@ -11,6 +11,7 @@
 #include <set>
 #include <vector>
 
+#include "library/grasp_fixture.h"
 #include "mlspaces/core/error.h"
 #include "mlspaces/core/npz.h"
 #include "mlspaces/core/rng.h"
@@ -22,30 +23,10 @@ namespace {
 namespace fs = std::filesystem;
 using ::mlspaces::testing::ErrorOf;
 using ::mlspaces::testing::TempDir;
+using ::mlspaces::testing::WriteGrasps;
 using ::testing::ElementsAre;
 using ::testing::HasSubstr;
 using ::testing::IsEmpty;
-
-/// Grasp k of a fixture file: identity rotation, translation (k, file_tag, 0).
-Mat4 FixturePose(size_t k, double file_tag = 0) {
-  Mat4 m;
-  m(0, 3) = static_cast<double>(k);
-  m(1, 3) = file_tag;
-  return m;
-}
-
-void WriteGrasps(const fs::path& file, size_t n, double file_tag = 0,
-                 DType dtype = DType::kF8, bool compress = false) {
-  std::vector<double> values;
-  for (size_t k = 0; k < n; ++k) {
-    Mat4 m = FixturePose(k, file_tag);
-    values.insert(values.end(), m.m.begin(), m.m.end());
-  }
-  fs::create_directories(file.parent_path());
-  NpzWriteOptions options;
-  options.compress = compress;
-  WriteNpz(file, {{"transforms", NpyArray::FromDoubles(dtype, {n, 4, 4}, values)}}, options);
-}
 
 // ---- grasp files, subsampling, world grasps ------------------------------------------------
 

@@ -20,9 +20,7 @@ using ::testing::HasSubstr;
 
 class LibraryConfigTest : public ::testing::Test {
  protected:
-  void SetUp() override {
-    yaml_ = dir_ / "libs.yaml";
-  }
+  void SetUp() override { yaml_ = dir_ / "libs.yaml"; }
 
   /// The error of loading `text`, as (what, field).
   std::pair<std::string, std::string> YamlError(const std::string& text) {
@@ -96,8 +94,7 @@ TEST_F(LibraryConfigTest, BadYamlNamesFileAndLine) {
   EXPECT_THAT(what, HasSubstr("asset_libraries[0]: missing 'path'"));
   EXPECT_EQ(field, "line 2");
 
-  std::tie(what, field) =
-      YamlError("grasp_libraries:\n  - {name: g, path: p}\n");
+  std::tie(what, field) = YamlError("grasp_libraries:\n  - {name: g, path: p}\n");
   EXPECT_THAT(what, HasSubstr("missing 'asset_library'"));
 
   std::tie(what, field) = YamlError("asset_libraries:\n  - {name: a/b, path: p}\n");

@@ -20,9 +20,7 @@ Json Sample() {
                    "sample");
 }
 
-bool Decode(const std::vector<uint8_t>& bytes, Json& out) {
-  return DecodeMsgpackJson(bytes, out);
-}
+bool Decode(const std::vector<uint8_t>& bytes, Json& out) { return DecodeMsgpackJson(bytes, out); }
 
 TEST(MsgpackTest, RoundTripsWhatNlohmannWrites) {
   const Json sample = Sample();
@@ -55,13 +53,13 @@ TEST(MsgpackTest, RejectsEveryTruncationAndTrailingBytes) {
 
 TEST(MsgpackTest, RejectsTypesJsonNeverHolds) {
   Json out;
-  EXPECT_FALSE(Decode({0xc4, 0x01, 0x00}, out));        // bin 8
-  EXPECT_FALSE(Decode({0xd4, 0x01, 0x00}, out));        // fixext 1
-  EXPECT_FALSE(Decode({0xc1}, out));                    // never used
-  EXPECT_FALSE(Decode({0x81, 0x01, 0x02}, out));        // map key not a string
+  EXPECT_FALSE(Decode({0xc4, 0x01, 0x00}, out));              // bin 8
+  EXPECT_FALSE(Decode({0xd4, 0x01, 0x00}, out));              // fixext 1
+  EXPECT_FALSE(Decode({0xc1}, out));                          // never used
+  EXPECT_FALSE(Decode({0x81, 0x01, 0x02}, out));              // map key not a string
   EXPECT_FALSE(Decode({0xdd, 0xff, 0xff, 0xff, 0xff}, out));  // huge count, no items
   EXPECT_TRUE(Decode({0x82, 0xa1, 'a', 0x01, 0xa1, 'a', 0x02}, out));
-  EXPECT_EQ(out, ParseJson(R"({"a": 1})", "dup"));      // first of duplicate keys kept
+  EXPECT_EQ(out, ParseJson(R"({"a": 1})", "dup"));  // first of duplicate keys kept
 }
 
 TEST(MsgpackTest, LimitsNesting) {

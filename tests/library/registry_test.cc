@@ -13,6 +13,7 @@
 #include <unordered_map>
 #include <vector>
 
+#include "library/grasp_fixture.h"
 #include "mlspaces/core/error.h"
 #include "mlspaces/core/files.h"
 #include "mlspaces/core/json.h"
@@ -25,30 +26,10 @@ namespace {
 namespace fs = std::filesystem;
 using ::mlspaces::testing::ErrorOf;
 using ::mlspaces::testing::TempDir;
+using ::mlspaces::testing::WriteGrasps;
 using ::testing::ElementsAre;
 using ::testing::HasSubstr;
 using ::testing::IsEmpty;
-
-/// Grasp k of a fixture file: identity rotation, translation (k, file_tag, 0).
-Mat4 FixturePose(size_t k, double file_tag = 0) {
-  Mat4 m;
-  m(0, 3) = static_cast<double>(k);
-  m(1, 3) = file_tag;
-  return m;
-}
-
-void WriteGrasps(const fs::path& file, size_t n, double file_tag = 0,
-                 DType dtype = DType::kF8, bool compress = false) {
-  std::vector<double> values;
-  for (size_t k = 0; k < n; ++k) {
-    Mat4 m = FixturePose(k, file_tag);
-    values.insert(values.end(), m.m.begin(), m.m.end());
-  }
-  fs::create_directories(file.parent_path());
-  NpzWriteOptions options;
-  options.compress = compress;
-  WriteNpz(file, {{"transforms", NpyArray::FromDoubles(dtype, {n, 4, 4}, values)}}, options);
-}
 
 /// An asset library: <uid>/<uid>.xml and <uid>/<uid>.json for each UID, and its index.
 void WriteAssetLibrary(const fs::path& dir, const std::vector<std::string>& uids) {
@@ -181,9 +162,9 @@ TEST(RegistryTest, FailedGraspRegistrationLeavesRegistryUnchanged) {
   TempDir tmp;
   WriteAssetLibrary(tmp.path() / "assets", {"a"});
   WriteGraspLibrary(tmp.path() / "one", {{{"b_robot", {{"a", 1}}}}, {}});
-  WriteGraspLibrary(tmp.path() / "two",
-                    {{{"a_robot", {{"a", 1}}}, {"b_robot", {{"a", 1}}}, {"c_robot", {{"a", 1}}}},
-                     {}});
+  WriteGraspLibrary(
+      tmp.path() / "two",
+      {{{"a_robot", {{"a", 1}}}, {"b_robot", {{"a", 1}}}, {"c_robot", {{"a", 1}}}}, {}});
   Registry registry;
   registry.RegisterAssetLibrary("assets", tmp.path() / "assets");
   registry.RegisterGraspLibrary("g", tmp.path() / "one", "assets");
@@ -215,8 +196,7 @@ TEST(RegistryTest, GraspPriorityIsNewestFirstRobotsSorted) {
   EXPECT_THAT(registry.RegisterGraspLibrary("g2", tmp.path() / "g2", "assets"),
               ElementsAre("g2/mid"));
   EXPECT_THAT(registry.RegisterGraspLibrary("e", tmp.path() / "empty", "assets"), IsEmpty());
-  EXPECT_THAT(registry.grasp_libraries_of("assets"),
-              ElementsAre("g2/mid", "g1/alpha", "g1/zeta"));
+  EXPECT_THAT(registry.grasp_libraries_of("assets"), ElementsAre("g2/mid", "g1/alpha", "g1/zeta"));
   const GraspLibraryInfo* info = registry.FindGraspLibrary("g1/zeta");
   ASSERT_NE(info, nullptr);
   EXPECT_EQ(info->robot, "zeta");
@@ -308,9 +288,8 @@ TEST(RegistryTest, BuiltinLibrariesFromTheAssetsDir) {
     for (const std::string& l : d.libraries) s += " " + l;
     dup_summary.push_back(s);
   }
-  EXPECT_THAT(dup_summary,
-              ::testing::UnorderedElementsAre("Bowl_1: thor thor", "Bowl_1: thor user",
-                                              "Cup_1: thor objaverse"));
+  EXPECT_THAT(dup_summary, ::testing::UnorderedElementsAre("Bowl_1: thor thor", "Bowl_1: thor user",
+                                                           "Cup_1: thor objaverse"));
 
   // Built-in grasp libraries, after user grasps registered against thor.
   EXPECT_THAT(registry.grasp_libraries_of("thor"), ElementsAre("droid"));
@@ -410,8 +389,7 @@ TEST_F(GraspLookupTest, HasValidComparesRowCount) {
 }
 
 TEST_F(GraspLookupTest, JointTrio) {
-  EXPECT_EQ(registry_.GraspPath({"a", "hinge"}),
-            tmp_.path() / "g2/a/gamma/joint_grasps_hinge.npz");
+  EXPECT_EQ(registry_.GraspPath({"a", "hinge"}), tmp_.path() / "g2/a/gamma/joint_grasps_hinge.npz");
   const std::vector<std::string> alpha = {"g1/alpha"};
   EXPECT_EQ(registry_.GraspPath({"a", "hinge", alpha}),
             tmp_.path() / "g1/a/alpha/joint_grasps_hinge.npz");
@@ -423,7 +401,9 @@ TEST_F(GraspLookupTest, JointTrio) {
   EXPECT_EQ(set.poses.size(), 4u);
   EXPECT_EQ(set.poses[3](0, 3), 3);
   EXPECT_EQ(set.poses[3](1, 3), 1);  // file tag of g1
-  EXPECT_EQ(ErrorOf([&] { registry_.LoadGrasps({"a", "door"}); }),
+  EXPECT_EQ(ErrorOf([&] {
+              registry_.LoadGrasps({"a", "door"});
+            }),
             "No joint grasp file found for a/door");
 }
 
@@ -463,8 +443,7 @@ TEST_F(GraspLookupTest, LoadAllOrSubsample) {
     EXPECT_EQ(some.poses[i](0, 3), static_cast<double>(some.indices[i]));
   }
   EXPECT_EQ(registry_.LoadGrasps({"a", "", alpha}, 3, 42).indices, some.indices);
-  EXPECT_EQ(ErrorOf([&] { registry_.LoadGrasps({"nope"}); }),
-            "No grasp file found for nope");
+  EXPECT_EQ(ErrorOf([&] { registry_.LoadGrasps({"nope"}); }), "No grasp file found for nope");
 }
 
 // ---- annotations ---------------------------------------------------------------------------

@@ -32,8 +32,7 @@ TEST_F(SceneMetadataTest, PrimaryNames) {
   EXPECT_EQ(FindSceneMetadataFile(dir_ / "FloorPlan1_physics.xml"),
             dir_ / "FloorPlan1_physics_metadata.json");
   Touch(dir_ / "train_1_metadata.json");
-  EXPECT_EQ(FindSceneMetadataFile(dir_ / "train_1_ceiling.xml"),
-            dir_ / "train_1_metadata.json");
+  EXPECT_EQ(FindSceneMetadataFile(dir_ / "train_1_ceiling.xml"), dir_ / "train_1_metadata.json");
 }
 
 TEST_F(SceneMetadataTest, FallsBackCuttingAtUnderscores) {

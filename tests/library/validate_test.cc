@@ -30,14 +30,12 @@ std::vector<std::string> Strings(const std::vector<Problem>& problems) {
   return out;
 }
 
-void WriteGrasps(const fs::path& path, const std::vector<double>& values,
-                 std::vector<size_t> shape, DType dtype = DType::kF8) {
+void WriteGrasps(const fs::path& path, const std::vector<double>& values, std::vector<size_t> shape,
+                 DType dtype = DType::kF8) {
   WriteNpz(path, {{"transforms", NpyArray::FromDoubles(dtype, std::move(shape), values)}});
 }
 
-std::vector<double> Identity() {
-  return {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
-}
+std::vector<double> Identity() { return {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1}; }
 
 TEST(ValidateTest, ExampleIsClean) {
   EXPECT_THAT(Strings(ValidateLibrary(ExampleLibrary())), IsEmpty());
@@ -52,9 +50,9 @@ TEST(ValidateTest, MissingFolderAndIndexes) {
   TempDir tmp;
   EXPECT_THAT(Strings(ValidateLibrary(tmp / "nope")),
               ElementsAre((tmp / "nope").string() + ": folder not found"));
-  EXPECT_THAT(Strings(ValidateLibrary(tmp.path())),
-              ElementsAre(tmp.path().string() +
-                          ": neither assets_index.json nor grasps_index.json found"));
+  EXPECT_THAT(
+      Strings(ValidateLibrary(tmp.path())),
+      ElementsAre(tmp.path().string() + ": neither assets_index.json nor grasps_index.json found"));
 }
 
 TEST(ValidateTest, IndexEntriesAndFiles) {
@@ -74,14 +72,14 @@ TEST(ValidateTest, IndexEntriesAndFiles) {
       ElementsAre(
           index + ": /abs/object_path: expected a path relative to the library folder, got "
                   "'/etc/passwd'",
-          index + ": /abs/metadata_path: is a folder, expected a file: " +
-              (lib / "red_block").string(),
+          index +
+              ": /abs/metadata_path: is a folder, expected a file: " + (lib / "red_block").string(),
           index + ": /abs/metadata_npz_path: missing required field (string or null)",
           index + ": /ghost/uid: uid 'phantom' differs from its key 'ghost' (lookups use the key)",
           index + ": /ghost/object_path: file not found: " + (lib / "ghost/ghost.xml").string(),
           index + ": /ghost/metadata_path: expected string, got number",
-          index + ": /ghost/metadata_npz_path: file not found: " +
-              (lib / "ghost/ghost.npz").string()));
+          index +
+              ": /ghost/metadata_npz_path: file not found: " + (lib / "ghost/ghost.npz").string()));
 }
 
 TEST(ValidateTest, MalformedIndexNamesLine) {
@@ -149,25 +147,24 @@ TEST(ValidateTest, NpzMetadataCollisions) {
   const fs::path npz = lib / "red_block/red_block.npz";
   const double v[2] = {1, 2};
   auto arr = [&] { return NpyArray::FromDoubles({2}, v); };
-  WriteNpz(npz, {{"clip_text_features", arr()},           // new: fine
-                 {"description_short/clip", arr()},       // new inside an object: fine
-                 {"description_short/one_word", arr()},   // collides with JSON
-                 {"category/sub", arr()},                 // crosses a string
-                 {"clip_text_features/x", arr()},         // crosses an npz array
-                 {"new/a", arr()},                        // creates "new"
-                 {"new/b", arr()},                        // shares "new": fine
-                 {"new/a/c", arr()}});                    // crosses the npz's own array
+  WriteNpz(npz, {{"clip_text_features", arr()},          // new: fine
+                 {"description_short/clip", arr()},      // new inside an object: fine
+                 {"description_short/one_word", arr()},  // collides with JSON
+                 {"category/sub", arr()},                // crosses a string
+                 {"clip_text_features/x", arr()},        // crosses an npz array
+                 {"new/a", arr()},                       // creates "new"
+                 {"new/b", arr()},                       // shares "new": fine
+                 {"new/a/c", arr()}});                   // crosses the npz's own array
   const std::string f = npz.string();
   EXPECT_THAT(
       Strings(ValidateLibrary(lib)),
-      ElementsAre(
-          f + ": description_short/one_word.npy: Key description_short/one_word from npz "
-              "metadata already exists in metadata for uid=red_block",
-          f + ": category/sub.npy: npz key category/sub crosses /category, which is not an "
-              "object",
-          f + ": clip_text_features/x.npy: npz key clip_text_features/x crosses "
-              "/clip_text_features, which is not an object",
-          f + ": new/a/c.npy: npz key new/a/c crosses /new/a, which is not an object"));
+      ElementsAre(f + ": description_short/one_word.npy: Key description_short/one_word from npz "
+                      "metadata already exists in metadata for uid=red_block",
+                  f + ": category/sub.npy: npz key category/sub crosses /category, which is not an "
+                      "object",
+                  f + ": clip_text_features/x.npy: npz key clip_text_features/x crosses "
+                      "/clip_text_features, which is not an object",
+                  f + ": new/a/c.npy: npz key new/a/c crosses /new/a, which is not an object"));
 }
 
 TEST(ValidateTest, UnreadableNpzMetadata) {
@@ -220,12 +217,12 @@ TEST_F(GraspValidateTest, MissingMember) {
 TEST_F(GraspValidateTest, BadPoses) {
   std::vector<double> v;
   auto add = [&](std::vector<double> m) { v.insert(v.end(), m.begin(), m.end()); };
-  add(Identity());                                                    // 0: good
-  add({2, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1});              // 1: scaled
-  add({-1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1});             // 2: reflection
-  add({1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0.5, 1});            // 3: bad last row
+  add(Identity());                                          // 0: good
+  add({2, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1});    // 1: scaled
+  add({-1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1});   // 2: reflection
+  add({1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0.5, 1});  // 3: bad last row
   add({1, 0, 0, std::numeric_limits<double>::quiet_NaN(), 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1});
-  add({1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1.5});            // 5: bad last row
+  add({1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1.5});  // 5: bad last row
   WriteGrasps(grasp(), v, {6, 4, 4});
   EXPECT_THAT(
       Run(),
@@ -256,14 +253,13 @@ TEST_F(GraspValidateTest, IndexProblems) {
   })");
   EXPECT_THAT(
       Run(),
-      ElementsAre(
-          index + ": /grasp_paths/droid/blue_block: uid 'blue_block' is not in " +
-              (lib_ / "assets_index.json").string(),
-          index + ": /grasp_paths/droid/blue_block: file not found: " +
-              (lib_ / "blue_block/droid/grasps.npz").string(),
-          index + ": /grasp_paths/franka: expected object, got number",
-          index + ": /articulated_grasp_paths/droid/red_block/hinge: expected string, got "
-                  "number"));
+      ElementsAre(index + ": /grasp_paths/droid/blue_block: uid 'blue_block' is not in " +
+                      (lib_ / "assets_index.json").string(),
+                  index + ": /grasp_paths/droid/blue_block: file not found: " +
+                      (lib_ / "blue_block/droid/grasps.npz").string(),
+                  index + ": /grasp_paths/franka: expected object, got number",
+                  index + ": /articulated_grasp_paths/droid/red_block/hinge: expected string, got "
+                          "number"));
 }
 
 TEST_F(GraspValidateTest, GraspOnlyLibrarySkipsUidCheck) {

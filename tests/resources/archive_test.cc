@@ -249,8 +249,9 @@ TEST_F(Hostile, Symlinks) {
   ExpectRefused(Build("chain", "folder('p/q')\nsym('p/q/s', '..')\nsym('t', 'p/q/s/../../..')"),
                 "t", "'..' after a name");
   // A link pointing out, then a file written through it.
-  ExpectRefused(Build("through", "sym('link', '../../../outside')\nadd('link/target.txt', b'pwned')"),
-                "link");
+  ExpectRefused(
+      Build("through", "sym('link', '../../../outside')\nadd('link/target.txt', b'pwned')"),
+      "link");
   // A link that is allowed (it stays inside), then a write through it: refused too.
   ExpectRefused(Build("through2", "folder('sub')\nsym('inlink', 'sub')\nadd('inlink/x')"),
                 "inlink/x", "symlink");
@@ -267,18 +268,21 @@ TEST_F(Hostile, HardLinks) {
 }
 
 TEST_F(Hostile, SpecialFiles) {
-  ExpectRefused(Build("chr", "ti = tarfile.TarInfo('null'); ti.type = tarfile.CHRTYPE\n"
-                             "ti.devmajor, ti.devminor = 1, 3; tf.addfile(ti)"),
+  ExpectRefused(Build("chr",
+                      "ti = tarfile.TarInfo('null'); ti.type = tarfile.CHRTYPE\n"
+                      "ti.devmajor, ti.devminor = 1, 3; tf.addfile(ti)"),
                 "null", "character device");
-  ExpectRefused(Build("blk", "ti = tarfile.TarInfo('sda'); ti.type = tarfile.BLKTYPE\n"
-                             "tf.addfile(ti)"),
+  ExpectRefused(Build("blk",
+                      "ti = tarfile.TarInfo('sda'); ti.type = tarfile.BLKTYPE\n"
+                      "tf.addfile(ti)"),
                 "sda", "block device");
   ExpectRefused(Build("fifo", "add('fifo', kind=tarfile.FIFOTYPE)"), "fifo", "FIFO");
 }
 
 TEST_F(Hostile, SafeLinksAreExtracted) {
-  const fs::path arc = Build("safe", "add('data.txt', b'data')\nsym('docs/link', '../data.txt')\n"
-                                     "hard('docs/hard', 'data.txt')\nfolder('./')");
+  const fs::path arc = Build("safe",
+                             "add('data.txt', b'data')\nsym('docs/link', '../data.txt')\n"
+                             "hard('docs/hard', 'data.txt')\nfolder('./')");
   const ExtractReport report = ExtractTarZst(arc, dest_);
   EXPECT_THAT(report.files, ElementsAre("data.txt", "docs/link", "docs/hard"));
   EXPECT_EQ(fs::read_symlink(dest_ / "docs/link"), "../data.txt");
@@ -345,7 +349,8 @@ TEST_F(Damaged, NotAnArchive) {
   ExpectBroken("", "not a .tar.zst");
   // zstd, but not a tar inside.
   WriteText(dir_ / "plain.txt", std::string(5000, 'q'));
-  const auto r = RunProgram("zstd", {"-q", "-f", (dir_ / "plain.txt").string(), "-o", arc_.string()});
+  const auto r =
+      RunProgram("zstd", {"-q", "-f", (dir_ / "plain.txt").string(), "-o", arc_.string()});
   ASSERT_EQ(r.exit_code, 0) << r.err;
   ExpectBroken("", "not a tar archive");
   ExpectError([&] { ListTarZst(dir_ / "missing.tar.zst"); }, {"missing.tar.zst", "cannot open"});

@@ -21,9 +21,9 @@ using ::mlspaces::testing::ListFiles;
 using ::mlspaces::testing::Slurp;
 using ::mlspaces::testing::TempDir;
 using ::mlspaces::testing::WriteText;
+using nlohmann::json;
 using ::testing::ElementsAre;
 using ::testing::HasSubstr;
-using nlohmann::json;
 
 std::string Noise(size_t n, uint64_t seed) {
   std::string out(n, '\0');
@@ -226,12 +226,12 @@ TEST_F(Fetch, NotFoundIsToldApartFromOtherFailures) {
     ADD_FAILURE() << "no FetchError for " << url;
     return false;
   };
-  EXPECT_TRUE(not_found(Url("nope.bin")));                          // HTTP 404
-  EXPECT_TRUE(not_found(FileUrl(out_.path() / "missing.json")));    // file:// without the file
-  EXPECT_FALSE(not_found(server_.url() + "/%2e%2e/etc/passwd"));    // HTTP 403
+  EXPECT_TRUE(not_found(Url("nope.bin")));                        // HTTP 404
+  EXPECT_TRUE(not_found(FileUrl(out_.path() / "missing.json")));  // file:// without the file
+  EXPECT_FALSE(not_found(server_.url() + "/%2e%2e/etc/passwd"));  // HTTP 403
   server_.SetFaults(R"({"/small.json": [{"mode": "500"}, {"mode": "500"}, {"mode": "500"},
                                          {"mode": "500"}]})");
-  EXPECT_FALSE(not_found(Url("small.json")));                       // HTTP 500, retried
+  EXPECT_FALSE(not_found(Url("small.json")));  // HTTP 500, retried
 }
 
 TEST_F(Fetch, StalledTransferTimesOutAndResumes) {
@@ -302,7 +302,8 @@ TEST_F(Fetch, FetchToString) {
 }
 
 TEST_F(Fetch, BadUrls) {
-  ExpectError([&] { FetchToString("ftp://example.com/x", fast_); }, {"ftp://example.com/x", "curl error"});
+  ExpectError([&] { FetchToString("ftp://example.com/x", fast_); },
+              {"ftp://example.com/x", "curl error"});
   ExpectError([&] { FetchToString("not a url", fast_); }, {"not a url", "curl error"});
 }
 

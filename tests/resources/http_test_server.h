@@ -31,10 +31,10 @@ class HttpTestServer {
     const std::string script = std::string(MLSPACES_TESTDATA_DIR) + "/http_server.py";
     const std::string port_file = (dir_ / "port").string(), faults = faults_file().string(),
                       log = log_file().string(), root_arg = root_.string();
-    std::vector<const char*> argv = {MLSPACES_PYTHON,    script.c_str(),   "--root",
-                                     root_arg.c_str(),   "--port-file",    port_file.c_str(),
-                                     "--faults",         faults.c_str(),   "--log",
-                                     log.c_str(),        nullptr};
+    std::vector<const char*> argv = {MLSPACES_PYTHON,  script.c_str(), "--root",
+                                     root_arg.c_str(), "--port-file",  port_file.c_str(),
+                                     "--faults",       faults.c_str(), "--log",
+                                     log.c_str(),      nullptr};
     const pid_t parent = ::getpid();
     pid_ = ::fork();
     if (pid_ < 0) throw std::runtime_error("fork failed");
@@ -97,8 +97,7 @@ class HttpTestServer {
     if (pid_ <= 0) return;
     ::kill(pid_, SIGKILL);
     int status = 0;
-    while (::waitpid(pid_, &status, 0) < 0 && errno == EINTR) {
-    }
+    while (::waitpid(pid_, &status, 0) < 0 && errno == EINTR) {}
     pid_ = -1;
   }
 

@@ -28,10 +28,10 @@ namespace mlspaces {
 namespace {
 namespace fs = std::filesystem;
 using ::testing::ElementsAre;
-using ::testing::HasSubstr;
-using ::testing::Not;
 using testing::ExpectError;
 using testing::FixtureUid;
+using ::testing::HasSubstr;
+using ::testing::Not;
 using testing::RunCli;
 using testing::ShellQuote;
 using testing::Slurp;
@@ -67,8 +67,7 @@ void InstallLikeTheOriginal(const fs::path& package, const fs::path& version_dir
   for (std::string_view f : {kOriginalSizeManifestFile, kOriginalTriesFile}) {
     fs::copy_file(package / std::string(f), version_dir / std::string(f));
   }
-  const FlatJson sizes =
-      ParseFlatJsonFile(version_dir / std::string(kOriginalSizeManifestFile));
+  const FlatJson sizes = ParseFlatJsonFile(version_dir / std::string(kOriginalSizeManifestFile));
   ASSERT_FALSE(sizes.empty());
   for (auto it = sizes.begin(); it != sizes.end(); ++it) {
     const std::string& archive = it.key();
@@ -390,7 +389,8 @@ TEST_F(LegacySourceTest, CliIndexBuiltinThenLocate) {
   ASSERT_EQ(loc.exit_code, 0) << loc.out << loc.err;
   EXPECT_THAT(loc.out, HasSubstr("library: thor\n"));
   EXPECT_THAT(loc.out, HasSubstr("archive: fixlib_00001.tar.zst\n"));
-  EXPECT_THAT(loc.out, HasSubstr((assets / "objects" / "thor" / "obj_1004" / "obj_1004.xml").string()));
+  EXPECT_THAT(loc.out,
+              HasSubstr((assets / "objects" / "thor" / "obj_1004" / "obj_1004.xml").string()));
   EXPECT_THAT(loc.out, HasSubstr("shadows: pkg"));
 
   // Named sources, with the flag instead of the environment.
@@ -422,10 +422,12 @@ TEST(LegacyIndex, ScalesToObjaverseSize) {
   json.reserve(n * 330);
   char uid[40];
   for (size_t i = 0; i < n; ++i) {
-    std::snprintf(uid, sizeof uid, "%016zx%016zx", static_cast<size_t>(i * 0x9e3779b97f4a7c15ULL), i);
+    std::snprintf(uid, sizeof uid, "%016zx%016zx", static_cast<size_t>(i * 0x9e3779b97f4a7c15ULL),
+                  i);
     const std::string u(uid);
     json += (i ? ",\"objaverse_" : "\"objaverse_") + u + ".tar.zst\":{\"" + u + "\":{\"" + u +
-            ".xml\":{},\"" + u + ".json\":{},\"" + u + ".npz\":{},\"visual\":{\"mesh_0.obj\":{},"
+            ".xml\":{},\"" + u + ".json\":{},\"" + u +
+            ".npz\":{},\"visual\":{\"mesh_0.obj\":{},"
             "\"mesh_1.obj\":{},\"texture_0.png\":{}},\"collision\":{\"col_0.obj\":{},"
             "\"col_1.obj\":{},\"col_2.obj\":{}}}}";
   }
@@ -443,7 +445,8 @@ TEST(LegacyIndex, ScalesToObjaverseSize) {
   EXPECT_TRUE(report.warnings.empty());
   const auto lib = PackedLibrary::Open(report.index_dir, "objaverse", tmp.path());
   EXPECT_EQ(lib->size(), n);
-  std::snprintf(uid, sizeof uid, "%016zx%016zx", static_cast<size_t>((n / 2) * 0x9e3779b97f4a7c15ULL), n / 2);
+  std::snprintf(uid, sizeof uid, "%016zx%016zx",
+                static_cast<size_t>((n / 2) * 0x9e3779b97f4a7c15ULL), n / 2);
   const auto a = lib->Find(uid);
   ASSERT_TRUE(a.has_value());
   EXPECT_EQ(a->mjcf, std::string(uid) + "/" + uid + ".xml");

@@ -27,9 +27,9 @@
 namespace mlspaces {
 namespace {
 namespace fs = std::filesystem;
-using ::testing::HasSubstr;
 using testing::ExpectError;
 using testing::FixtureUid;
+using ::testing::HasSubstr;
 using testing::RunCli;
 using testing::Slurp;
 using testing::TempDir;
@@ -149,7 +149,9 @@ sizes = json.load(open(d + '/mjthor_resource_file_to_size_mb.json'))
 tries = json.load(gzip.open(d + '/mjthor_resources_combined_meta.json.gz'))
 assert sorted(sizes) == sorted(tries), (sorted(sizes), sorted(tries))
 print(len(sizes), sorted(tries['fixlib_00000.tar.zst']['obj_1000']))
-)", testing::ShellQuote(package.string()), &out), 0);
+)",
+                               testing::ShellQuote(package.string()), &out),
+            0);
   EXPECT_EQ(out, "8 ['meshes', 'obj_1000.json', 'obj_1000.npz', 'obj_1000.xml']\n");
 }
 
@@ -162,11 +164,11 @@ TEST_F(PackInstallTest, PackIsDeterministicAndRefusesToOverwrite) {
   PackLibrary(library, tmp / "remote2", options);
   for (const auto& e : fs::recursive_directory_iterator(package)) {
     if (!e.is_regular_file()) continue;
-    const fs::path other = tmp / "remote2" / "objects" / "fixlib" / "1" / e.path().lexically_relative(package);
+    const fs::path other =
+        tmp / "remote2" / "objects" / "fixlib" / "1" / e.path().lexically_relative(package);
     EXPECT_EQ(Slurp(e.path()), Slurp(other)) << e.path();
   }
-  ExpectError([&] { PackLibrary(library, remote, options); },
-              {"already exists", "--overwrite"});
+  ExpectError([&] { PackLibrary(library, remote, options); }, {"already exists", "--overwrite"});
   options.overwrite = true;
   EXPECT_NO_THROW(PackLibrary(library, remote, options));
   ExpectError([&] { PackLibrary(tmp / "nowhere", remote, options); },
@@ -183,9 +185,9 @@ TEST(PackUnitsTest, RootLevelAssetsAndNestedFoldersGoTogether) {
     testing::WriteText(d / (uid + ".xml"), "<mujoco model=\"" + uid + "\"/>\n");
     testing::WriteText(d / (uid + ".json"), testing::MinimalMetadata(uid));
   };
-  asset("", "at_root");              // brings only its own files
-  asset("outer", "outer");           // its folder and everything under it...
-  asset("outer/inner", "inner");     // ...including a nested asset's folder
+  asset("", "at_root");           // brings only its own files
+  asset("outer", "outer");        // its folder and everything under it...
+  asset("outer/inner", "inner");  // ...including a nested asset's folder
   testing::WriteText(lib / "outer" / "textures" / "t.png", "png");
   testing::WriteText(lib / "README.txt", "not an asset file");
   WriteAssetIndex(lib, AssetIndexOptions{});
@@ -206,10 +208,10 @@ TEST(PackUnitsTest, RootLevelAssetsAndNestedFoldersGoTogether) {
   };
   EXPECT_EQ(members("units_00000.tar.zst"),
             (std::vector<std::string>{"at_root.json", "at_root.xml"}));
-  EXPECT_EQ(members("units_00001.tar.zst"),
-            (std::vector<std::string>{"outer/inner/inner.json", "outer/inner/inner.xml",
-                                      "outer/outer.json", "outer/outer.xml",
-                                      "outer/textures/t.png"}));
+  EXPECT_EQ(
+      members("units_00001.tar.zst"),
+      (std::vector<std::string>{"outer/inner/inner.json", "outer/inner/inner.xml",
+                                "outer/outer.json", "outer/outer.xml", "outer/textures/t.png"}));
   const PackageManifest m = PackageManifest::Load(pkg / "mlspaces_package.json");
   EXPECT_EQ(m.archives[1].assets, 2u);
 }
@@ -278,13 +280,14 @@ TEST_F(PackInstallTest, ServeInstallLocateAndLoadGrasps) {
 
 TEST_F(PackInstallTest, InstallLibraryWhereWithSizeEstimateAndVerify) {
   testing::HttpTestServer server(remote);
-  const auto dry = RunCli({"install", "--library", "fixlib", "--where", "category=mug",
-                           "--dry-run"}, Env(server.url()));
+  const auto dry =
+      RunCli({"install", "--library", "fixlib", "--where", "category=mug", "--dry-run"},
+             Env(server.url()));
   ASSERT_EQ(dry.exit_code, 0) << dry.err;
   // 12 mugs (even i) spread over all 8 archives.
   EXPECT_THAT(dry.out, HasSubstr("12 assets in 8 archives to install"));
-  const auto tagged = RunCli({"install", "--library", "fixlib", "--where", "tags=t1", "-q"},
-                             Env(server.url()));
+  const auto tagged =
+      RunCli({"install", "--library", "fixlib", "--where", "tags=t1", "-q"}, Env(server.url()));
   ASSERT_EQ(tagged.exit_code, 0) << tagged.err;
   EXPECT_THAT(tagged.out, HasSubstr("8 assets in"));
   const auto all = RunCli({"install", "--library", "fixlib", "-q"}, Env(server.url()));
@@ -295,7 +298,8 @@ TEST_F(PackInstallTest, InstallLibraryWhereWithSizeEstimateAndVerify) {
   EXPECT_THAT(verify.out, HasSubstr(": ok"));
 
   // Damage one installed file: verify names it; --repair unflags its archive; install again.
-  const fs::path mesh = tmp / "cache" / "objects" / "fixlib" / "1" / "obj_1007" / "meshes" / "part.obj";
+  const fs::path mesh =
+      tmp / "cache" / "objects" / "fixlib" / "1" / "obj_1007" / "meshes" / "part.obj";
   fs::permissions(mesh, fs::perms::owner_write, fs::perm_options::add);
   testing::WriteText(mesh, "damaged");
   const auto bad = RunCli({"verify", "--repair"}, Env(server.url()));
@@ -323,10 +327,16 @@ TEST_F(PackInstallTest, FaultsThenAPlainRerunCompletes) {
   quick.retries = 1;
   // Truncated transfer (resumed by the retry), one flipped byte (a checksum error: this run
   // fails), HTTP 500 (retried), and a store file cut short.
-  server.SetFaults("{\"" + a0 + "\": [{\"mode\": \"truncate\", \"after\": 100}],"
-                   "\"" + a1 + "\": [{\"mode\": \"flip\", \"after\": 50}],"
-                   "\"" + a2 + "\": [{\"mode\": \"500\"}],"
-                   "\"" + idx + "\": [{\"mode\": \"truncate\", \"after\": 10}]}");
+  server.SetFaults("{\"" + a0 +
+                   "\": [{\"mode\": \"truncate\", \"after\": 100}],"
+                   "\"" +
+                   a1 +
+                   "\": [{\"mode\": \"flip\", \"after\": 50}],"
+                   "\"" +
+                   a2 +
+                   "\": [{\"mode\": \"500\"}],"
+                   "\"" +
+                   idx + "\": [{\"mode\": \"truncate\", \"after\": 10}]}");
   {
     Installer installer(Settings(server.url()), quick);
     const InstallPlan plan = installer.PlanUids({FixtureUid(0), FixtureUid(3), FixtureUid(6)});
@@ -344,7 +354,8 @@ TEST_F(PackInstallTest, FaultsThenAPlainRerunCompletes) {
   ExpectIntactInstall(3);
 
   // The server gone in the middle of a transfer: an error; back again: the rerun completes.
-  server.SetFaults("{\"/objects/fixlib/1/fixlib_00003.tar.zst\": [{\"mode\": \"hang\", \"after\": 64}]}");
+  server.SetFaults(
+      "{\"/objects/fixlib/1/fixlib_00003.tar.zst\": [{\"mode\": \"hang\", \"after\": 64}]}");
   // Killed once the hanging request has arrived (the server logs it before answering).
   std::thread killer([&] {
     testing::WaitUntil("the hanging request", [&] {
@@ -416,9 +427,10 @@ TEST_F(PackInstallTest, KilledInstallersAtCountedStepsResumeToAnIntactInstall) {
     ExpectIntactInstall(8);
     if (HasFailure()) FAIL() << "trial " << trial << ": killed after step " << n << ", then " << m;
   }
-  std::printf("[kills] 16 of 16 installs killed inside the work (%llu steps); %d of 16 "
-              "recovering reruns killed as well\n",
-              static_cast<unsigned long long>(steps), second_kills);
+  std::printf(
+      "[kills] 16 of 16 installs killed inside the work (%llu steps); %d of 16 "
+      "recovering reruns killed as well\n",
+      static_cast<unsigned long long>(steps), second_kills);
 
   // A few kills from outside at unplanned moments, as a user's Ctrl-\ or a node failure would
   // send them. Whether they land inside the install depends on the machine's load, so it is
@@ -447,8 +459,9 @@ TEST_F(PackInstallTest, KilledInstallersAtCountedStepsResumeToAnIntactInstall) {
 TEST_F(PackInstallTest, KilledPackAtCountedStepsRerunsToTheSameBytes) {
   const testing::CrashPoints crash(tmp / "crash_counter");
   auto args = [&](const fs::path& out) {
-    return std::vector<std::string>{"pack", library.string(), out.string(), "--name", "fixlib",
-                                    "--version", "1", "--assets-per-archive", "3", "-q"};
+    return std::vector<std::string>{
+        "pack", library.string(),       out.string(), "--name", "fixlib", "--version",
+        "1",    "--assets-per-archive", "3",          "-q"};
   };
   const auto whole = RunCli(args(tmp / "whole"), crash.Counting());
   ASSERT_EQ(whole.exit_code, 0) << whole.err;

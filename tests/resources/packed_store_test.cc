@@ -14,18 +14,18 @@
 #include <random>
 #include <thread>
 
-#include "mlspaces/library/annotation.h"
 #include "mlspaces/core/npz.h"
+#include "mlspaces/library/annotation.h"
 #include "test_util.h"
 
 namespace mlspaces {
 namespace {
 
 namespace fs = std::filesystem;
+using ::testing::HasSubstr;
 using testing::Slurp;
 using testing::TempDir;
 using testing::WriteText;
-using ::testing::HasSubstr;
 
 const std::vector<std::string> kArchives = {"objects_000.tar.zst", "objects_001.tar.zst"};
 
@@ -63,8 +63,8 @@ void WriteStore(const fs::path& dir, const std::vector<Expected>& assets) {
   std::vector<std::unique_ptr<GraspShardWriter>> shards;
   for (const std::string& a : kArchives) {
     const std::string stem = a.substr(0, a.size() - std::string(".tar.zst").size());
-    shards.push_back(std::make_unique<GraspShardWriter>(dir / std::string(kGraspShardDir) /
-                                                        (stem + ".mlsg")));
+    shards.push_back(
+        std::make_unique<GraspShardWriter>(dir / std::string(kGraspShardDir) / (stem + ".mlsg")));
   }
   PackedStoreWriter writer(dir, "test_lib", kArchives);
   for (const Expected& e : assets) {
@@ -204,8 +204,7 @@ void ExpectStoreMatches(const PackedLibrary& lib, const fs::path& dir,
       EXPECT_EQ(refs[i].archive, want[i].archive);
       EXPECT_EQ(refs[i].count, want[i].poses.size());
       EXPECT_EQ(refs[i].stored_dtype, want[i].dtype);
-      const std::optional<PackedGraspRef> found =
-          lib.FindGrasps(*a, want[i].robot, want[i].joint);
+      const std::optional<PackedGraspRef> found = lib.FindGrasps(*a, want[i].robot, want[i].joint);
       ASSERT_TRUE(found.has_value());
       EXPECT_EQ(found->offset, refs[i].offset);
       const std::vector<Mat4> poses = lib.ReadGrasps(refs[i]);
@@ -237,8 +236,9 @@ TEST(PackedStoreTest, RoundTripFindAtGraspsAnnotations) {
   EXPECT_THROW(lib->At(lib->size()), Error);
 
   // Misses: empty, prefixes, extensions, case changes.
-  for (const std::string& miss : std::vector<std::string>{"", "red_bloc", "red_block ", "RED_BLOCK", "0a1b2c3d4e5f",
-                                 "y", std::string(201, 'L'), std::string(199, 'L')}) {
+  for (const std::string& miss :
+       std::vector<std::string>{"", "red_bloc", "red_block ", "RED_BLOCK", "0a1b2c3d4e5f", "y",
+                                std::string(201, 'L'), std::string(199, 'L')}) {
     EXPECT_FALSE(lib->Find(miss).has_value()) << miss;
   }
   // Shards live where GraspShardPath says, named after the archive stem.
@@ -319,7 +319,7 @@ TEST(PackedStoreTest, TwentyThousandUidsFoundAndMissesRejected) {
                   static_cast<unsigned long long>(rng()));
     // Mix lengths: objaverse 32-hex, short, and long path-like UIDs.
     const size_t kind = uids.size() % 3;
-    uids.insert(kind == 0 ? std::string(hex)
+    uids.insert(kind == 0   ? std::string(hex)
                 : kind == 1 ? std::string(hex, 6 + uids.size() % 9)
                             : "Obj_" + std::string(hex) + std::string(hex));
   }

@@ -13,8 +13,14 @@ namespace fs = std::filesystem;
 // Restores MLSPACES_ASSETS_DIR and HOME on scope exit.
 class EnvGuard {
  public:
-  EnvGuard() { Save("MLSPACES_ASSETS_DIR", assets_); Save("HOME", home_); }
-  ~EnvGuard() { Restore("MLSPACES_ASSETS_DIR", assets_); Restore("HOME", home_); }
+  EnvGuard() {
+    Save("MLSPACES_ASSETS_DIR", assets_);
+    Save("HOME", home_);
+  }
+  ~EnvGuard() {
+    Restore("MLSPACES_ASSETS_DIR", assets_);
+    Restore("HOME", home_);
+  }
 
  private:
   struct Saved {

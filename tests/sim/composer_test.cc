@@ -155,7 +155,7 @@ TEST(Composer, DegreeDefaultsAreConvertedPerFile) {
   EXPECT_NEAR(c.m->jnt_range[2 * elbow], -std::numbers::pi / 4, 1e-12);        // -45 own
   EXPECT_EQ(c.m->jnt_type[finger], mjJNT_SLIDE);
   EXPECT_NEAR(c.m->jnt_range[2 * finger + 1], 0.04, 1e-12);  // slide: metres, unconverted
-  EXPECT_EQ(c.m->jnt_limited[shoulder], 1);                   // autolimits, as in MuJoCo 3
+  EXPECT_EQ(c.m->jnt_limited[shoulder], 1);                  // autolimits, as in MuJoCo 3
 }
 
 TEST(Composer, RuntimeAttachOfRobotAndObject) {
@@ -420,12 +420,10 @@ INSTANTIATE_TEST_SUITE_P(
     ::testing::Values(
         BadCase{"unknown_element.xml", "unknown_element.xml", "line 5, element <gizmo>",
                 "unrecognized element"},
-        BadCase{"missing_mesh.xml", "missing_mesh.xml", "line 3, element <mesh>",
-                "file not found"},
+        BadCase{"missing_mesh.xml", "missing_mesh.xml", "line 3, element <mesh>", "file not found"},
         BadCase{"bad_number.xml", "bad_number.xml", "line 3, element <body>",
                 "bad format in attribute 'pos'"},
-        BadCase{"dangling_ref.xml", "dangling_ref.xml", "line 8, element <motor>",
-                "no_such_joint"},
+        BadCase{"dangling_ref.xml", "dangling_ref.xml", "line 8, element <motor>", "no_such_joint"},
         BadCase{"unknown_model.xml", "unknown_model.xml", "line 4, element <attach>",
                 "could not find model 'nope'"},
         BadCase{"bad_nested_attach.xml", "unknown_element.xml", "line 5, element <gizmo>",

@@ -40,8 +40,7 @@ constexpr std::array<double, 7> kHomeArm = {0, -0.7853, 0, -2.35619, 0, 1.57079,
 constexpr std::array<double, 2> kHomeGripper = {0.00296, 0.00296};
 constexpr std::array<double, 7> kLower = {-2.9007, -1.8361, -2.9007, -3.0770,
                                           -2.8763, 0.4398,  -3.0508};
-constexpr std::array<double, 7> kUpper = {2.9007, 1.8361, 2.9007, -0.1169,
-                                          2.8763, 4.6216, 3.0508};
+constexpr std::array<double, 7> kUpper = {2.9007, 1.8361, 2.9007, -0.1169, 2.8763, 4.6216, 3.0508};
 constexpr std::array<double, 7> kKp = {4500, 4500, 3500, 3500, 2000, 2000, 2000};
 
 // Row-major homogeneous transform.
@@ -82,10 +81,22 @@ Mat4 FromPose(const Pose& p) {
   const double w = p.quat[0], x = p.quat[1], y = p.quat[2], z = p.quat[3];
   const double n = std::sqrt(w * w + x * x + y * y + z * z);
   const double a = w / n, b = x / n, c = y / n, e = z / n;
-  return {1 - 2 * (c * c + e * e), 2 * (b * c - a * e),     2 * (b * e + a * c),     p.pos[0],
-          2 * (b * c + a * e),     1 - 2 * (b * b + e * e), 2 * (c * e - a * b),     p.pos[1],
-          2 * (b * e - a * c),     2 * (c * e + a * b),     1 - 2 * (b * b + c * c), p.pos[2],
-          0,                       0,                       0,                       1};
+  return {1 - 2 * (c * c + e * e),
+          2 * (b * c - a * e),
+          2 * (b * e + a * c),
+          p.pos[0],
+          2 * (b * c + a * e),
+          1 - 2 * (b * b + e * e),
+          2 * (c * e - a * b),
+          p.pos[1],
+          2 * (b * e - a * c),
+          2 * (c * e + a * b),
+          1 - 2 * (b * b + c * c),
+          p.pos[2],
+          0,
+          0,
+          0,
+          1};
 }
 
 // World pose of the DH flange frame: base * prod_i RotX(alpha) TransX(a) RotZ(q) TransZ(d).
@@ -120,8 +131,8 @@ const char* kBareScene = R"(<mujoco model="robot_test">
 
 // Composes `scene_xml` with the robot under "robot_0/" at `base`.
 ModelPtr Compose(const std::string& scene_xml, const Pose& base = {}) {
-  MjcfComposer composer = MjcfComposer::FromString(scene_xml, fs::path(MLSPACES_SOURCE_DIR) /
-                                                                  "franka_droid_scene.xml");
+  MjcfComposer composer =
+      MjcfComposer::FromString(scene_xml, fs::path(MLSPACES_SOURCE_DIR) / "franka_droid_scene.xml");
   const auto tops = composer.Attach(kRobot, "world", "robot_0/", base);
   EXPECT_EQ(tops, std::vector<std::string>{"robot_0/base"});
   ModelPtr m = composer.Compile();
@@ -212,9 +223,9 @@ TEST(FrankaDroid, NamesLiveUnderTheRobotPrefix) {
     EXPECT_EQ(mm->actuator_trntype[a], mjTRN_JOINT);
     EXPECT_EQ(mm->actuator_trnid[2 * a], j);
   }
-  for (const char* name : {"robot_0/gripper/base", "robot_0/gripper/left_driver",
-                           "robot_0/gripper/right_driver", "robot_0/gripper/left_follower",
-                           "robot_0/gripper/right_follower"}) {
+  for (const char* name :
+       {"robot_0/gripper/base", "robot_0/gripper/left_driver", "robot_0/gripper/right_driver",
+        "robot_0/gripper/left_follower", "robot_0/gripper/right_follower"}) {
     Id(mm, mjOBJ_BODY, name);
   }
   Id(mm, mjOBJ_JOINT, "robot_0/gripper/left_driver_joint");
@@ -270,8 +281,8 @@ TEST(FrankaDroid, JointRangesAndServosMatchTheSpec) {
   EXPECT_DOUBLE_EQ(m->actuator_biasprm[mjNBIAS * f + 1], -100);
   EXPECT_DOUBLE_EQ(m->actuator_biasprm[mjNBIAS * f + 2], -10);
   EXPECT_DOUBLE_EQ(m->actuator_forcerange[2 * f + 1], 5);
-  for (const char* name : {"robot_0/gripper/left_driver_joint",
-                           "robot_0/gripper/right_driver_joint"}) {
+  for (const char* name :
+       {"robot_0/gripper/left_driver_joint", "robot_0/gripper/right_driver_joint"}) {
     const int j = mj_name2id(m.get(), mjOBJ_JOINT, name);
     EXPECT_DOUBLE_EQ(m->jnt_range[2 * j], 0) << name;
     EXPECT_DOUBLE_EQ(m->jnt_range[2 * j + 1], 0.9) << name;
@@ -298,10 +309,8 @@ TEST(FrankaDroid, ForwardKinematicsMatchesTheDhTable) {
     mj_kinematics(m.get(), d.get());
     const Mat4 flange = DhFlange(base, q);
     const Mat4 tcp = Mul(flange, Trans(0, 0, kTcpOffset));
-    EXPECT_LT(MaxAbsDiff(SiteTransform(d.get(), r.flange), flange), 1e-9)
-        << "trial " << trial;
-    EXPECT_LT(MaxAbsDiff(SiteTransform(d.get(), r.tcp), tcp), 1e-9)
-        << "trial " << trial;
+    EXPECT_LT(MaxAbsDiff(SiteTransform(d.get(), r.flange), flange), 1e-9) << "trial " << trial;
+    EXPECT_LT(MaxAbsDiff(SiteTransform(d.get(), r.tcp), tcp), 1e-9) << "trial " << trial;
     if (trial == 0) {
       // Known numbers of the home pose (base at the identity): flange at about
       // (0.307, 0, 0.590) pointing down, so the TCP sits 0.14 m below it.
@@ -374,7 +383,7 @@ TEST(FrankaDroid, GripperOpensTo85mmAndClosesFully) {
   mj_forward(m.get(), d.get());
   const double open = r.PadGap(d.get());
   EXPECT_NEAR(open, 0.085, 0.001) << "open width at ctrl 0";
-  EXPECT_LE(open, 0.087);  // MolmoSpaces' inter_finger_dist_range upper end
+  EXPECT_LE(open, 0.087);   // MolmoSpaces' inter_finger_dist_range upper end
   EXPECT_GT(open, 0.0435);  // its is_open threshold
   for (int k = 0; k < 2; ++k) EXPECT_NEAR(d->qpos[r.driver_qpos[k]], 0, 0.01);
 }
@@ -486,8 +495,7 @@ bool Touches(const mjModel*, const mjData* d, int geom_a, int geom_b) {
 
 // Arm joints that raise the TCP by `dz` keeping its orientation: damped least squares on the
 // 6x7 site Jacobian, on a scratch mjData.
-std::array<double, 7> LiftIk(const mjModel* m, const Robot& r, std::array<double, 7> q,
-                             double dz) {
+std::array<double, 7> LiftIk(const mjModel* m, const Robot& r, std::array<double, 7> q, double dz) {
   DataPtr d = MakeData(m);
   auto set = [&] {
     for (int i = 0; i < 7; ++i) d->qpos[r.arm_qpos[i]] = q[i];
@@ -576,8 +584,8 @@ GraspResult GraspAndLift(const std::string& contact_options) {
       std::to_string(top / 2) + R"("/>
     </body>
     <body name="block" pos=")" +
-      std::to_string(home[3]) + " " + std::to_string(home[7]) + " " +
-      std::to_string(top + 0.025) + R"(">
+      std::to_string(home[3]) + " " + std::to_string(home[7]) + " " + std::to_string(top + 0.025) +
+      R"(">
       <freejoint/>
       <geom name="block_geom" type="box" size="0.025 0.025 0.025" mass="0.125"/>
     </body>

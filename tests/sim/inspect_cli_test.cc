@@ -58,8 +58,9 @@ TEST(InspectCli, EmitMjcfIsPlainMjcfThatMujocoLoads) {
 TEST(InspectCli, BadMjcfIsOneLineWithFileLineAndElement) {
   TempDir tmp;
   const fs::path bad = tmp.path() / "bad.xml";
-  WriteText(bad, "<mujoco>\n  <worldbody>\n    <geom type=\"box\" size=\"0.1 oops 0.1\"/>\n"
-                 "  </worldbody>\n</mujoco>\n");
+  WriteText(bad,
+            "<mujoco>\n  <worldbody>\n    <geom type=\"box\" size=\"0.1 oops 0.1\"/>\n"
+            "  </worldbody>\n</mujoco>\n");
   auto r = RunCli({"inspect", bad.string()});
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_THAT(r.err, HasSubstr(bad.string() + ": line 3, element <geom>"));

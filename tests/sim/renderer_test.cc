@@ -147,11 +147,11 @@ ChildRun RunInChildIfOtherBackend(GlBackend backend) {
   return run;
 }
 
-#define RUN_IN_CHILD_IF_OTHER_BACKEND(backend)                                   \
-  if (const ChildRun child = RunInChildIfOtherBackend(backend); child.ran) {     \
+#define RUN_IN_CHILD_IF_OTHER_BACKEND(backend)                                  \
+  if (const ChildRun child = RunInChildIfOtherBackend(backend); child.ran) {    \
     if (child.skipped) GTEST_SKIP() << "in a child process:\n" << child.output; \
-    EXPECT_EQ(child.exit_code, 0) << child.output;                               \
-    return;                                                                      \
+    EXPECT_EQ(child.exit_code, 0) << child.output;                              \
+    return;                                                                     \
   }
 
 // ---------------------------------------------------------------------------------------------
@@ -278,8 +278,7 @@ TEST(EglDevicePlatform, RendersTheSamePictureAsSurfaceless) {
   std::unique_ptr<Renderer> device;
   try {
     device = std::make_unique<Renderer>(
-        w.m.get(),
-        RenderOptions{.backend = GlBackend::kEgl, .egl_platform = EglPlatform::kDevice});
+        w.m.get(), RenderOptions{.backend = GlBackend::kEgl, .egl_platform = EglPlatform::kDevice});
   } catch (const Error& e) {
     const std::string what = e.what();
     EXPECT_EQ(what.find('\n'), std::string::npos) << what;

@@ -6,9 +6,9 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include "mlspaces/library/asset_index.h"
 #include "mlspaces/core/error.h"
 #include "mlspaces/core/files.h"
+#include "mlspaces/library/asset_index.h"
 #include "test_util.h"
 
 namespace mlspaces::sim {

@@ -26,13 +26,11 @@ TEST(StrictMujoco, AWarningLeftBehindOrMissingFailsTheTest) {
   const std::string self = std::filesystem::read_symlink("/proc/self/exe").string();
   for (const char* name : {"DISABLED_LeavesAWarning", "DISABLED_ExpectsAWarningThatNeverCame"}) {
     const CliResult r = RunProgram(self, {"--gtest_also_run_disabled_tests",
-                                                      std::string("--gtest_filter=StrictMujoco.") +
-                                                          name});
+                                          std::string("--gtest_filter=StrictMujoco.") + name});
     EXPECT_NE(r.exit_code, 0) << name << "\n" << r.out + r.err;
   }
-  const CliResult left = RunProgram(
-      self,
-      {"--gtest_also_run_disabled_tests", "--gtest_filter=StrictMujoco.DISABLED_LeavesAWarning"});
+  const CliResult left = RunProgram(self, {"--gtest_also_run_disabled_tests",
+                                           "--gtest_filter=StrictMujoco.DISABLED_LeavesAWarning"});
   EXPECT_NE((left.out + left.err).find("left 1 unexpected MuJoCo warning(s):"), std::string::npos)
       << left.out;
   EXPECT_NE((left.out + left.err).find("left behind on purpose"), std::string::npos) << left.out;

@@ -18,6 +18,8 @@
 // work by construction, whatever the machine's load, and never by a clock.
 #pragma once
 
+#include "mlspaces/core/export.h"
+
 #include <cstdint>
 #include <string_view>
 
@@ -26,9 +28,9 @@ namespace mlspaces {
 /// Marks one durable step done; see the file comment. Thread- and fork-safe.
 /// @throws Error when MLSPACES_CRASH_AT or MLSPACES_CRASH_COUNTER is malformed or the
 ///         counter file cannot be opened (checked once, at the first call).
-void CrashPoint(std::string_view step);
+MLSPACES_API void CrashPoint(std::string_view step);
 
 /// Steps counted so far (the shared count when a counter file is used); for tests.
-uint64_t CrashPointCount();
+MLSPACES_API uint64_t CrashPointCount();
 
 }  // namespace mlspaces

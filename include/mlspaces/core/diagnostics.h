@@ -3,6 +3,8 @@
 // Printed on one line as "path: field: message", leaving out empty parts, like Error::what().
 #pragma once
 
+#include "mlspaces/core/export.h"
+
 #include <string>
 #include <utility>
 #include <vector>
@@ -11,17 +13,20 @@ namespace mlspaces {
 
 enum class Severity { kError, kWarning };
 
-struct Diagnostic {
+struct MLSPACES_API Diagnostic {
   Diagnostic() = default;
   Diagnostic(std::string path, std::string field, std::string message, std::string uid = {},
              Severity severity = Severity::kError)
-      : path(std::move(path)), field(std::move(field)), message(std::move(message)),
-        uid(std::move(uid)), severity(severity) {}
+      : path(std::move(path)),
+        field(std::move(field)),
+        message(std::move(message)),
+        uid(std::move(uid)),
+        severity(severity) {}
 
   std::string path;   ///< the file or folder concerned; may be empty
   std::string field;  ///< where in it: JSON pointer, HDF5 path, "line N", member; may be empty
   std::string message;
-  std::string uid;    ///< the asset concerned; may be empty (not printed)
+  std::string uid;  ///< the asset concerned; may be empty (not printed)
   Severity severity = Severity::kError;
 
   /// "path: field: message", leaving out empty parts.
@@ -29,7 +34,7 @@ struct Diagnostic {
 };
 
 /// Collects diagnostics in the order they are found.
-class Diagnostics {
+class MLSPACES_API Diagnostics {
  public:
   void Error(std::string path, std::string field, std::string message, std::string uid = {});
   void Warning(std::string path, std::string field, std::string message, std::string uid = {});

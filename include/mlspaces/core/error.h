@@ -1,6 +1,8 @@
 // mlspaces::Error, the one exception type the libraries throw for bad input.
 #pragma once
 
+#include "mlspaces/core/export.h"
+
 #include <stdexcept>
 #include <string>
 
@@ -11,7 +13,7 @@ namespace mlspaces {
 /// what() is one line: "<path>: <field>: <message>", leaving out empty parts.
 /// `field` is a JSON pointer ("/red_block/object_path"), an XML/YAML line ("line 12"),
 /// or a zip member name, whichever locates the problem best.
-class Error : public std::runtime_error {
+class MLSPACES_API Error : public std::runtime_error {
  public:
   explicit Error(std::string message, std::string path = {}, std::string field = {},
                  std::string uid = {});
@@ -30,12 +32,12 @@ class Error : public std::runtime_error {
 };
 
 /// Bad usage of a command or API (bad flag value, malformed NAME=DIR); CLI exit code 2.
-class UsageError : public Error {
+class MLSPACES_API UsageError : public Error {
  public:
   using Error::Error;
 };
 
 /// Escapes one reference token for a JSON pointer ("~" -> "~0", "/" -> "~1").
-std::string JsonPointerToken(std::string_view token);
+MLSPACES_API std::string JsonPointerToken(std::string_view token);
 
 }  // namespace mlspaces

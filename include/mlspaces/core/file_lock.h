@@ -4,13 +4,15 @@
 // them closes the descriptor (exec closes it: O_CLOEXEC).
 #pragma once
 
+#include "mlspaces/core/export.h"
+
 #include <filesystem>
 #include <functional>
 #include <string>
 
 namespace mlspaces {
 
-class FileLock {
+class MLSPACES_API FileLock {
  public:
   /// Takes an exclusive lock on `path` (created if missing, with its folder), waiting for
   /// other holders. The holder's pid is written into the file for diagnostics. While waiting,

@@ -1,6 +1,8 @@
 // Reading whole files and writing them atomically (temp file + fsync + rename).
 #pragma once
 
+#include "mlspaces/core/export.h"
+
 #include <filesystem>
 #include <string>
 #include <string_view>
@@ -8,50 +10,53 @@
 namespace mlspaces {
 
 /// Reads a whole file. @throws Error naming the path if it cannot be opened or read.
-std::string ReadFile(const std::filesystem::path& path);
+MLSPACES_API std::string ReadFile(const std::filesystem::path& path);
 
 /// Reads a whole file opened with openat(dir_fd, path) (dir_fd may be AT_FDCWD): hot lookups
 /// keep an O_PATH descriptor of their folder and save the kernel the walk of the full path.
 /// Small files cost open, one read and close (no stat). `path_for_errors` names the file in
 /// errors. @throws Error as ReadFile.
-std::string ReadFileAt(int dir_fd, const char* path, const std::filesystem::path& path_for_errors);
+MLSPACES_API std::string ReadFileAt(int dir_fd, const char* path,
+                                    const std::filesystem::path& path_for_errors);
 
 /// True when `path` exists and is not a directory (follows symlinks).
-bool IsFile(const std::filesystem::path& path);
+MLSPACES_API bool IsFile(const std::filesystem::path& path);
 
 /// Writes `data` to a temp file beside `path`, flushes it to disk (unless `sync` is false) and
 /// renames it over `path`, so readers see the old file or the new one, never a half-written
 /// one. Creates missing parent folders. `sync = false` is for batches of small files that the
 /// caller makes durable with one syncfs() instead of an fsync each.
 /// @throws Error naming the path on failure (the temp file is removed).
-void WriteFileAtomic(const std::filesystem::path& path, std::string_view data, bool sync = true);
+MLSPACES_API void WriteFileAtomic(const std::filesystem::path& path, std::string_view data,
+                                  bool sync = true);
 
 /// `path` relative to `base`, with '/' separators (the form the index files store).
-std::string RelativeGenericPath(const std::filesystem::path& path,
-                                const std::filesystem::path& base);
+MLSPACES_API std::string RelativeGenericPath(const std::filesystem::path& path,
+                                             const std::filesystem::path& base);
 
 /// A suffix unique to this process and call, for temp files renamed into place:
 /// ".tmp.<pid>.<n>" (what WriteFileAtomic uses; crash leftovers match "*.tmp.*").
-std::string TempSuffix();
+MLSPACES_API std::string TempSuffix();
 
 /// Removes the entries of `dir` (not recursive; files or folders) that are temp files of
 /// processes that no longer exist: names with TempSuffix's ".tmp.<pid>." whose pid is gone.
 /// Temp files of live processes (another run sharing the folder) are kept. @returns how many.
-size_t RemoveDeadTempFiles(const std::filesystem::path& dir);
+MLSPACES_API size_t RemoveDeadTempFiles(const std::filesystem::path& dir);
 
 /// Flushes the whole file system holding `dir` (syncfs): one call makes a batch of files
 /// written without fsync durable. Best effort: an unopenable folder is ignored.
-void SyncFileSystem(const std::filesystem::path& dir);
+MLSPACES_API void SyncFileSystem(const std::filesystem::path& dir);
 
 /// "<what>: <strerror(errno)>", for an Error after a failed POSIX call (reads errno first).
-std::string Errno(std::string_view what);
+MLSPACES_API std::string Errno(std::string_view what);
 
 /// Writes all of `data` to `fd`, retrying short writes and EINTR.
 /// @returns false when a write fails (errno says why) or writes nothing (e.g. a closed pipe).
-bool WriteAll(int fd, std::string_view data);
+MLSPACES_API bool WriteAll(int fd, std::string_view data);
 
 /// fsync of a file, or of a folder (`directory`) after a rename into it.
 /// @throws Error naming `error_path` on failure.
-void FsyncPath(const std::filesystem::path& path, bool directory, const std::string& error_path);
+MLSPACES_API void FsyncPath(const std::filesystem::path& path, bool directory,
+                            const std::string& error_path);
 
 }  // namespace mlspaces

@@ -1,6 +1,8 @@
 // JSON helpers on nlohmann::ordered_json (key order is kept, as Python dicts keep it).
 #pragma once
 
+#include "mlspaces/core/export.h"
+
 #include <filesystem>
 #include <string>
 #include <string_view>
@@ -18,23 +20,23 @@ using Json = nlohmann::ordered_json;
 using FlatJson = nlohmann::json;
 
 /// Parses a JSON document. @throws Error with `path` and "line L, column C" on a syntax error.
-Json ParseJson(std::string_view text, const std::string& path_for_errors);
+MLSPACES_API Json ParseJson(std::string_view text, const std::string& path_for_errors);
 
 /// Reads and parses a JSON file. @throws Error naming the file (missing, unreadable, bad JSON).
-Json ParseJsonFile(const std::filesystem::path& path);
+MLSPACES_API Json ParseJsonFile(const std::filesystem::path& path);
 
 /// As ParseJson / ParseJsonFile, into FlatJson (for big index files; duplicate keys: last wins).
-FlatJson ParseFlatJson(std::string_view text, const std::string& path_for_errors);
-FlatJson ParseFlatJsonFile(const std::filesystem::path& path);
+MLSPACES_API FlatJson ParseFlatJson(std::string_view text, const std::string& path_for_errors);
+MLSPACES_API FlatJson ParseFlatJsonFile(const std::filesystem::path& path);
 
 /// Serialises like Python's json.dumps(obj, indent=4): ", " / ": " separators, non-ASCII
 /// escaped as \uXXXX, floats in shortest round-trip form. No trailing newline.
-std::string DumpJsonIndent4(const Json& value);
+MLSPACES_API std::string DumpJsonIndent4(const Json& value);
 
 /// Name of a JSON value's type for messages: "object", "array", "string", "integer",
 /// "number", "boolean", "null".
-std::string JsonTypeName(const Json& value);
-std::string JsonTypeName(const FlatJson& value);
+MLSPACES_API std::string JsonTypeName(const Json& value);
+MLSPACES_API std::string JsonTypeName(const FlatJson& value);
 /// As JsonTypeName but "number" for every numeric type ("expected string, got number").
 template <class J>
 std::string JsonTypeWord(const J& value) {

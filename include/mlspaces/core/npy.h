@@ -5,6 +5,8 @@
 // native (little-endian) byte order and C order, so callers index it one way.
 #pragma once
 
+#include "mlspaces/core/export.h"
+
 #include <cstddef>
 #include <cstdint>
 #include <span>
@@ -17,15 +19,15 @@ namespace mlspaces {
 enum class DType : uint8_t { kF2, kF4, kF8, kI4, kI8, kU1, kB1 };
 
 /// Bytes per element of a dtype.
-size_t DTypeSize(DType dtype);
+MLSPACES_API size_t DTypeSize(DType dtype);
 /// The descr numpy writes for a little-endian array of this dtype: "<f8", "|u1", "|b1", ...
-std::string DTypeDescr(DType dtype, bool big_endian = false);
+MLSPACES_API std::string DTypeDescr(DType dtype, bool big_endian = false);
 
 /// Python's repr of a shape tuple, as numpy prints it: "()", "(3,)", "(2, 4)".
-std::string ShapeRepr(const std::vector<size_t>& shape);
+MLSPACES_API std::string ShapeRepr(const std::vector<size_t>& shape);
 
 /// What a .npy header says.
-struct NpyHeader {
+struct MLSPACES_API NpyHeader {
   DType dtype = DType::kF8;
   bool big_endian = false;      ///< byte order in the file
   bool fortran_order = false;   ///< as stored in the file
@@ -36,7 +38,7 @@ struct NpyHeader {
 };
 
 /// A loaded array: native byte order, C order.
-struct NpyArray {
+struct MLSPACES_API NpyArray {
   DType dtype = DType::kF8;
   std::vector<size_t> shape;
   std::vector<uint8_t> data;  ///< num_elements() * DTypeSize(dtype) bytes
@@ -55,7 +57,7 @@ struct NpyArray {
 };
 
 /// Options for writing.
-struct NpyWriteOptions {
+struct MLSPACES_API NpyWriteOptions {
   bool big_endian = false;
   bool fortran_order = false;
 };
@@ -63,24 +65,24 @@ struct NpyWriteOptions {
 /// Parses only the header from the first bytes of a .npy. `source` names the file (and zip
 /// member) in errors. @throws Error on a bad magic, version, header dict, dtype or shape, or
 /// when `bytes` is shorter than the header says.
-NpyHeader ParseNpyHeader(std::span<const uint8_t> bytes, const std::string& source);
+MLSPACES_API NpyHeader ParseNpyHeader(std::span<const uint8_t> bytes, const std::string& source);
 
 /// Parses a whole .npy image. @throws Error (also when the data is truncated or has extra
 /// bytes missing).
-NpyArray ParseNpy(std::span<const uint8_t> bytes, const std::string& source);
+MLSPACES_API NpyArray ParseNpy(std::span<const uint8_t> bytes, const std::string& source);
 
 /// Serialises an array as .npy v1.0 (v2.0 if the header would not fit), header padded to a
 /// multiple of 64 bytes as numpy does.
 std::string SerializeNpy(const NpyArray& array, const NpyWriteOptions& options = {});
 
 /// Reads a .npy file. @throws Error naming the file.
-NpyArray ReadNpyFile(const std::string& path);
+MLSPACES_API NpyArray ReadNpyFile(const std::string& path);
 /// Writes a .npy file atomically.
 void WriteNpyFile(const std::string& path, const NpyArray& array,
                   const NpyWriteOptions& options = {});
 
 /// IEEE half <-> double conversions (round to nearest even).
-double HalfToDouble(uint16_t h);
-uint16_t DoubleToHalf(double d);
+MLSPACES_API double HalfToDouble(uint16_t h);
+MLSPACES_API uint16_t DoubleToHalf(double d);
 
 }  // namespace mlspaces

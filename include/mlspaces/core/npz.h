@@ -5,6 +5,8 @@
 // corrupt archive raises mlspaces::Error naming the file and member, never crashes.
 #pragma once
 
+#include "mlspaces/core/export.h"
+
 #include <cstdint>
 #include <filesystem>
 #include <memory>
@@ -19,7 +21,7 @@
 namespace mlspaces {
 
 /// An open .npz. Opening maps the file and reads the zip central directory only.
-class NpzReader {
+class MLSPACES_API NpzReader {
  public:
   /// @throws Error if the file is missing or not a valid zip.
   explicit NpzReader(const std::filesystem::path& path);
@@ -49,9 +51,10 @@ class NpzReader {
 };
 
 /// Reads every array of an .npz, in archive order.
-std::vector<std::pair<std::string, NpyArray>> ReadNpz(const std::filesystem::path& path);
+MLSPACES_API std::vector<std::pair<std::string, NpyArray>> ReadNpz(
+    const std::filesystem::path& path);
 
-struct NpzWriteOptions {
+struct MLSPACES_API NpzWriteOptions {
   bool compress = false;  ///< DEFLATE like np.savez_compressed, else STORED like np.savez
   NpyWriteOptions npy;
 };

@@ -4,6 +4,8 @@
 // deterministic body). Callers that want per-item errors catch them in the body.
 #pragma once
 
+#include "mlspaces/core/export.h"
+
 #include <cstddef>
 #include <functional>
 #include <optional>
@@ -14,17 +16,18 @@ namespace mlspaces {
 
 /// The number of threads to use for `items` items: `requested` (<= 0: the hardware's
 /// concurrency), at most `items`, at least 1.
-int ParallelThreads(int requested, size_t items);
+MLSPACES_API int ParallelThreads(int requested, size_t items);
 
 /// Runs body(i) for every i in [0, n) on ParallelThreads(threads, n) threads, the calling
 /// thread among them. @throws the lowest-index exception of body, after every thread stopped.
-void ParallelFor(size_t n, int threads, const std::function<void(size_t)>& body);
+MLSPACES_API void ParallelFor(size_t n, int threads, const std::function<void(size_t)>& body);
 
 namespace parallel_internal {
 /// produce(i) on worker threads, consume(i) on the calling thread in index order, each once
 /// produce(i) returned; workers stay at most `window` items ahead of consume.
-void RunOrdered(size_t n, int threads, size_t window, const std::function<void(size_t)>& produce,
-                const std::function<void(size_t)>& consume);
+MLSPACES_API void RunOrdered(size_t n, int threads, size_t window,
+                             const std::function<void(size_t)>& produce,
+                             const std::function<void(size_t)>& consume);
 }  // namespace parallel_internal
 
 /// Runs produce(i) -> T for every i in [0, n) on ParallelThreads(threads, n) worker threads

@@ -1,6 +1,8 @@
 // A small thread-safe progress bar on stderr, drawn only when stderr is a terminal.
 #pragma once
 
+#include "mlspaces/core/export.h"
+
 #include <chrono>
 #include <cstddef>
 #include <mutex>
@@ -9,9 +11,9 @@
 namespace mlspaces {
 
 /// Seconds on the steady clock since `t0`.
-double Since(std::chrono::steady_clock::time_point t0);
+MLSPACES_API double Since(std::chrono::steady_clock::time_point t0);
 
-class ProgressBar {
+class MLSPACES_API ProgressBar {
  public:
   /// `label` is printed before the bar; nothing is drawn when stderr is not a TTY
   /// (or when `enabled` is false).

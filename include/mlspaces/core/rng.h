@@ -3,6 +3,8 @@
 // every platform (we never use std::*_distribution, whose output is implementation-defined).
 #pragma once
 
+#include "mlspaces/core/export.h"
+
 #include <cstdint>
 #include <initializer_list>
 #include <string_view>
@@ -10,16 +12,16 @@
 namespace mlspaces {
 
 /// SplitMix64 step: the documented seed mixer used by DeriveSeed and Rng's seeding.
-uint64_t SplitMix64(uint64_t& state);
+MLSPACES_API uint64_t SplitMix64(uint64_t& state);
 
 /// Mixes a seed with work-item parts, e.g. DeriveSeed(run_seed, {scene_id, episode}).
-uint64_t DeriveSeed(uint64_t seed, std::initializer_list<uint64_t> parts);
+MLSPACES_API uint64_t DeriveSeed(uint64_t seed, std::initializer_list<uint64_t> parts);
 
 /// 64-bit FNV-1a of a string, for turning names (UIDs, scene paths) into seed parts.
-uint64_t HashString(std::string_view text);
+MLSPACES_API uint64_t HashString(std::string_view text);
 
 /// xoshiro256** generator seeded through SplitMix64.
-class Rng {
+class MLSPACES_API Rng {
  public:
   explicit Rng(uint64_t seed);
   /// Next raw 64-bit value.

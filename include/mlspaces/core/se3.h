@@ -3,6 +3,8 @@
 // Poses here are Mat4 (core/transform.h, which holds the quaternion helpers).
 #pragma once
 
+#include "mlspaces/core/export.h"
+
 #include <array>
 #include <vector>
 
@@ -11,19 +13,19 @@
 namespace mlspaces {
 
 /// Rotation vector (axis * angle, angle in [0, pi]) of the rotation block of `r`.
-Vec3 RotationLog(const Mat4& r);
+MLSPACES_API Vec3 RotationLog(const Mat4& r);
 /// Rotation vector (axis * angle) of a row-major 3x3 rotation, angle in [0, pi].
-Vec3 RotationLog3(const Rot3& r);
+MLSPACES_API Vec3 RotationLog3(const Rot3& r);
 /// Geodesic angle (rad, [0, pi]) between the rotations of two poses.
-double RotationAngle(const Mat4& a, const Mat4& b);
+MLSPACES_API double RotationAngle(const Mat4& a, const Mat4& b);
 /// Euclidean distance between the positions of two poses.
-double TranslationDistance(const Mat4& a, const Mat4& b);
+MLSPACES_API double TranslationDistance(const Mat4& a, const Mat4& b);
 
 /// Pose at fraction s of the way from `a` to `b`: position a + s (b - a) (a straight line),
 /// orientation Slerp(q_a, q_b, s). s is clamped to [0, 1]; s = 0 / 1 return a / b exactly.
-Mat4 InterpolatePose(const Mat4& a, const Mat4& b, double s);
+MLSPACES_API Mat4 InterpolatePose(const Mat4& a, const Mat4& b, double s);
 
-struct SegmentTiming {
+struct MLSPACES_API SegmentTiming {
   /// Linear TCP speed, m/s (the original's segment speeds: 0.20 to pregrasp, 0.08 after).
   double speed = 0.08;
   /// Angular speed bound, rad/s; <= 0 ignores rotation as the original does (where a pure
@@ -33,14 +35,14 @@ struct SegmentTiming {
 
 /// Duration (s) of a segment: max(|p_b - p_a| / speed, angle(a, b) / angular_speed).
 /// @throws Error (field "speed") for speed <= 0.
-double SegmentDuration(const Mat4& a, const Mat4& b, const SegmentTiming& timing);
+MLSPACES_API double SegmentDuration(const Mat4& a, const Mat4& b, const SegmentTiming& timing);
 
 /// Waypoints from `a` to `b` sampled at `rate_hz`: pose k = InterpolatePose(a, b,
 /// min(1, k / (rate_hz * duration))) for k = 0 .. ceil(rate_hz * duration), so the first
 /// is `a`, the last is exactly `b` and consecutive ones are at most speed / rate_hz apart in
 /// position. A zero-duration segment gives {a, b}. @throws Error (field "rate_hz" /
 /// "speed") for rate_hz <= 0 or speed <= 0.
-std::vector<Mat4> Waypoints(const Mat4& a, const Mat4& b, const SegmentTiming& timing,
-                            double rate_hz);
+MLSPACES_API std::vector<Mat4> Waypoints(const Mat4& a, const Mat4& b, const SegmentTiming& timing,
+                                         double rate_hz);
 
 }  // namespace mlspaces

@@ -1,12 +1,14 @@
 // Small string helpers shared by every layer.
 #pragma once
 
+#include "mlspaces/core/export.h"
+
 #include <string>
 #include <string_view>
 
 namespace mlspaces {
 
 /// ASCII lower case of `s` (bytes >= 0x80 unchanged): for case-insensitive names.
-std::string Lower(std::string_view s);
+MLSPACES_API std::string Lower(std::string_view s);
 
 }  // namespace mlspaces

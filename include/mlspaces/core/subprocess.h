@@ -3,6 +3,8 @@
 // ended (exit status or signal). Used to isolate crash-prone readers and to run workers.
 #pragma once
 
+#include "mlspaces/core/export.h"
+
 #include <sys/types.h>
 
 #include <functional>
@@ -13,7 +15,7 @@
 namespace mlspaces {
 
 /// How a child process ended.
-struct ChildExit {
+struct MLSPACES_API ChildExit {
   bool signaled = false;  ///< killed by a signal (else it exited)
   int number = 0;         ///< the signal number, or the exit status
   bool ok() const { return !signaled && number == 0; }
@@ -21,7 +23,7 @@ struct ChildExit {
 
 /// A forked child process with a pipe from it. Move-only; a child never waited for is killed
 /// (SIGKILL) and reaped by the destructor.
-class Child {
+class MLSPACES_API Child {
  public:
   /// The exit status of a child whose body threw.
   static constexpr int kBodyThrew = 4;
@@ -62,17 +64,17 @@ class Child {
 };
 
 /// Runs body in a child and returns its output and how it ended. @throws Error as Start.
-struct ChildResult {
+struct MLSPACES_API ChildResult {
   std::string output;
   ChildExit exit;
 };
-ChildResult RunInChild(const std::function<int(int write_fd)>& body);
+MLSPACES_API ChildResult RunInChild(const std::function<int(int write_fd)>& body);
 
 /// Reads the outputs of `children` as they come until every pipe is closed, calling
 /// on_line(i, line) for each complete '\n'-terminated line of child i (without the '\n'); a
 /// partial last line is dropped. When on_line or a read throws, every child is killed and
 /// waited for, and the exception propagates.
-void ReadChildLines(std::vector<Child>& children,
-                    const std::function<void(size_t, std::string_view)>& on_line);
+MLSPACES_API void ReadChildLines(std::vector<Child>& children,
+                                 const std::function<void(size_t, std::string_view)>& on_line);
 
 }  // namespace mlspaces

@@ -10,6 +10,8 @@
 // convert in sim/mj_pose.h.
 #pragma once
 
+#include "mlspaces/core/export.h"
+
 #include <array>
 
 namespace mlspaces {
@@ -23,14 +25,14 @@ using Rot3 = std::array<double, 9>;
 using Array7 = std::array<double, 7>;
 
 /// Row-major 4x4 homogeneous transform: m[r*4 + c]. Default is the identity.
-struct Mat4 {
+struct MLSPACES_API Mat4 {
   std::array<double, 16> m{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
   double& operator()(int r, int c) { return m[r * 4 + c]; }
   double operator()(int r, int c) const { return m[r * 4 + c]; }
 };
 
 /// A rigid pose: position (m) and unit quaternion (w, x, y, z). Default is the identity.
-struct Pose {
+struct MLSPACES_API Pose {
   Vec3 pos{0, 0, 0};
   Quat quat{1, 0, 0, 0};
   bool operator==(const Pose&) const = default;
@@ -38,43 +40,43 @@ struct Pose {
 
 // ---- Quaternions ---------------------------------------------------------------------------
 
-Quat QuatMul(const Quat& a, const Quat& b);
-Quat QuatConjugate(const Quat& q);
+MLSPACES_API Quat QuatMul(const Quat& a, const Quat& b);
+MLSPACES_API Quat QuatConjugate(const Quat& q);
 /// q / |q|; the identity for a zero (or non-finite-norm) quaternion.
-Quat QuatNormalized(const Quat& q);
+MLSPACES_API Quat QuatNormalized(const Quat& q);
 /// Spherical linear interpolation along the shorter arc; t in [0, 1]. Falls back to a
 /// normalised lerp when the quaternions are nearly equal. Always returns a unit quaternion.
-Quat Slerp(const Quat& a, Quat b, double t);
+MLSPACES_API Quat Slerp(const Quat& a, Quat b, double t);
 /// Row-major rotation of a unit quaternion (not normalised here).
-Rot3 QuatToRotation(const Quat& q);
+MLSPACES_API Rot3 QuatToRotation(const Quat& q);
 /// Unit quaternion with w >= 0 of a row-major rotation (Shepperd's method).
-Quat QuatFromRotation(const Rot3& r);
+MLSPACES_API Quat QuatFromRotation(const Rot3& r);
 
 // ---- Mat4 ----------------------------------------------------------------------------------
 
-Mat4 operator*(const Mat4& a, const Mat4& b);
+MLSPACES_API Mat4 operator*(const Mat4& a, const Mat4& b);
 /// Rotation of `angle` radians about the local z axis.
-Mat4 RotZ(double angle);
+MLSPACES_API Mat4 RotZ(double angle);
 /// Inverse of a rigid transform.
-Mat4 InverseRigid(const Mat4& t);
+MLSPACES_API Mat4 InverseRigid(const Mat4& t);
 /// Position part of a transform.
-Vec3 Translation(const Mat4& t);
+MLSPACES_API Vec3 Translation(const Mat4& t);
 /// Rotation block of a transform, row-major.
-Rot3 Rotation(const Mat4& t);
+MLSPACES_API Rot3 Rotation(const Mat4& t);
 /// Rotation part of a transform as a unit quaternion with w >= 0 (Shepperd's method).
-Quat QuatFromMat4(const Mat4& t);
+MLSPACES_API Quat QuatFromMat4(const Mat4& t);
 
 // ---- Conversions ---------------------------------------------------------------------------
 
 /// The matrix of a pose (its quaternion taken as given: not normalised).
-Mat4 ToMat4(const Pose& pose);
+MLSPACES_API Mat4 ToMat4(const Pose& pose);
 /// The matrix of a position and a row-major rotation (MuJoCo's xpos + xmat).
-Mat4 ToMat4(const Vec3& pos, const Rot3& rot);
+MLSPACES_API Mat4 ToMat4(const Vec3& pos, const Rot3& rot);
 /// The pose of a matrix: its translation and QuatFromMat4 (w >= 0).
-Pose ToPose(const Mat4& t);
+MLSPACES_API Pose ToPose(const Mat4& t);
 /// [x, y, z, qw, qx, qy, qz].
-Array7 ToArray7(const Pose& pose);
+MLSPACES_API Array7 ToArray7(const Pose& pose);
 /// The pose of [x, y, z, qw, qx, qy, qz], taken as given (not normalised).
-Pose FromArray7(const Array7& a);
+MLSPACES_API Pose FromArray7(const Array7& a);
 
 }  // namespace mlspaces

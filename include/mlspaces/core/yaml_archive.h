@@ -17,6 +17,8 @@
 // values are errors naming the file, the dotted key path and "line N".
 #pragma once
 
+#include "mlspaces/core/export.h"
+
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
@@ -42,22 +44,23 @@ namespace mlspaces {
 
 /// "did you mean 'x'?" for the candidates closest to `word` (case-insensitive edit distance
 /// at most a third of the length, or a prefix match); empty when none is close.
-std::string DidYouMean(std::string_view word, const std::vector<std::string>& candidates);
+MLSPACES_API std::string DidYouMean(std::string_view word,
+                                    const std::vector<std::string>& candidates);
 /// "a, b, c".
-std::string JoinNames(const std::vector<std::string>& items);
+MLSPACES_API std::string JoinNames(const std::vector<std::string>& items);
 /// "path.name" (or "name" at the top level).
-std::string YamlChildKey(const std::string& path, std::string_view name);
+MLSPACES_API std::string YamlChildKey(const std::string& path, std::string_view name);
 /// "line N" of a node, empty when it has no mark.
-std::string YamlLineOf(const YAML::Node& node);
+MLSPACES_API std::string YamlLineOf(const YAML::Node& node);
 /// "null", "a list", "a mapping" or the quoted scalar.
-std::string DescribeYaml(const YAML::Node& node);
+MLSPACES_API std::string DescribeYaml(const YAML::Node& node);
 /// A double in shortest round-trip form (.nan, .inf, -.inf for the special values).
-std::string FormatYamlDouble(double v);
+MLSPACES_API std::string FormatYamlDouble(double v);
 /// A string as a plain YAML scalar where that reads back the same, else double-quoted.
-std::string QuoteYamlString(std::string_view s);
+MLSPACES_API std::string QuoteYamlString(std::string_view s);
 /// Parses a YAML file. @throws Error "cannot open the <what>" or "invalid YAML: ..." with the
 /// file and "line N".
-YAML::Node LoadYamlFile(const std::filesystem::path& file, const std::string& what);
+MLSPACES_API YAML::Node LoadYamlFile(const std::filesystem::path& file, const std::string& what);
 
 // ---------------------------------------------------------------------------------------
 // Type traits and field visiting.
@@ -65,7 +68,7 @@ YAML::Node LoadYamlFile(const std::filesystem::path& file, const std::string& wh
 namespace yaml_internal {
 
 /// Collects field names (to check keys against).
-struct NameCollector {
+struct MLSPACES_API NameCollector {
   std::vector<std::string> names;
   template <class T>
   void Visit(const char* name, T&) {
@@ -74,11 +77,17 @@ struct NameCollector {
 };
 
 template <class T>
-concept HasSerialize = requires(T& t, NameCollector* a) { t.Serialize(a); };
+concept HasSerialize = requires(T& t, NameCollector* a) {
+  t.Serialize(a);
+};
 template <class T>
-concept HasSerializeFields = requires(T& t, NameCollector* a) { SerializeFields(a, t); };
+concept HasSerializeFields = requires(T& t, NameCollector* a) {
+  SerializeFields(a, t);
+};
 template <class T>
-concept IsEnum = std::is_enum_v<T> && requires(T e) { YamlEnumNames(e); };
+concept IsEnum = std::is_enum_v<T> && requires(T e) {
+  YamlEnumNames(e);
+};
 
 template <class T>
 struct IsOptional : std::false_type {};
@@ -133,10 +142,11 @@ std::vector<std::string> YamlFieldNames() {
 // Reading.
 
 /// Where values come from, for errors and relative paths.
-struct YamlContext {
+struct MLSPACES_API YamlContext {
   YamlContext() = default;
   YamlContext(std::string file, std::filesystem::path base_dir, std::string usage_prefix = {})
-      : file(std::move(file)), base_dir(std::move(base_dir)),
+      : file(std::move(file)),
+        base_dir(std::move(base_dir)),
         usage_prefix(std::move(usage_prefix)) {}
 
   std::string file;                ///< for errors; empty for overrides
@@ -152,10 +162,12 @@ class YamlReader;
 
 template <class T>
 concept HasReadHook = requires(const YamlReader& r, const YAML::Node& n, const std::string& k,
-                               T& t) { ReadYaml(r, n, k, t); };
+                               T& t) {
+  ReadYaml(r, n, k, t);
+};
 
 /// Reads YAML nodes into values strictly; see the file comment.
-class YamlReader {
+class MLSPACES_API YamlReader {
  public:
   explicit YamlReader(YamlContext ctx) : ctx_(std::move(ctx)) {}
 
@@ -180,15 +192,13 @@ class YamlReader {
   void ReadBool(const YAML::Node& node, const std::string& key, bool& out) const;
   void ReadDouble(const YAML::Node& node, const std::string& key, double& out) const;
   void ReadString(const YAML::Node& node, const std::string& key, std::string& out) const;
-  void ReadPath(const YAML::Node& node, const std::string& key,
-                std::filesystem::path& out) const;
+  void ReadPath(const YAML::Node& node, const std::string& key, std::filesystem::path& out) const;
   /// The index of the node's scalar in `names`. @throws via Fail.
   size_t ReadEnumIndex(const YAML::Node& node, const std::string& key,
                        const std::vector<std::string>& names) const;
   /// Checks the keys of mapping `node` against `names` and `extra`.
   void CheckKeys(const YAML::Node& node, const std::string& key,
-                 const std::vector<std::string>& names,
-                 const std::set<std::string>& extra) const;
+                 const std::vector<std::string>& names, const std::set<std::string>& extra) const;
 
   struct FieldReader {
     const YamlReader* reader;
@@ -223,7 +233,7 @@ void YamlReader::Read(const YAML::Node& node, const std::string& key, T& out) co
     if (s.empty() || ec != std::errc() || ptr != s.data() + s.size()) {
       const bool range = ec == std::errc::result_out_of_range;
       Fail(node, key,
-           std::string(range                     ? "integer out of range"
+           std::string(range                 ? "integer out of range"
                        : std::is_signed_v<T> ? "expected an integer"
                                              : "expected a whole number >= 0") +
                ", got " + DescribeYaml(node));
@@ -311,20 +321,21 @@ void SetYamlKey(const YamlReader& reader, T& target, const std::vector<std::stri
 
 namespace yaml_internal {
 
-[[noreturn]] void ThrowUnknownKey(const std::string& prefix, const std::string& key,
-                                  const std::string& part, const std::vector<std::string>& names);
-[[noreturn]] void ThrowBadIndex(const std::string& prefix, const std::string& key,
-                                const std::string& part, size_t size);
-[[noreturn]] void ThrowNoKeys(const std::string& prefix, const std::string& key,
-                              const std::string& part);
+[[noreturn]] MLSPACES_API void ThrowUnknownKey(const std::string& prefix, const std::string& key,
+                                               const std::string& part,
+                                               const std::vector<std::string>& names);
+[[noreturn]] MLSPACES_API void ThrowBadIndex(const std::string& prefix, const std::string& key,
+                                             const std::string& part, size_t size);
+[[noreturn]] MLSPACES_API void ThrowNoKeys(const std::string& prefix, const std::string& key,
+                                           const std::string& part);
 /// The list index in `part`, or SIZE_MAX.
-size_t ParseIndex(const std::string& part);
+MLSPACES_API size_t ParseIndex(const std::string& part);
 
 template <class T>
 void Set(const YamlReader& reader, const YAML::Node& value, T& target,
          const std::vector<std::string>& parts, size_t i, const std::string& done);
 
-struct Descender {
+struct MLSPACES_API Descender {
   const YamlReader* reader;
   const YAML::Node* value;
   const std::vector<std::string>* parts;
@@ -379,7 +390,7 @@ void SetYamlKey(const YamlReader& reader, T& target, const std::vector<std::stri
 
 /// Writes structs as block YAML: every field in declaration order, scalars and lists of
 /// scalars inline, numbers in shortest round-trip form.
-class YamlWriter {
+class MLSPACES_API YamlWriter {
  public:
   std::string out;
 
@@ -487,7 +498,7 @@ template <class T>
 void ResolveYamlPaths(T& value, const std::filesystem::path& base);
 
 namespace yaml_internal {
-struct PathResolver {
+struct MLSPACES_API PathResolver {
   const std::filesystem::path* base;
   template <class T>
   void Visit(const char*, T& field) {

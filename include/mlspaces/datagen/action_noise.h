@@ -11,6 +11,8 @@
 // is reproducible per episode. The recorded actions stay un-noised.
 #pragma once
 
+#include "mlspaces/core/export.h"
+
 #include <span>
 #include <vector>
 
@@ -22,9 +24,11 @@ namespace mlspaces::datagen {
 /// The noisy target; `jac` is 6 x n row-major ([linear; angular] rows), `lower`/`upper` the
 /// joint limits (+-inf for unlimited joints). With noise disabled returns q_cmd clipped.
 /// @throws std::invalid_argument for mismatched sizes.
-std::vector<double> NoisyArmTarget(std::span<const double> q_cmd, std::span<const double> q_now,
-                                   std::span<const double> jac, std::span<const double> lower,
-                                   std::span<const double> upper, const ActionNoiseConfig& config,
-                                   Rng& rng);
+MLSPACES_API std::vector<double> NoisyArmTarget(std::span<const double> q_cmd,
+                                                std::span<const double> q_now,
+                                                std::span<const double> jac,
+                                                std::span<const double> lower,
+                                                std::span<const double> upper,
+                                                const ActionNoiseConfig& config, Rng& rng);
 
 }  // namespace mlspaces::datagen

@@ -15,6 +15,8 @@
 // cameras here are fixed, so they are not used.
 #pragma once
 
+#include "mlspaces/core/export.h"
+
 #include <cstdint>
 #include <filesystem>
 #include <memory>
@@ -31,7 +33,7 @@
 namespace mlspaces::datagen {
 
 /// Resolves the cameras of a config in a model and computes their views.
-class CameraSystem {
+class MLSPACES_API CameraSystem {
  public:
   /// @throws Error naming camera_config.cameras[i] for a camera or body missing in `m`.
   CameraSystem(const mjModel* m, const CameraSystemConfig& config);
@@ -63,7 +65,7 @@ class CameraSystem {
 
 /// Renders and encodes the cameras of one env, episode after episode. One per worker
 /// (it owns a GL context).
-class CameraRecorder {
+class MLSPACES_API CameraRecorder {
  public:
   /// @throws Error when a camera cannot be resolved or no GL context can be made.
   CameraRecorder(const mjModel* m, const CameraSystemConfig& config, double fps,

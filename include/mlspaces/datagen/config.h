@@ -8,6 +8,8 @@
 // loading, `--set`, dumping, hashing and path resolution.
 #pragma once
 
+#include "mlspaces/core/export.h"
+
 #include <array>
 #include <cstdint>
 #include <filesystem>
@@ -55,8 +57,7 @@ struct EnumNames<ActionDtype> {
 };
 template <>
 struct EnumNames<ArmCommandMode> {
-  static constexpr std::array<std::string_view, 2> kNames{"joint_position",
-                                                          "joint_rel_position"};
+  static constexpr std::array<std::string_view, 2> kNames{"joint_position", "joint_rel_position"};
 };
 template <>
 struct EnumNames<GripperCommandMode> {
@@ -75,10 +76,8 @@ std::string_view EnumName(E value) {
 
 /// The YAML archive's enum hook (core/yaml_archive.h), found by ADL.
 template <class E>
-  requires requires { EnumNames<E>::kNames; }
-constexpr const auto& YamlEnumNames(E) {
-  return EnumNames<E>::kNames;
-}
+requires requires { EnumNames<E>::kNames; }
+constexpr const auto& YamlEnumNames(E) { return EnumNames<E>::kNames; }
 
 // ---------------------------------------------------------------------------------------
 // Sub-configs.
@@ -86,7 +85,7 @@ constexpr const auto& YamlEnumNames(E) {
 /// PickTaskConfig: presets for what the task sampler fills per episode. A preset
 /// `pickup_obj_name` is honoured; the three poses are written by the sampler every episode
 /// (7-vectors: xyz + quaternion wxyz, world frame).
-struct TaskConfig {
+struct MLSPACES_API TaskConfig {
   TaskType task_cls = TaskType::kPick;
   std::optional<std::string> pickup_obj_name;
   std::optional<std::array<double, 7>> robot_base_pose;
@@ -118,7 +117,7 @@ struct TaskConfig {
 
 /// Uniform planar noise U(-x, x), U(-y, y) metres and U(-yaw_deg, yaw_deg) degrees, composed
 /// in the frame of the thing it moves (the tutorial's `random_pose`).
-struct PlanarNoise {
+struct MLSPACES_API PlanarNoise {
   double x = 0.0;
   double y = 0.0;
   double yaw_deg = 0.0;
@@ -133,7 +132,7 @@ struct PlanarNoise {
 
 /// PickTaskSamplerConfig, plus the parameters of the built-in config-driven sampler
 /// `block_pickup`, which reproduces the tutorial's BlockPickupTaskSampler with no code.
-struct TaskSamplerConfig {
+struct MLSPACES_API TaskSamplerConfig {
   /// A task sampler registered by name; "block_pickup" is built in.
   std::string task_sampler_class = "block_pickup";
   SceneDataset dataset_name = SceneDataset::kUser;
@@ -188,7 +187,7 @@ struct TaskSamplerConfig {
   }
 };
 
-struct InitQpos {
+struct MLSPACES_API InitQpos {
   std::array<double, 7> arm{0.0, -0.7853, 0.0, -2.35619, 0.0, 1.57079, 0.0};
   std::array<double, 2> gripper{0.00296, 0.00296};
 
@@ -200,7 +199,7 @@ struct InitQpos {
 };
 
 /// Uniform +- noise on the initial joint positions, radians (gripper exact).
-struct InitQposNoise {
+struct MLSPACES_API InitQposNoise {
   std::array<double, 7> arm{0.025, 0.05, 0.075, 0.1, 0.125, 0.15, 0.175};
 
   template <class A>
@@ -209,7 +208,7 @@ struct InitQposNoise {
   }
 };
 
-struct CommandMode {
+struct MLSPACES_API CommandMode {
   ArmCommandMode arm = ArmCommandMode::kJointPosition;
   GripperCommandMode gripper = GripperCommandMode::kJointPosition;
 
@@ -221,7 +220,7 @@ struct CommandMode {
 };
 
 /// ActionNoiseConfig (enabled by default, as in the original).
-struct ActionNoiseConfig {
+struct MLSPACES_API ActionNoiseConfig {
   bool enabled = true;
   double action_scale_factor = 0.1;
   double rotation_noise_scale = 0.1;
@@ -239,7 +238,7 @@ struct ActionNoiseConfig {
 };
 
 /// FrankaRobotConfig.
-struct RobotConfig {
+struct MLSPACES_API RobotConfig {
   std::string name = "franka_droid";
   std::string robot_namespace = "robot_0/";
   /// The robot's MJCF; null = the built-in model of `name` (assets/robots/<name>/).
@@ -269,15 +268,15 @@ struct RobotConfig {
 /// One camera of a camera system. `mjcf`: an MJCF camera of the robot (`mjcf_name` under
 /// `robot_namespace`). `robot_mounted`: a camera at `camera_offset` / `camera_quaternion`
 /// (wxyz) in the frame of the first of `reference_body_names`.
-struct CameraConfig {
+struct MLSPACES_API CameraConfig {
   std::string name;
   CameraType type = CameraType::kMjcf;
-  std::string mjcf_name;        ///< mjcf only
-  std::string robot_namespace;  ///< mjcf only
-  std::vector<std::string> reference_body_names;                   ///< robot_mounted only
-  std::array<double, 3> camera_offset{0.0, 0.0, 0.0};              ///< robot_mounted only
-  std::array<double, 4> camera_quaternion{1.0, 0.0, 0.0, 0.0};     ///< robot_mounted only
-  double fov = 45.0;  ///< vertical field of view, degrees
+  std::string mjcf_name;                                        ///< mjcf only
+  std::string robot_namespace;                                  ///< mjcf only
+  std::vector<std::string> reference_body_names;                ///< robot_mounted only
+  std::array<double, 3> camera_offset{0.0, 0.0, 0.0};           ///< robot_mounted only
+  std::array<double, 4> camera_quaternion{1.0, 0.0, 0.0, 0.0};  ///< robot_mounted only
+  double fov = 45.0;                                            ///< vertical field of view, degrees
   /// Minimum visible fraction per object name (robot placement checks).
   std::map<std::string, double> visibility_constraints;
 
@@ -296,8 +295,8 @@ struct CameraConfig {
 };
 
 /// A camera system; the defaults are FrankaDroidCameraSystem.
-struct CameraSystemConfig {
-  std::string name = "FrankaDroidCameraSystem";  ///< informational
+struct MLSPACES_API CameraSystemConfig {
+  std::string name = "FrankaDroidCameraSystem";     ///< informational
   std::array<int64_t, 2> img_resolution{640, 368};  ///< width, height
   std::vector<CameraConfig> cameras = DroidCameras();
   /// Also write a depth video per camera (episode_<k>_<cam>_depth_batch_...mp4): metric
@@ -330,7 +329,7 @@ struct CameraSystemConfig {
 };
 
 /// The grasp ranking cost weights (rot is per degree).
-struct GraspCostConfig {
+struct MLSPACES_API GraspCostConfig {
   double pos = 1.0;
   double rot = 0.01;
   double vertical = 2.0;
@@ -346,7 +345,7 @@ struct GraspCostConfig {
 };
 
 /// PickPlannerPolicyConfig. Lengths in metres, speeds in m/s, durations in seconds.
-struct PolicyConfig {
+struct MLSPACES_API PolicyConfig {
   std::string policy_cls = "pick_planner";
   double pregrasp_z_offset = 0.04;
   double postgrasp_z_offset = 0.08;
@@ -410,7 +409,7 @@ struct PolicyConfig {
 
 /// MlSpacesExpConfig with PickBaseConfig's defaults. `libraries` (asset and grasp libraries
 /// to register, core's LibraryConfig) is ours: the original registers them in Python.
-struct ExperimentConfig {
+struct MLSPACES_API ExperimentConfig {
   int64_t num_envs = 1;
   int64_t num_workers = 1;
   TaskType task_type = TaskType::kPick;
@@ -472,7 +471,7 @@ using ConfigFactory = std::function<ExperimentConfig()>;
 /// Configs by name, like the original's @register_config. A value, not a process global:
 /// register explicitly (no static-initialisation self-registration). Names are matched
 /// case-insensitively.
-class ConfigRegistry {
+class MLSPACES_API ConfigRegistry {
  public:
   /// A registry with the built-in configs: "PickBaseConfig" (the defaults) and
   /// "CustomAssetsDataGenConfig" (the tutorial's config).
@@ -496,7 +495,7 @@ class ConfigRegistry {
 
 /// The tutorial's config (`CustomAssetsDataGenConfig`); relative paths (scene.xml,
 /// asset_library) are relative to the project folder.
-ExperimentConfig CustomAssetsDataGenConfig();
+MLSPACES_API ExperimentConfig CustomAssetsDataGenConfig();
 
 // ---------------------------------------------------------------------------------------
 // Loading, overriding, dumping, hashing.
@@ -509,14 +508,14 @@ ExperimentConfig CustomAssetsDataGenConfig();
 /// libraries YAML file. Does not validate (see Validate).
 /// @throws Error with the file, "line N" and the dotted key path for bad YAML, unknown keys
 /// (with "did you mean"), wrong types and bad enum values.
-ExperimentConfig LoadConfigFile(const std::filesystem::path& file,
-                                const ConfigRegistry& registry);
+MLSPACES_API ExperimentConfig LoadConfigFile(const std::filesystem::path& file,
+                                             const ConfigRegistry& registry);
 
 /// Applies one "a.b.c=VALUE" override: VALUE is parsed as YAML (scalar, [sequence] or
 /// {mapping}) and applied to the dotted key with the loader's strictness; relative paths
 /// resolve against `base_dir`. @throws UsageError naming the key.
-void ApplyOverride(ExperimentConfig& config, std::string_view assignment,
-                   const std::filesystem::path& base_dir);
+MLSPACES_API void ApplyOverride(ExperimentConfig& config, std::string_view assignment,
+                                const std::filesystem::path& base_dir);
 
 /// Cross-field checks (time steps divide, counts positive, indices in range, camera fields
 /// match their type, ...). @throws Error whose message starts with the dotted key path;
@@ -524,21 +523,21 @@ void ApplyOverride(ExperimentConfig& config, std::string_view assignment,
 void Validate(const ExperimentConfig& config, const std::filesystem::path& origin = {});
 
 /// Makes every relative path absolute against `base_dir` (lexically normalised).
-void ResolvePaths(ExperimentConfig& config, const std::filesystem::path& base_dir);
+MLSPACES_API void ResolvePaths(ExperimentConfig& config, const std::filesystem::path& base_dir);
 
 /// The canonical YAML dump: every field in declaration order, numbers in shortest
 /// round-trip form. LoadConfigFile(dump) gives back an equal config.
-std::string DumpConfig(const ExperimentConfig& config);
+MLSPACES_API std::string DumpConfig(const ExperimentConfig& config);
 
 /// A stable 64-bit hash of the config: FNV-1a 64 (mlspaces::HashString) of DumpConfig.
-uint64_t ConfigHash(const ExperimentConfig& config);
+MLSPACES_API uint64_t ConfigHash(const ExperimentConfig& config);
 /// ConfigHash as 16 lowercase hex digits.
-std::string ConfigHashHex(const ExperimentConfig& config);
+MLSPACES_API std::string ConfigHashHex(const ExperimentConfig& config);
 
 /// The hash of what shapes the data: ConfigHashHex of the config with the fields that only
 /// say where output goes and how a run is carried out (output_dir, log_level, num_workers,
 /// profile) reset to their defaults. Recorded with every episode; a run folder may be resumed
 /// by any config with the same data hash (e.g. with more workers or another log level).
-std::string DataConfigHashHex(const ExperimentConfig& config);
+MLSPACES_API std::string DataConfigHashHex(const ExperimentConfig& config);
 
 }  // namespace mlspaces::datagen

@@ -14,6 +14,8 @@
 //   @provenance                           string attribute, a JSON object
 #pragma once
 
+#include "mlspaces/core/export.h"
+
 #include <array>
 #include <cstddef>
 #include <cstdint>
@@ -36,8 +38,8 @@ inline constexpr char kSensorParam[] = "obs/sensor_param";
 /// JSON-object rows under kAgent, in the order they are written.
 inline constexpr std::array<const char*, 2> kAgentDatasets{"qpos", "qvel"};
 /// JSON-object rows every trajectory has under kActions.
-inline constexpr std::array<const char*, 5> kActionDatasets{
-    "commanded_action", "joint_pos", "joint_pos_rel", "ee_twist", "ee_pose"};
+inline constexpr std::array<const char*, 5> kActionDatasets{"commanded_action", "joint_pos",
+                                                            "joint_pos_rel", "ee_twist", "ee_pose"};
 /// The row length (bytes) of the agent and action JSON rows.
 inline constexpr size_t kJsonRowLen = 2000;
 
@@ -48,15 +50,14 @@ inline constexpr char kSuccess[] = "success";
 inline constexpr char kFail[] = "fail";
 inline constexpr char kTerminated[] = "terminated";
 inline constexpr char kTruncated[] = "truncated";
-inline constexpr std::array<const char*, 4> kFlagDatasets{kSuccess, kFail, kTerminated,
-                                                         kTruncated};
+inline constexpr std::array<const char*, 4> kFlagDatasets{kSuccess, kFail, kTerminated, kTruncated};
 /// Scalar string: a JSON object.
 inline constexpr char kObsScene[] = "obs_scene";
 /// String attribute of the trajectory group: a JSON object.
 inline constexpr char kProvenance[] = "provenance";
 
 /// The per-camera series under kSensorParam/<cam>: name and (rows, cols) per observation.
-struct SensorParam {
+struct MLSPACES_API SensorParam {
   const char* name;
   int rows, cols;
 };

@@ -2,6 +2,8 @@
 // folder, or any folder of trajectory files) against the schema in docs/dataset.md.
 #pragma once
 
+#include "mlspaces/core/export.h"
+
 #include <cstdint>
 #include <filesystem>
 #include <string>
@@ -17,7 +19,7 @@ namespace mlspaces::datagen {
 using DatasetProblem = Diagnostic;
 
 /// What ValidateDataset looked at and found.
-struct DatasetReport {
+struct MLSPACES_API DatasetReport {
   int64_t files = 0;         ///< *.h5 files checked (outside *.parts folders)
   int64_t trajectories = 0;  ///< traj_<k> groups checked
   int64_t videos = 0;        ///< obs/sensor_data entries checked
@@ -52,6 +54,6 @@ struct DatasetReport {
 /// Prints nothing. Problems are in a stable order (files sorted by path); HDF5 paths and
 /// messages have non-UTF-8 bytes written as \xNN.
 /// @throws Error only when `dir` is not a folder; bad data is reported, never thrown.
-DatasetReport ValidateDataset(const std::filesystem::path& dir);
+MLSPACES_API DatasetReport ValidateDataset(const std::filesystem::path& dir);
 
 }  // namespace mlspaces::datagen

@@ -7,6 +7,8 @@
 // mocap base at the configured base pose + mj_forward.
 #pragma once
 
+#include "mlspaces/core/export.h"
+
 #include <array>
 #include <cstdint>
 #include <filesystem>
@@ -26,7 +28,7 @@
 namespace mlspaces::datagen {
 
 /// Which robot to insert and how to find its home pose.
-struct RobotSpec {
+struct MLSPACES_API RobotSpec {
   std::filesystem::path xml;
   std::string prefix = "robot_0/";
   /// The base pose of every episode after Reset().
@@ -77,7 +79,7 @@ RobotSpec FrankaDroidSpec(const std::filesystem::path& source_dir, const Pose& b
 
 /// Where bundled robots live: $MLSPACES_ROBOTS_DIR when set, else the source tree's
 /// assets/robots, else the installed package's <prefix>/share/mlspaces/robots.
-std::filesystem::path RobotsDir();
+MLSPACES_API std::filesystem::path RobotsDir();
 
 struct RobotConfig;
 /// The RobotSpec a robot_config asks for: robot `name` (only "franka_droid" so far) from
@@ -85,9 +87,9 @@ struct RobotConfig;
 /// its home pose, at the identity base pose (samplers move it).
 /// @throws Error (field robot_config.name / robot_xml_path) for an unknown robot or a
 /// missing file.
-RobotSpec RobotSpecFromConfig(const RobotConfig& config);
+MLSPACES_API RobotSpec RobotSpecFromConfig(const RobotConfig& config);
 
-class Env {
+class MLSPACES_API Env {
  public:
   /// Inserts the robot into `scene` (which may already hold inserted assets), compiles it once
   /// and resets. `scene_key` names the scene for seeding (e.g. its path as written in the

@@ -2,6 +2,8 @@
 // cameras and provenance. Pure data (no HDF5, no MuJoCo); the Recorder writes it.
 #pragma once
 
+#include "mlspaces/core/export.h"
+
 #include <cstddef>
 #include <cstdint>
 #include <map>
@@ -16,13 +18,13 @@ namespace mlspaces::datagen {
 enum class DType : uint8_t { kBool, kUint8, kInt32, kInt64, kFloat32, kFloat64 };
 
 /// Name of a dtype as numpy spells it ("bool", "uint8", "int32", "int64", "float32", ...).
-const char* DTypeName(DType dtype);
+MLSPACES_API const char* DTypeName(DType dtype);
 /// Size of one element in bytes.
-size_t DTypeSize(DType dtype);
+MLSPACES_API size_t DTypeSize(DType dtype);
 
 /// One per-step numeric dataset: a row of `row_shape` values per step, stored as `dtype`.
 /// Its dataset shape is (T, *row_shape). Rows are appended in step order.
-class Series {
+class MLSPACES_API Series {
  public:
   Series() = default;
   /// An empty series of rows shaped `row_shape` ({} = one scalar per step).
@@ -57,7 +59,7 @@ class Series {
 /// One per-step dict sensor. Each step is JSON-encoded as Python's
 /// json.dumps(d, sort_keys=True, separators=(",", ":")) and stored zero-padded in a uint8
 /// row of `max_len` bytes. A longer encoding widens the dataset instead of being truncated.
-struct JsonSeries {
+struct MLSPACES_API JsonSeries {
   std::vector<Json> steps;
   size_t max_len = 2000;
 };
@@ -68,7 +70,7 @@ using MoveGroupValues = std::map<std::string, std::vector<double>>;
 /// One camera of the episode. Per-step parameters go to obs/sensor_param/<name>/<key>
 /// (cam2world_gl (T,4,4), extrinsic_cv (T,3,4), intrinsic_cv (T,3,3), all float64);
 /// the video file names go to obs/sensor_data/<name> and obs/sensor_data/<name>_depth.
-struct CameraRecord {
+struct MLSPACES_API CameraRecord {
   std::string name;
   std::map<std::string, Series> params;
   /// The MP4 of this camera, a file name inside the recorder's folder (see
@@ -80,7 +82,7 @@ struct CameraRecord {
 };
 
 /// Where an asset used by the episode came from.
-struct AssetProvenance {
+struct MLSPACES_API AssetProvenance {
   std::string uid;
   std::string library;
   std::string license;
@@ -88,7 +90,7 @@ struct AssetProvenance {
 };
 
 /// Provenance written with every episode (traj_k attribute "provenance", JSON).
-struct EpisodeMetadata {
+struct MLSPACES_API EpisodeMetadata {
   std::string config_hash;       ///< required
   uint64_t seed = 0;             ///< the episode's own seed
   std::string scene;             ///< scene / house id, e.g. "house_0"
@@ -103,7 +105,7 @@ struct EpisodeMetadata {
 /// One episode of T observations (T = 1 + number of policy steps). Every per-step member has
 /// exactly T entries; observation i is paired with action row i (row 0 the dummy, the last row
 /// the done sentinel), as in the original.
-struct EpisodeRecord {
+struct MLSPACES_API EpisodeRecord {
   EpisodeMetadata meta;
 
   /// obs/agent/qpos and qvel: per step, values per move group. Stored as JSON with every value
@@ -139,10 +141,10 @@ inline size_t NumSteps(const EpisodeRecord& r) { return r.qpos.size(); }
 
 /// Python's json.dumps(value, sort_keys=True, separators=(",", ":")) (ASCII, non-ASCII escaped;
 /// NaN and infinities as Python writes them: NaN, Infinity, -Infinity).
-std::string DumpJsonCompactSorted(const Json& value);
+MLSPACES_API std::string DumpJsonCompactSorted(const Json& value);
 
 /// MoveGroupValues as a JSON object; with `round_to_float32` every value is first rounded to
 /// float32 (the original stores qpos/qvel that way).
-Json MoveGroupJson(const MoveGroupValues& values, bool round_to_float32);
+MLSPACES_API Json MoveGroupJson(const MoveGroupValues& values, bool round_to_float32);
 
 }  // namespace mlspaces::datagen

@@ -9,13 +9,14 @@
 // observation i (row 0 a dummy `{}`, the last row the `done` action when the plan finished).
 #pragma once
 
+#include "mlspaces/core/export.h"
+
 #include <cstdint>
 #include <functional>
 #include <memory>
 #include <optional>
 #include <string>
 
-#include "mlspaces/library/registry.h"
 #include "mlspaces/datagen/camera_recorder.h"
 #include "mlspaces/datagen/config.h"
 #include "mlspaces/datagen/env.h"
@@ -24,11 +25,12 @@
 #include "mlspaces/datagen/pick_planner.h"
 #include "mlspaces/datagen/robot_view.h"
 #include "mlspaces/datagen/task_sampler.h"
+#include "mlspaces/library/registry.h"
 
 namespace mlspaces::datagen {
 
 /// The outcome of one episode.
-struct EpisodeResult {
+struct MLSPACES_API EpisodeResult {
   /// The journal line: outcome, message, per-stage timings (sample, grasps, plan, policy,
   /// physics, observe), and extra figures (lift, retries, grasp index, steps).
   AttemptRecord attempt;
@@ -40,7 +42,7 @@ struct EpisodeResult {
   int64_t physics_steps = 0;
 };
 
-struct EpisodeRunnerOptions {
+struct MLSPACES_API EpisodeRunnerOptions {
   /// Scene name in records and the journal, e.g. "house_0".
   std::string scene_name = "house_0";
   /// Record observations (off: only the outcome, for benchmarks of the bare loop).
@@ -57,7 +59,7 @@ struct EpisodeRunnerOptions {
   std::function<void(const mjModel*, const mjData*, int64_t step)> on_step;
 };
 
-class EpisodeRunner {
+class MLSPACES_API EpisodeRunner {
  public:
   /// `env`, `sampler` and `registry` must outlive the runner. Builds the robot view and the
   /// planner (IK solver, grasp collision probe) once. @throws Error for a config the env

@@ -24,6 +24,8 @@
 // episode's model and data are never touched.
 #pragma once
 
+#include "mlspaces/core/export.h"
+
 #include <cstddef>
 #include <functional>
 #include <optional>
@@ -40,7 +42,7 @@
 namespace mlspaces::datagen {
 
 /// Weights of the original's ranking cost (spec 9.1).
-struct GraspCostWeights {
+struct MLSPACES_API GraspCostWeights {
   double tcp_distance = 1.0;     ///< |p(T^-1 G)| (m)
   double tcp_angle_deg = 0.01;   ///< angle(T^-1 G) in degrees
   double approach_z = 2.0;       ///< G[2,2] (z of the approach axis; -1 = top-down)
@@ -58,13 +60,13 @@ double GraspCost(const Mat4& grasp, const Mat4& tcp, const Mat4& object,
 std::vector<size_t> RankGrasps(std::span<const Mat4> grasps, const Mat4& tcp, const Mat4& object,
                                size_t keep = 512, const GraspCostWeights& weights = {});
 
-struct GraspSelectionOptions {
+struct MLSPACES_API GraspSelectionOptions {
   GraspCostWeights weights;
   size_t max_ranked = 512;      ///< candidates kept after ranking (spec 9.1)
   size_t max_ik_checked = 256;  ///< collision-free candidates IK-checked, in cost order
 };
 
-struct GraspSelection {
+struct MLSPACES_API GraspSelection {
   std::optional<size_t> index;  ///< the chosen grasp (index into the candidates), if any
   std::vector<size_t> ranked;   ///< the ranked candidates, cheapest first
   size_t num_collision_free = 0;
@@ -81,7 +83,7 @@ GraspSelection SelectGrasp(std::span<const Mat4> grasps, const Mat4& tcp, const 
 
 enum class ProbeShape { kGripperGeoms, kMolmoSpacesProxy };
 
-struct GraspProbeOptions {
+struct MLSPACES_API GraspProbeOptions {
   ProbeShape shape = ProbeShape::kGripperGeoms;
   /// Root body of the gripper subtree whose geoms form the probe (kGripperGeoms).
   std::string gripper_body = "robot_0/gripper/base";
@@ -96,13 +98,13 @@ struct GraspProbeOptions {
 };
 
 /// One contact of the probe at a candidate.
-struct ProbeContact {
+struct MLSPACES_API ProbeContact {
   int sim_geom = -1;    ///< the geom hit, a geom id of the sim model
   int probe_geom = -1;  ///< index of the probe geom (0-based, in probe order)
   double dist = 0;      ///< signed distance (negative = penetration)
 };
 
-class GraspCollisionChecker {
+class MLSPACES_API GraspCollisionChecker {
  public:
   /// Compiles the probe model from the composed scene `scene` (robot and objects inserted),
   /// whose compilation is `sim`. `sim` is read here only. @throws Error / std::invalid_argument

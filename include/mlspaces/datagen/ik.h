@@ -15,6 +15,8 @@
 // generator).
 #pragma once
 
+#include "mlspaces/core/export.h"
+
 #include <array>
 #include <cstdint>
 #include <span>
@@ -29,7 +31,7 @@
 
 namespace mlspaces::datagen {
 
-struct IkOptions {
+struct MLSPACES_API IkOptions {
   int max_iterations = 1000;  ///< per attempt (spec 8.4: 1000)
   double tolerance = 1e-4;    ///< stop when |[e_pos; e_rot]| < tolerance (spec 8.4: 1e-4)
   /// Minimum lambda (Levenberg-Marquardt: x4 after a step that does not lower |e|, /2 after
@@ -49,7 +51,7 @@ struct IkOptions {
   uint64_t restart_seed = 0x5eed;
 };
 
-struct IkResult {
+struct MLSPACES_API IkResult {
   bool success = false;
   std::vector<double> q;  ///< the final joint values (listed-joint order), within limits
   double pos_error = 0;   ///< |p_target - p| (m) at q
@@ -60,10 +62,10 @@ struct IkResult {
 
 /// Damped minimum-norm least squares for a 6 x n Jacobian `jac` (row-major):
 /// x = J^T (J J^T + lambda^2 I)^-1 b. @throws std::invalid_argument when jac.size() != 6 n.
-std::vector<double> DampedLeastSquares(std::span<const double> jac, size_t n,
-                                       const std::array<double, 6>& b, double lambda);
+MLSPACES_API std::vector<double> DampedLeastSquares(std::span<const double> jac, size_t n,
+                                                    const std::array<double, 6>& b, double lambda);
 
-class IkSolver {
+class MLSPACES_API IkSolver {
  public:
   /// `m` must outlive the solver. `joints` are hinge or slide joints (one dof each); limited
   /// joints are clamped to their range, unlimited ones are not. `rest` (empty: the range

@@ -6,6 +6,8 @@
 // ("extra" only when not empty; stage timings keep their order.)
 #pragma once
 
+#include "mlspaces/core/export.h"
+
 #include <array>
 #include <cstdint>
 #include <filesystem>
@@ -33,16 +35,16 @@ inline constexpr int kOutcomeCount = 7;
 
 /// Every outcome, in enum order.
 inline constexpr std::array<Outcome, kOutcomeCount> kAllOutcomes = {
-    Outcome::kSamplerReject, Outcome::kNoGrasp,  Outcome::kIkFail, Outcome::kCollision,
+    Outcome::kSamplerReject, Outcome::kNoGrasp, Outcome::kIkFail, Outcome::kCollision,
     Outcome::kGraspSlip,     Outcome::kTimeout, Outcome::kSuccess};
 
 /// The outcome's snake_case name ("sampler_reject", ..., "success").
-std::string_view OutcomeName(Outcome outcome);
+MLSPACES_API std::string_view OutcomeName(Outcome outcome);
 /// The outcome named `name`, or nullopt.
-std::optional<Outcome> OutcomeFromName(std::string_view name);
+MLSPACES_API std::optional<Outcome> OutcomeFromName(std::string_view name);
 
 /// One attempt.
-struct AttemptRecord {
+struct MLSPACES_API AttemptRecord {
   std::string scene;
   int64_t episode = 0;  // episode index within the scene
   int attempt = 0;      // retry number within the episode, from 0
@@ -70,7 +72,7 @@ struct AttemptRecord {
 };
 
 /// An append-only journal file. Not thread-safe: one Journal per file, one thread at a time.
-class Journal {
+class MLSPACES_API Journal {
  public:
   /// Opens (creating it and its folders) `path` for appending. A truncated last line left by
   /// a crash is cut off (truncated_bytes() says how much), so new lines start clean.
@@ -97,7 +99,7 @@ class Journal {
 };
 
 /// What ReadJournal found.
-struct JournalContents {
+struct MLSPACES_API JournalContents {
   std::vector<AttemptRecord> records;
   /// True when the file ended in a partial line (a crash mid-write), which was ignored.
   bool truncated_tail = false;
@@ -105,10 +107,10 @@ struct JournalContents {
 
 /// Reads a journal. A last line without its newline is ignored (truncated_tail); any other bad
 /// line throws. @throws Error with the file and "line N" for a bad line, or a missing file.
-JournalContents ReadJournal(const std::filesystem::path& path);
+MLSPACES_API JournalContents ReadJournal(const std::filesystem::path& path);
 
 /// Figures over a set of attempts.
-struct JournalSummary {
+struct MLSPACES_API JournalSummary {
   int64_t attempts = 0;
   std::array<int64_t, kOutcomeCount> counts{};  // indexed by static_cast<int>(Outcome)
   /// Distinct (scene, episode) pairs, and those with at least one successful attempt.
@@ -128,10 +130,10 @@ struct JournalSummary {
   double success_rate() const;
 };
 
-JournalSummary Summarize(const std::vector<AttemptRecord>& records);
+MLSPACES_API JournalSummary Summarize(const std::vector<AttemptRecord>& records);
 
 /// A text table: one row per outcome (count and share), the success rates, one row per stage
 /// (mean, runs, total). Ends with a newline.
-std::string FormatSummary(const JournalSummary& summary);
+MLSPACES_API std::string FormatSummary(const JournalSummary& summary);
 
 }  // namespace mlspaces::datagen

@@ -32,6 +32,8 @@
 //     max_retries times; then the planner gives up (done, with the failure's reason).
 #pragma once
 
+#include "mlspaces/core/export.h"
+
 #include <cstdint>
 #include <memory>
 #include <optional>
@@ -43,13 +45,13 @@
 #include <mujoco/mujoco.h>
 
 #include "mlspaces/core/json.h"
+#include "mlspaces/core/se3.h"
 #include "mlspaces/core/transform.h"
 #include "mlspaces/datagen/config.h"
 #include "mlspaces/datagen/env.h"
 #include "mlspaces/datagen/grasp_selection.h"
 #include "mlspaces/datagen/ik.h"
 #include "mlspaces/datagen/robot_view.h"
-#include "mlspaces/core/se3.h"
 
 namespace mlspaces::datagen {
 
@@ -68,27 +70,27 @@ enum class PolicyPhase : int64_t {
 };
 
 /// {"unknown": 0, "gripper-open": 1, ..., "go_home": 9}, the original's phase map.
-Json PolicyPhaseMap();
+MLSPACES_API Json PolicyPhaseMap();
 
 /// Why planning or execution failed.
 enum class PlanFailure {
   kNone,
-  kNoGrasp,    ///< no candidate survived the collision and IK checks (or no grasps at all)
-  kIkFail,     ///< pregrasp, grasp or lift has no IK solution; or IK failed step after step
-  kCollision,  ///< the TCP fell too far behind its target: the arm is blocked
-  kEmptyGrasp, ///< the gripper closed on nothing, or let go while lifting
+  kNoGrasp,     ///< no candidate survived the collision and IK checks (or no grasps at all)
+  kIkFail,      ///< pregrasp, grasp or lift has no IK solution; or IK failed step after step
+  kCollision,   ///< the TCP fell too far behind its target: the arm is blocked
+  kEmptyGrasp,  ///< the gripper closed on nothing, or let go while lifting
 };
-const char* PlanFailureName(PlanFailure failure);
+MLSPACES_API const char* PlanFailureName(PlanFailure failure);
 
 /// One policy step's command.
-struct PlannerAction {
+struct MLSPACES_API PlannerAction {
   std::vector<double> arm;  ///< absolute joint targets
   double gripper = 0;       ///< gripper ctrl
   bool done = false;        ///< the plan finished (or was given up): the episode ends
 };
 
 /// What the planner did, for the journal.
-struct PlannerStats {
+struct MLSPACES_API PlannerStats {
   size_t num_candidates = 0;
   size_t num_collision_free = 0;
   size_t num_ik_checked = 0;
@@ -97,13 +99,12 @@ struct PlannerStats {
   double plan_seconds = 0;
 };
 
-class PickPlanner {
+class MLSPACES_API PickPlanner {
  public:
   /// Builds the IK solver and the grasp collision probe for `env`'s model, which must outlive
   /// the planner. One planner serves every episode of the env. `policy_dt` is the policy
   /// step in seconds (the experiment's policy_dt_ms / 1000).
-  PickPlanner(const Env& env, const RobotView& robot, const PolicyConfig& config,
-              double policy_dt);
+  PickPlanner(const Env& env, const RobotView& robot, const PolicyConfig& config, double policy_dt);
   ~PickPlanner();
   PickPlanner(const PickPlanner&) = delete;
   PickPlanner& operator=(const PickPlanner&) = delete;
@@ -168,7 +169,7 @@ class PickPlanner {
   std::vector<Primitive> primitives_;
   size_t current_ = 0;
   std::optional<double> started_at_;
-  std::vector<double> command_;   // last arm command
+  std::vector<double> command_;  // last arm command
   double gripper_command_ = 0;
   int ik_fail_streak_ = 0;
   int retries_ = 0;

@@ -3,6 +3,8 @@
 // Schema and guarantees: docs/dataset.md.
 #pragma once
 
+#include "mlspaces/core/export.h"
+
 #include <cstdint>
 #include <filesystem>
 #include <string>
@@ -12,7 +14,7 @@
 
 namespace mlspaces::datagen {
 
-struct RecorderOptions {
+struct MLSPACES_API RecorderOptions {
   /// The work item's folder, e.g. <output>/house_0; created if missing.
   std::filesystem::path dir;
   int batch = 1;        ///< 1-based batch number in the file names
@@ -24,7 +26,7 @@ struct RecorderOptions {
 
 /// The name of a batch's files without extension: "trajectories_batch_<batch>_of_<num_batches>"
 /// (.h5 the batch file, .parts the folder of its episode parts until Finish()).
-std::string BatchFileStem(int batch, int num_batches);
+MLSPACES_API std::string BatchFileStem(int batch, int num_batches);
 
 /// Writes the episodes of one work item (scene x batch).
 ///
@@ -40,7 +42,7 @@ std::string BatchFileStem(int batch, int num_batches);
 /// Output bytes depend only on the records: no timestamps, fixed file-format version bounds
 /// (HDF5 1.8 format), deterministic dataset order. One Recorder per batch; a Recorder is not
 /// thread-safe, separate Recorders may run in separate threads.
-class Recorder {
+class MLSPACES_API Recorder {
  public:
   /// @throws Error if the folder cannot be created or the options are out of range.
   explicit Recorder(RecorderOptions options);
@@ -80,7 +82,7 @@ class Recorder {
 };
 
 /// Number of traj_<k> groups in a trajectories file. @throws Error naming the file.
-int64_t CountEpisodes(const std::filesystem::path& file);
+MLSPACES_API int64_t CountEpisodes(const std::filesystem::path& file);
 
 /// Checks a record without writing it (what Write() checks first, except video existence
 /// when `video_dir` is empty). @throws Error naming the field (an HDF5 path).

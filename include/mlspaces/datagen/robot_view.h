@@ -3,6 +3,8 @@
 // with the reads and writes the planner, the controller and the recorder make every step.
 #pragma once
 
+#include "mlspaces/core/export.h"
+
 #include <array>
 #include <span>
 #include <string>
@@ -15,7 +17,7 @@
 
 namespace mlspaces::datagen {
 
-class RobotView {
+class MLSPACES_API RobotView {
  public:
   /// Resolves every name of `spec` (under its prefix) in `m`, which must outlive the view.
   /// @throws Error naming the first element that is missing, or an arm joint without a

@@ -24,6 +24,8 @@
 // (MergeRuns combines them).
 #pragma once
 
+#include "mlspaces/core/export.h"
+
 #include <cstdint>
 #include <filesystem>
 #include <functional>
@@ -38,13 +40,13 @@
 namespace mlspaces::datagen {
 
 /// One unit of work: `episodes` kept episodes of one scene, written as one batch file.
-struct WorkItem {
-  int64_t house = 0;                  ///< index into scene_xml_paths
+struct MLSPACES_API WorkItem {
+  int64_t house = 0;  ///< index into scene_xml_paths
   std::filesystem::path scene_xml;
-  int batch = 1;                      ///< 1-based
+  int batch = 1;  ///< 1-based
   int num_batches = 1;
-  int64_t episodes = 0;               ///< episodes to keep
-  int64_t max_attempts = 0;           ///< episodes * max_total_attempts_multiplier
+  int64_t episodes = 0;      ///< episodes to keep
+  int64_t max_attempts = 0;  ///< episodes * max_total_attempts_multiplier
   /// First episode number of this item: episode numbers (which seed the episodes) are
   /// first_episode + attempt, unique per scene whatever the worker or order.
   int64_t first_episode = 0;
@@ -55,26 +57,28 @@ struct WorkItem {
 /// The work items of a config, houses in order, batches in order. Per house:
 /// batches = max(1, round_half_even(samples_per_house / episodes_per_batch)), episodes split
 /// as evenly as possible (earlier batches get the remainder), as the original.
-std::vector<WorkItem> PlanWorkItems(const ExperimentConfig& config);
+MLSPACES_API std::vector<WorkItem> PlanWorkItems(const ExperimentConfig& config);
 
 /// The run folder: output_dir, or ./experiment_output/<tag> when output_dir is null.
-std::filesystem::path RunFolder(const ExperimentConfig& config);
+MLSPACES_API std::filesystem::path RunFolder(const ExperimentConfig& config);
 
 /// Shard `index` of `count` (0 <= index < count).
-struct Shard {
+struct MLSPACES_API Shard {
   int index = 0;
   int count = 1;
   /// "" for the whole run, else "shard_<i>_of_<n>".
   std::string Name() const;
 };
 /// Parses "i/N". @throws UsageError naming the flag for anything else.
-Shard ParseShard(std::string_view text);
+MLSPACES_API Shard ParseShard(std::string_view text);
 /// The items of `shard`: item k of `items` when k % count == index.
-std::vector<WorkItem> ShardItems(const std::vector<WorkItem>& items, const Shard& shard);
+MLSPACES_API std::vector<WorkItem> ShardItems(const std::vector<WorkItem>& items,
+                                              const Shard& shard);
 /// The journal of a shard in `folder`: journal.jsonl, or journal.<shard name>.jsonl.
-std::filesystem::path JournalPath(const std::filesystem::path& folder, const Shard& shard);
+MLSPACES_API std::filesystem::path JournalPath(const std::filesystem::path& folder,
+                                               const Shard& shard);
 
-struct RunOptions {
+struct MLSPACES_API RunOptions {
   /// Continue the run found in the folder. Without it a folder that already holds a run is
   /// an error (so a typo in --output never mixes two runs).
   bool resume = false;
@@ -93,7 +97,7 @@ struct RunOptions {
   std::function<void(const WorkItem&, const AttemptRecord&)> on_attempt;
 };
 
-struct RunReport {
+struct MLSPACES_API RunReport {
   std::filesystem::path folder;
   uint64_t seed = 0;
   JournalSummary summary;  ///< over this invocation's attempts
@@ -112,7 +116,7 @@ struct RunReport {
 RunReport RunDatagen(const ExperimentConfig& config, const TaskSamplerRegistry& samplers,
                      const RunOptions& options = {});
 
-struct MergeReport {
+struct MLSPACES_API MergeReport {
   int64_t batch_files = 0;
   int64_t episodes = 0;
   int64_t attempts = 0;
@@ -126,7 +130,7 @@ struct MergeReport {
 /// journal.jsonl sorted by scene and episode, config.yaml and summary.txt.
 /// @throws Error when the inputs hold different configs (data hash), two inputs hold the
 /// same batch, `output` already holds a run, or (without allow_partial) a work item is missing.
-MergeReport MergeRuns(const std::vector<std::filesystem::path>& inputs,
-                      const std::filesystem::path& output, bool allow_partial = false);
+MLSPACES_API MergeReport MergeRuns(const std::vector<std::filesystem::path>& inputs,
+                                   const std::filesystem::path& output, bool allow_partial = false);
 
 }  // namespace mlspaces::datagen

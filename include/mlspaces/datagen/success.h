@@ -7,6 +7,8 @@
 // base), so unprefixed bodies attached under the robot count too.
 #pragma once
 
+#include "mlspaces/core/export.h"
+
 #include <string>
 #include <string_view>
 #include <vector>
@@ -16,7 +18,7 @@
 namespace mlspaces::datagen {
 
 /// The verdict on one state, with everything it was made from.
-struct PickSuccess {
+struct MLSPACES_API PickSuccess {
   /// Object body origin height (xpos z) minus `start_z`, in metres (negative when it sank).
   double lift = 0;
   /// lift >= min_lift.
@@ -43,11 +45,12 @@ struct PickSuccess {
 /// Judges the pick on `d` (positions and contacts must be current: after mj_forward or a step).
 /// `object_body` is the picked object's body id; its subtree counts as the object, and contacts
 /// inside it are ignored. @throws UsageError for a bad body id, min_lift < 0, or an empty prefix.
-PickSuccess EvaluatePickSuccess(const mjModel* m, const mjData* d, int object_body,
-                                double start_z, std::string_view robot_prefix = "robot_0/",
-                                double min_lift = 0.01);
+MLSPACES_API PickSuccess EvaluatePickSuccess(const mjModel* m, const mjData* d, int object_body,
+                                             double start_z,
+                                             std::string_view robot_prefix = "robot_0/",
+                                             double min_lift = 0.01);
 
 /// True when body `body` belongs to the robot named by `robot_prefix` (see the file comment).
-bool IsRobotBody(const mjModel* m, int body, std::string_view robot_prefix);
+MLSPACES_API bool IsRobotBody(const mjModel* m, int body, std::string_view robot_prefix);
 
 }  // namespace mlspaces::datagen

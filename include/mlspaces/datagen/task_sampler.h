@@ -17,6 +17,8 @@
 // Samplers are created through a TaskSamplerRegistry (a value; explicit registration).
 #pragma once
 
+#include "mlspaces/core/export.h"
+
 #include <cstdint>
 #include <functional>
 #include <map>
@@ -34,18 +36,18 @@
 namespace mlspaces::datagen {
 
 /// The seed of one episode: DeriveSeed(run_seed, {HashString(scene_key), episode}).
-uint64_t EpisodeSeed(uint64_t run_seed, std::string_view scene_key, int64_t episode);
+MLSPACES_API uint64_t EpisodeSeed(uint64_t run_seed, std::string_view scene_key, int64_t episode);
 
 /// Thrown by a hook that cannot place this episode's task (no room for the robot, object
 /// unreachable, ...): the attempt is journaled as "sampler_reject" and the run goes on with
 /// the next episode. Any other exception from a hook is a bug or bad input and stops the run.
-class TaskRejected : public Error {
+class MLSPACES_API TaskRejected : public Error {
  public:
   using Error::Error;
 };
 
 /// What the hooks fill; every field is required after the hooks ran.
-struct TaskDraft {
+struct MLSPACES_API TaskDraft {
   std::optional<std::string> pickup_obj_name;
   std::optional<Pose> robot_base_pose;
   std::optional<Pose> pickup_obj_start_pose;
@@ -53,7 +55,7 @@ struct TaskDraft {
 };
 
 /// A sampled task (the original's frozen PickTaskConfig). Poses: world, xyz + quat wxyz.
-struct Task {
+struct MLSPACES_API Task {
   std::string pickup_obj_name;
   Pose robot_base_pose;
   Pose pickup_obj_start_pose;
@@ -62,7 +64,7 @@ struct Task {
   uint64_t seed = 0;
 };
 
-class TaskSampler {
+class MLSPACES_API TaskSampler {
  public:
   TaskSampler(ExperimentConfig config, uint64_t run_seed);
   virtual ~TaskSampler() = default;
@@ -98,13 +100,13 @@ class TaskSampler {
 
 /// `pose @ T(dx, dy, yaw)`: a planar move expressed in the frame of `pose` (the tutorial's
 /// `pose @ random_pose`): pos += R (dx, dy, 0), quat = quat * RotZ(yaw). yaw in radians.
-Pose ComposePlanar(const Pose& pose, double dx, double dy, double yaw);
+MLSPACES_API Pose ComposePlanar(const Pose& pose, double dx, double dy, double yaw);
 
 /// The built-in config-driven sampler: the tutorial's BlockPickupTaskSampler. The robot base
 /// and then the pickup object move by task_sampler_config.robot_base_noise / object_noise
 /// (draws x, y, yaw for the robot, then x, y, yaw for the object, each U(-a, a)), composed on
 /// their current poses; goal = start + goal_offset_z along world z.
-class BlockPickupTaskSampler : public TaskSampler {
+class MLSPACES_API BlockPickupTaskSampler : public TaskSampler {
  public:
   using TaskSampler::TaskSampler;
 
@@ -116,7 +118,7 @@ using TaskSamplerFactory =
     std::function<std::unique_ptr<TaskSampler>(const ExperimentConfig& config, uint64_t seed)>;
 
 /// Task samplers by name; names compare case-insensitively.
-class TaskSamplerRegistry {
+class MLSPACES_API TaskSamplerRegistry {
  public:
   /// An empty registry.
   TaskSamplerRegistry() = default;

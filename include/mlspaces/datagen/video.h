@@ -2,6 +2,8 @@
 // (ProbeVideo). FFmpeg (libavformat/libavcodec/libswscale) stays behind this header.
 #pragma once
 
+#include "mlspaces/core/export.h"
+
 #include <cstdint>
 #include <filesystem>
 #include <functional>
@@ -12,7 +14,7 @@ namespace mlspaces::datagen {
 
 /// How a video is encoded. The defaults are the original's: libx264, yuv420p, crf 25, one
 /// frame per 66 ms policy step.
-struct VideoOptions {
+struct MLSPACES_API VideoOptions {
   /// Frames per second; stored as a rational (av_d2q, denominator <= 100000): 1000/66 is
   /// exactly 500/33 (the original printed it as "15.15").
   double fps = 1000.0 / 66.0;
@@ -28,7 +30,7 @@ struct VideoOptions {
 
 /// One frame decoded by ProbeVideo: `rgb` is width x height RGB, 3 bytes a pixel, rows top to
 /// bottom, no padding; valid only during the callback.
-struct VideoFrame {
+struct MLSPACES_API VideoFrame {
   int64_t index = 0;
   int width = 0;
   int height = 0;
@@ -51,7 +53,7 @@ struct VideoFrame {
 /// a writer without a successful Finish() removes the temp file. Not thread-safe; separate
 /// writers may be used from separate threads. A moved-from writer may only be destroyed or
 /// assigned to.
-class VideoWriter {
+class MLSPACES_API VideoWriter {
  public:
   /// Opens the encoder and the temp file (creating missing parent folders).
   /// @throws Error naming `path` for a size outside 1..16384, bad options (fps <= 0, crf
@@ -85,7 +87,7 @@ class VideoWriter {
 };
 
 /// What ProbeVideo found in a file.
-struct VideoInfo {
+struct MLSPACES_API VideoInfo {
   /// Frames actually decoded (not the container's claim).
   int64_t frames = 0;
   int width = 0;

@@ -1,6 +1,8 @@
 // Asset annotations: a library's per-asset metadata JSON merged with its optional NPZ arrays.
 #pragma once
 
+#include "mlspaces/core/export.h"
+
 #include <filesystem>
 #include <string>
 #include <utility>
@@ -14,7 +16,7 @@ namespace mlspaces {
 /// The metadata of one asset. `json` is the metadata file as written (key order kept).
 /// `arrays` are the NPZ's arrays, each at the JSON pointer its '/'-delimited key names
 /// ("description_short/clip" -> "/description_short/clip"); they are not copied into `json`.
-struct Annotation {
+struct MLSPACES_API Annotation {
   std::string uid;
   std::string library;
   Json json;
@@ -30,8 +32,8 @@ struct Annotation {
 /// '/'-paths into the tree; intermediate objects are created as needed; a key whose final
 /// name already exists, or whose path crosses a non-object, is an error ("Key {k} from npz
 /// metadata already exists in metadata for uid={uid}"). @throws Error naming the file.
-Annotation LoadAnnotation(const std::string& uid, const std::string& library,
-                          const std::filesystem::path& metadata_json,
-                          const std::filesystem::path* metadata_npz);
+MLSPACES_API Annotation LoadAnnotation(const std::string& uid, const std::string& library,
+                                       const std::filesystem::path& metadata_json,
+                                       const std::filesystem::path* metadata_npz);
 
 }  // namespace mlspaces

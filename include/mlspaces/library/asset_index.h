@@ -2,6 +2,8 @@
 // bytes written match MolmoSpaces': docs/formats.md ("Files we match exactly").
 #pragma once
 
+#include "mlspaces/core/export.h"
+
 #include <filesystem>
 #include <map>
 #include <optional>
@@ -11,7 +13,7 @@
 namespace mlspaces {
 
 /// One entry of assets_index.json. Paths are relative to the library root, '/'-separated.
-struct AssetEntry {
+struct MLSPACES_API AssetEntry {
   std::string uid;
   std::string object_path;
   std::string metadata_path;
@@ -20,7 +22,7 @@ struct AssetEntry {
 };
 
 /// A parsed assets_index.json: UID (the dict key) -> entry, sorted by UID.
-struct AssetIndex {
+struct MLSPACES_API AssetIndex {
   std::map<std::string, AssetEntry> entries;
 
   /// Parses assets_index.json: an object of object entries, string paths,
@@ -33,14 +35,14 @@ struct AssetIndex {
   std::string Serialize() const;
 };
 
-struct AssetIndexOptions {
-  std::filesystem::path output;         ///< default: <dir>/assets_index.json
-  bool overwrite = false;               ///< replace an existing output
+struct MLSPACES_API AssetIndexOptions {
+  std::filesystem::path output;            ///< default: <dir>/assets_index.json
+  bool overwrite = false;                  ///< replace an existing output
   bool suppress_missing_metadata = false;  ///< skip XMLs without <uid>.json, with a warning
 };
 
 /// Per-asset problems collected while building (warnings for skipped files).
-struct IndexReport {
+struct MLSPACES_API IndexReport {
   std::vector<std::string> warnings;  ///< one line each, "file: message"
   size_t count = 0;                   ///< assets (or grasp files) written
   size_t robots = 0;                  ///< index-grasps: robots with pickup grasps
@@ -52,17 +54,19 @@ struct IndexReport {
 /// When `<uid>_computed.json` exists and `use_computed` is set, the entry points at it.
 /// @throws Error for a missing metadata JSON (unless suppressed) or a duplicate UID,
 /// naming both files.
-AssetIndex BuildAssetIndex(const std::filesystem::path& dir, const AssetIndexOptions& options,
-                           IndexReport* report, bool use_computed = false);
+MLSPACES_API AssetIndex BuildAssetIndex(const std::filesystem::path& dir,
+                                        const AssetIndexOptions& options, IndexReport* report,
+                                        bool use_computed = false);
 
 /// The index file `index-assets` writes: options.output resolved, or <dir>/assets_index.json.
 /// @throws Error "<output> already exists. Use --overwrite to overwrite." when it exists and
 /// options.overwrite is false (checked before any work).
-std::filesystem::path AssetIndexOutputPath(const std::filesystem::path& dir,
-                                           const AssetIndexOptions& options);
+MLSPACES_API std::filesystem::path AssetIndexOutputPath(const std::filesystem::path& dir,
+                                                        const AssetIndexOptions& options);
 
 /// `mlspaces index-assets` without --compute-metadata: refuses to replace an existing output
 /// unless `overwrite`, builds, and writes atomically. @throws Error.
-IndexReport WriteAssetIndex(const std::filesystem::path& dir, const AssetIndexOptions& options);
+MLSPACES_API IndexReport WriteAssetIndex(const std::filesystem::path& dir,
+                                         const AssetIndexOptions& options);
 
 }  // namespace mlspaces

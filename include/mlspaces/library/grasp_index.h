@@ -2,6 +2,8 @@
 // MolmoSpaces writes them; docs/formats.md).
 #pragma once
 
+#include "mlspaces/core/export.h"
+
 #include <filesystem>
 #include <map>
 #include <string>
@@ -11,7 +13,7 @@
 namespace mlspaces {
 
 /// A parsed grasps_index.json. Paths are relative to the grasp-library root.
-struct GraspIndex {
+struct MLSPACES_API GraspIndex {
   /// robot -> uid -> path of grasps.npz
   std::map<std::string, std::map<std::string, std::string>> grasp_paths;
   /// robot -> uid -> joint name (as in the asset MJCF) -> path of joint_grasps_<joint>.npz
@@ -29,7 +31,7 @@ struct GraspIndex {
   std::string Serialize() const;
 };
 
-struct GraspIndexOptions {
+struct MLSPACES_API GraspIndexOptions {
   std::filesystem::path output;  ///< default: <dir>/grasps_index.json
   bool overwrite = false;
 };
@@ -37,9 +39,10 @@ struct GraspIndexOptions {
 /// Scans `dir` for `<uid>/<robot>/grasps.npz` and `<uid>/<robot>/joint_grasps_<joint>.npz`.
 /// A grasps file less than two folders deep, an empty joint name or the same (robot, uid)
 /// found twice is an error naming the files.
-GraspIndex BuildGraspIndex(const std::filesystem::path& dir, IndexReport* report);
+MLSPACES_API GraspIndex BuildGraspIndex(const std::filesystem::path& dir, IndexReport* report);
 
 /// `mlspaces index-grasps`. @throws Error (existing output without overwrite, ...).
-IndexReport WriteGraspIndex(const std::filesystem::path& dir, const GraspIndexOptions& options);
+MLSPACES_API IndexReport WriteGraspIndex(const std::filesystem::path& dir,
+                                         const GraspIndexOptions& options);
 
 }  // namespace mlspaces

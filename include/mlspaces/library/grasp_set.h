@@ -3,6 +3,8 @@
 // finds the file and calls these; they are public for `pack`, tests and benchmarks.
 #pragma once
 
+#include "mlspaces/core/export.h"
+
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
@@ -18,7 +20,7 @@ class PackedLibrary;
 struct PackedGraspRef;
 
 /// N grasp poses, in the object body frame (pickup) or the joint's body frame (joint).
-struct GraspSet {
+struct MLSPACES_API GraspSet {
   std::vector<Mat4> poses;
   std::filesystem::path source;  ///< the NPZ they came from, or the packed grasp shard
   std::vector<size_t> indices;   ///< row of each pose in the file
@@ -27,31 +29,33 @@ struct GraspSet {
 
 /// Loads every row of transforms.npy from a grasp NPZ (or `rows` of them, in that order),
 /// checking the shape is (N,4,4) and values are finite. @throws Error naming the file.
-GraspSet ReadGraspFile(const std::filesystem::path& npz, const std::vector<size_t>* rows = nullptr);
+MLSPACES_API GraspSet ReadGraspFile(const std::filesystem::path& npz,
+                                    const std::vector<size_t>* rows = nullptr);
 
 /// Number of grasps (rows of transforms.npy) in a grasp NPZ; reads the header only.
 /// @throws Error for a missing or corrupt file.
-size_t CountGraspFileRows(const std::filesystem::path& npz);
+MLSPACES_API size_t CountGraspFileRows(const std::filesystem::path& npz);
 
 /// Loads grasps from a grasp NPZ. If it has N <= num_grasps rows, all of them in file order;
 /// else SubsampleIndices(N, num_grasps, seed) of them, in draw order (docs/formats.md).
 /// @throws Error as ReadGraspFile.
-GraspSet LoadGraspFile(const std::filesystem::path& npz, size_t num_grasps, uint64_t seed);
+MLSPACES_API GraspSet LoadGraspFile(const std::filesystem::path& npz, size_t num_grasps,
+                                    uint64_t seed);
 
 /// As LoadGraspFile, for a packed grasp ref of `library`: the same draws as from the NPZ the
 /// poses were packed from. `source` becomes GraspSet::source. @throws Error when the shard
 /// is not installed or is damaged.
-GraspSet LoadPackedGrasps(const PackedLibrary& library, const PackedGraspRef& ref,
-                          const std::filesystem::path& source, size_t num_grasps,
-                          uint64_t seed);
+MLSPACES_API GraspSet LoadPackedGrasps(const PackedLibrary& library, const PackedGraspRef& ref,
+                                       const std::filesystem::path& source, size_t num_grasps,
+                                       uint64_t seed);
 
 /// Indices drawn for subsampling: all of [0, n) when n <= k, else k distinct indices from a
 /// partial Fisher-Yates shuffle driven by Rng(seed), in draw order.
-std::vector<size_t> SubsampleIndices(size_t n, size_t k, uint64_t seed);
+MLSPACES_API std::vector<size_t> SubsampleIndices(size_t n, size_t k, uint64_t seed);
 
 /// World-frame grasps W_i = body_pose * G_i; with `include_flipped`, followed by the
 /// jaw-symmetric twins W_i * Rz(180 deg) (2N poses).
-std::vector<Mat4> GraspsInWorld(const Mat4& body_pose, std::span<const Mat4> grasps,
-                                bool include_flipped = true);
+MLSPACES_API std::vector<Mat4> GraspsInWorld(const Mat4& body_pose, std::span<const Mat4> grasps,
+                                             bool include_flipped = true);
 
 }  // namespace mlspaces

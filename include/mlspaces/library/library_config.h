@@ -1,6 +1,8 @@
 // Which libraries to register: from CLI flags or a YAML file.
 #pragma once
 
+#include "mlspaces/core/export.h"
+
 #include <filesystem>
 #include <optional>
 #include <string>
@@ -15,14 +17,14 @@ namespace mlspaces {
 class Registry;
 class YamlReader;
 
-struct AssetLibrarySpec {
+struct MLSPACES_API AssetLibrarySpec {
   std::string name;
   std::filesystem::path dir;
   std::filesystem::path origin_file;  ///< the YAML it came from (empty for flags)
   std::string origin_line;            ///< "line N" in origin_file
 };
 
-struct GraspLibrarySpec {
+struct MLSPACES_API GraspLibrarySpec {
   std::string name;  ///< root name; robots are appended at registration
   std::filesystem::path dir;
   std::string asset_library;
@@ -38,7 +40,7 @@ struct GraspLibrarySpec {
 ///       - {name: custom_assets, path: asset_library}
 ///     grasp_libraries:
 ///       - {name: custom_grasps, path: asset_library, asset_library: custom_assets}
-struct LibraryConfig {
+struct MLSPACES_API LibraryConfig {
   std::optional<std::filesystem::path> assets_dir;
   std::vector<AssetLibrarySpec> asset_libraries;
   std::vector<GraspLibrarySpec> grasp_libraries;
@@ -80,11 +82,11 @@ void SerializeFields(A* a, LibraryConfig& config) {
 /// Archive read hooks: a spec needs every key, a non-empty name without slashes, and records
 /// the file and line it came from; a LibraryConfig inside another config is a mapping or the
 /// path of a libraries YAML file (LoadYaml).
-void ReadYaml(const YamlReader& reader, const YAML::Node& node, const std::string& key,
-              AssetLibrarySpec& spec);
-void ReadYaml(const YamlReader& reader, const YAML::Node& node, const std::string& key,
-              GraspLibrarySpec& spec);
-void ReadYaml(const YamlReader& reader, const YAML::Node& node, const std::string& key,
-              LibraryConfig& config);
+MLSPACES_API void ReadYaml(const YamlReader& reader, const YAML::Node& node, const std::string& key,
+                           AssetLibrarySpec& spec);
+MLSPACES_API void ReadYaml(const YamlReader& reader, const YAML::Node& node, const std::string& key,
+                           GraspLibrarySpec& spec);
+MLSPACES_API void ReadYaml(const YamlReader& reader, const YAML::Node& node, const std::string& key,
+                           LibraryConfig& config);
 
 }  // namespace mlspaces

@@ -6,6 +6,8 @@
 // writer (resources) can check what it encodes and the fuzz targets (fuzz/) can reach it.
 #pragma once
 
+#include "mlspaces/core/export.h"
+
 #include <cstdint>
 #include <span>
 
@@ -20,6 +22,6 @@ inline constexpr int kMaxMsgpackDepth = 256;
 /// malformation (truncated, trailing bytes, bin/ext types, non-string map keys, nesting
 /// deeper than kMaxMsgpackDepth); `out` then holds a partial value. Never throws but
 /// std::bad_alloc. Of duplicate map keys the first is kept, as nlohmann's reader does.
-bool DecodeMsgpackJson(std::span<const uint8_t> bytes, Json& out);
+MLSPACES_API bool DecodeMsgpackJson(std::span<const uint8_t> bytes, Json& out);
 
 }  // namespace mlspaces

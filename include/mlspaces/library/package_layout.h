@@ -3,6 +3,8 @@
 // `index-builtin` (resources) write. One place for both sides so they cannot drift.
 #pragma once
 
+#include "mlspaces/core/export.h"
+
 #include <string>
 #include <string_view>
 
@@ -21,13 +23,13 @@ inline constexpr std::string_view kGraspShardExtension = ".mlsg";
 /// ".<name with '/' -> '__'>_complete_extract" (MolmoSpaces' name, shared with its cache).
 /// Its presence means the archive is installed; the registry checks it for
 /// AssetLocation::installed.
-std::string ExtractFlagName(const std::string& archive);
+MLSPACES_API std::string ExtractFlagName(const std::string& archive);
 
 /// "foo.tar.zst" -> "foo"; otherwise the name without its last extension.
-std::string ArchiveStem(const std::string& archive);
+MLSPACES_API std::string ArchiveStem(const std::string& archive);
 
 /// Path of an archive's grasp shard inside the archive and the package folder:
 /// ".mlspaces/grasps/<archive stem>.mlsg" (what pack writes and lookups open).
-std::string GraspShardMember(const std::string& archive);
+MLSPACES_API std::string GraspShardMember(const std::string& archive);
 
 }  // namespace mlspaces

@@ -4,6 +4,8 @@
 // registry.h) does not include this header; only the code that reads or writes the bytes does.
 #pragma once
 
+#include "mlspaces/core/export.h"
+
 #include <bit>
 #include <cstdint>
 #include <cstring>
@@ -15,8 +17,8 @@
 
 namespace mlspaces::packed {
 
-static_assert(std::endian::native == std::endian::little,
-              "packed stores are read in place: little-endian hosts only");
+MLSPACES_API static_assert(std::endian::native == std::endian::little,
+                           "packed stores are read in place: little-endian hosts only");
 
 inline constexpr char kIndexMagic[8] = {'M', 'L', 'S', 'U', 'I', 'D', 'X', '1'};
 inline constexpr char kMetaMagic[8] = {'M', 'L', 'S', 'M', 'E', 'T', 'A', '1'};
@@ -36,10 +38,10 @@ inline constexpr uint64_t kArrayHeader = 8;
 inline constexpr uint32_t kMaxDType = static_cast<uint32_t>(DType::kB1);
 
 // uid_index.mlsx header fields.
-inline constexpr size_t kIdxVersion = 8, kIdxNumAssets = 12, kIdxFileSize = 16,
-                        kIdxNumBuckets = 24, kIdxNumGrasps = 28, kIdxNumArchives = 32,
-                        kIdxNumRobots = 36, kIdxRecordsOff = 40, kIdxGraspsOff = 44,
-                        kIdxNamesOff = 48, kIdxStringsOff = 52, kIdxChecksum = 56;
+inline constexpr size_t kIdxVersion = 8, kIdxNumAssets = 12, kIdxFileSize = 16, kIdxNumBuckets = 24,
+                        kIdxNumGrasps = 28, kIdxNumArchives = 32, kIdxNumRobots = 36,
+                        kIdxRecordsOff = 40, kIdxGraspsOff = 44, kIdxNamesOff = 48,
+                        kIdxStringsOff = 52, kIdxChecksum = 56;
 // metadata.mlsm header fields.
 inline constexpr size_t kMetaVersion = 8, kMetaNumRecords = 12, kMetaFileSize = 16,
                         kMetaRecordsOff = 24, kMetaRecordsSize = 32, kMetaEncoding = 40,
@@ -82,8 +84,8 @@ inline uint64_t SatMul(uint64_t a, uint64_t b) {
 }
 
 /// XXH3-64 of a UID: the index's bucket hash (low bits) and tag (high 32 bits).
-uint64_t HashUid(std::string_view uid);
+MLSPACES_API uint64_t HashUid(std::string_view uid);
 /// XXH3-64 of a byte range: the files' and the metadata records' checksums.
-uint64_t Checksum(const void* data, size_t size);
+MLSPACES_API uint64_t Checksum(const void* data, size_t size);
 
 }  // namespace mlspaces::packed

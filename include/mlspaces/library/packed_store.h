@@ -18,6 +18,8 @@
 // The byte layout is in docs/formats.md ("Packed stores").
 #pragma once
 
+#include "mlspaces/core/export.h"
+
 #include <cstdint>
 #include <filesystem>
 #include <memory>
@@ -37,21 +39,21 @@ struct Annotation;
 
 /// One (robot, joint) grasp set of an asset. `joint` is empty for pickup grasps. The views
 /// point into the mapped index: valid while the PackedLibrary that returned it lives.
-struct PackedGraspRef {
+struct MLSPACES_API PackedGraspRef {
   std::string_view robot;
   std::string_view joint;
-  uint32_t archive = 0;        ///< shard = the archive's grasp shard
-  uint64_t offset = 0;         ///< byte offset of the first pose in the shard
-  uint32_t count = 0;          ///< number of poses
+  uint32_t archive = 0;             ///< shard = the archive's grasp shard
+  uint64_t offset = 0;              ///< byte offset of the first pose in the shard
+  uint32_t count = 0;               ///< number of poses
   DType stored_dtype = DType::kF8;  ///< dtype of the NPZ it was packed from
 };
 
 /// What the UID index says about one asset. The views point into the mapped index: valid
 /// while the PackedLibrary that returned it lives (hold its shared_ptr).
-struct PackedAsset {
+struct MLSPACES_API PackedAsset {
   std::string_view uid;
-  std::string_view mjcf;       ///< path relative to the package root, '/'-separated
-  uint32_t archive = 0;        ///< index into PackedLibrary::archives()
+  std::string_view mjcf;  ///< path relative to the package root, '/'-separated
+  uint32_t archive = 0;   ///< index into PackedLibrary::archives()
   uint64_t metadata_offset = 0, metadata_size = 0;  ///< record in metadata.mlsm (size 0: none)
   uint32_t first_grasp = 0, num_grasps = 0;         ///< range of grasp refs
 };
@@ -59,7 +61,7 @@ struct PackedAsset {
 /// An opened package store. Open once (mmap); lookups are lock-free and may run from many
 /// threads. Everything it returns that holds a view (PackedAsset, PackedGraspRef, archives())
 /// is valid while the library lives; the mappings are released with the last shared_ptr.
-class PackedLibrary {
+class MLSPACES_API PackedLibrary {
  public:
   // --- opening ---------------------------------------------------------------------------
   /// Opens <dir>/uid_index.mlsx and <dir>/metadata.mlsm (mmap, MAP_SHARED read-only).
@@ -75,9 +77,9 @@ class PackedLibrary {
   // --- what it holds ----------------------------------------------------------------------
   const std::string& name() const;
   const std::filesystem::path& dir() const;
-  size_t size() const;                               ///< number of UIDs
-  std::span<const std::string> archives() const;     ///< archive file names
-  std::vector<std::string> robots() const;           ///< robots with grasps, sorted
+  size_t size() const;                            ///< number of UIDs
+  std::span<const std::string> archives() const;  ///< archive file names
+  std::vector<std::string> robots() const;        ///< robots with grasps, sorted
 
   // --- assets ----------------------------------------------------------------------------
   /// One hash probe. nullopt for an unknown UID. @throws Error for a damaged index.

@@ -12,6 +12,8 @@
 // How lookups compare with MolmoSpaces' (priorities, workarounds): docs/formats.md.
 #pragma once
 
+#include "mlspaces/core/export.h"
+
 #include <cstdint>
 #include <filesystem>
 #include <memory>
@@ -35,9 +37,9 @@ inline constexpr std::string_view kBuiltinAssetLibraries[] = {"objathor_metadata
 inline constexpr std::string_view kBuiltinGraspLibraries[] = {"droid", "droid_objaverse"};
 
 /// Where a UID lives.
-struct AssetLocation {
-  std::string library;                ///< asset library name
-  std::filesystem::path mjcf_path;    ///< absolute path of the asset MJCF
+struct MLSPACES_API AssetLocation {
+  std::string library;              ///< asset library name
+  std::filesystem::path mjcf_path;  ///< absolute path of the asset MJCF
   /// The index entry of a user library (owned by the Registry); null for built-in and
   /// packed libraries.
   const AssetEntry* entry = nullptr;
@@ -53,14 +55,14 @@ struct AssetLocation {
 /// A UID found in more than one asset library, in priority order (first one wins).
 /// A built-in library's scan may also find one file stem twice: then `libraries` names that
 /// library twice and `paths` holds both files (the lexicographically-first path wins).
-struct DuplicateUid {
+struct MLSPACES_API DuplicateUid {
   std::string uid;
   std::vector<std::string> libraries;
   std::vector<std::filesystem::path> paths;  ///< the MJCF in each library, same order
 };
 
 /// A grasp file found by a lookup, and the grasp library that provided it.
-struct GraspFileLocation {
+struct MLSPACES_API GraspFileLocation {
   std::string library;
   std::filesystem::path path;  ///< the NPZ, or a packed library's grasp shard
   /// Packed libraries: where in the shard the poses are (its names view the library's
@@ -69,7 +71,7 @@ struct GraspFileLocation {
 };
 
 /// A registered grasp library: one per (root, robot) for user libraries.
-struct GraspLibraryInfo {
+struct MLSPACES_API GraspLibraryInfo {
   std::string name;           ///< "<root>/<robot>" for user libraries, "droid" for built-ins
   std::string robot;          ///< the robot sub-folder name (empty for built-ins)
   std::filesystem::path dir;  ///< library root (absolute)
@@ -83,7 +85,7 @@ using GraspLibraryFilter = std::span<const std::string>;
 
 /// One grasp lookup: pickup grasps of an asset, or the grasps of one of its joints.
 /// A plain value (copyable, no views) so it can cross the Python binding as is.
-struct GraspQuery {
+struct MLSPACES_API GraspQuery {
   std::string uid;
   /// The joint name in the asset MJCF; empty for pickup grasps.
   std::string joint;
@@ -92,7 +94,7 @@ struct GraspQuery {
   std::vector<std::string> libraries;
 };
 
-class Registry {
+class MLSPACES_API Registry {
  public:
   // ===========================================================================================
   // Construction

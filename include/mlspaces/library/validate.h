@@ -1,6 +1,8 @@
 // `mlspaces validate`: deep checks of a library folder.
 #pragma once
 
+#include "mlspaces/core/export.h"
+
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -19,6 +21,6 @@ using Problem = Diagnostic;
 /// keys; grasp files are (N,4,4) with finite values, orthonormal right-handed rotations and a
 /// last row of 0 0 0 1; grasp UIDs exist in a sibling asset index when there is one.
 /// Never throws for bad content: every problem is returned.
-std::vector<Problem> ValidateLibrary(const std::filesystem::path& dir);
+MLSPACES_API std::vector<Problem> ValidateLibrary(const std::filesystem::path& dir);
 
 }  // namespace mlspaces

@@ -1,6 +1,8 @@
 // .tar.zst archives (libarchive): deterministic writing and safe extraction.
 #pragma once
 
+#include "mlspaces/core/export.h"
+
 #include <cstdint>
 #include <filesystem>
 #include <span>
@@ -10,12 +12,12 @@
 namespace mlspaces {
 
 /// One file to put in an archive.
-struct ArchiveMember {
-  std::string path;                 ///< path inside the archive, relative, '/'-separated
-  std::filesystem::path source;     ///< the file on disk
+struct MLSPACES_API ArchiveMember {
+  std::string path;              ///< path inside the archive, relative, '/'-separated
+  std::filesystem::path source;  ///< the file on disk
 };
 
-struct ArchiveWriteOptions {
+struct MLSPACES_API ArchiveWriteOptions {
   int zstd_level = 3;
   /// fsync the archive and its folder. `pack` turns this off and flushes the whole package
   /// with one syncfs before publishing it (300,000 fsyncs would dominate a 150,000-archive pack).
@@ -30,7 +32,7 @@ uint64_t WriteTarZst(const std::filesystem::path& out, std::span<const ArchiveMe
                      const ArchiveWriteOptions& options = {});
 
 /// What an extraction produced.
-struct ExtractReport {
+struct MLSPACES_API ExtractReport {
   std::vector<std::string> files;  ///< regular files (and links) created, archive paths, in order
   uint64_t bytes = 0;              ///< regular file bytes written
 };
@@ -41,10 +43,10 @@ struct ExtractReport {
 /// `dest` (absolute, or climbing above it), hard links to anything but an earlier member,
 /// device files, FIFOs and sockets, and a truncated or corrupt stream. Regular files are made
 /// read-only (0444); folders 0755.
-ExtractReport ExtractTarZst(const std::filesystem::path& archive,
-                            const std::filesystem::path& dest);
+MLSPACES_API ExtractReport ExtractTarZst(const std::filesystem::path& archive,
+                                         const std::filesystem::path& dest);
 
 /// Regular-file paths of a .tar.zst, in archive order, without extracting. @throws Error.
-std::vector<std::string> ListTarZst(const std::filesystem::path& archive);
+MLSPACES_API std::vector<std::string> ListTarZst(const std::filesystem::path& archive);
 
 }  // namespace mlspaces

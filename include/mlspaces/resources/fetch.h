@@ -1,6 +1,8 @@
 // Downloads over http(s):// and file:// (libcurl), resumable and verified.
 #pragma once
 
+#include "mlspaces/core/export.h"
+
 #include <cstdint>
 #include <filesystem>
 #include <functional>
@@ -14,7 +16,7 @@ namespace mlspaces {
 /// A download that failed after its last attempt. `not_found()` tells a plain "there is no
 /// such file" (HTTP 404, a missing file:// file) from every other failure, for callers that
 /// probe optional files.
-class FetchError : public Error {
+class MLSPACES_API FetchError : public Error {
  public:
   FetchError(std::string message, std::string url, bool not_found)
       : Error(std::move(message), std::move(url)), not_found_(not_found) {}
@@ -24,7 +26,7 @@ class FetchError : public Error {
   bool not_found_;
 };
 
-struct FetchOptions {
+struct MLSPACES_API FetchOptions {
   /// Extra attempts after a transient failure (connection refused/reset, timeout, short
   /// transfer, HTTP 5xx/429). Each retry resumes the partial file with an HTTP Range request.
   int retries = 3;
@@ -41,7 +43,7 @@ struct FetchOptions {
 };
 
 /// What a download is checked against: the manifest's size and SHA-256 (empty = unchecked).
-struct FetchExpect {
+struct MLSPACES_API FetchExpect {
   std::optional<uint64_t> size;
   std::string sha256;
 };
@@ -58,9 +60,9 @@ void FetchFile(const std::string& url, const std::filesystem::path& dest,
 std::string FetchToString(const std::string& url, const FetchOptions& options = {});
 
 /// Joins a base URL and a relative path with exactly one '/'.
-std::string JoinUrl(const std::string& base, const std::string& relative);
+MLSPACES_API std::string JoinUrl(const std::string& base, const std::string& relative);
 
 /// file:// URL of a local path (absolute, percent-encoded where needed).
-std::string FileUrl(const std::filesystem::path& path);
+MLSPACES_API std::string FileUrl(const std::filesystem::path& path);
 
 }  // namespace mlspaces

@@ -5,6 +5,8 @@
 // flock, which the kernel releases when a holder dies.
 #pragma once
 
+#include "mlspaces/core/export.h"
+
 #include <cstdint>
 #include <filesystem>
 #include <functional>
@@ -20,7 +22,7 @@
 
 namespace mlspaces {
 
-struct InstallOptions {
+struct MLSPACES_API InstallOptions {
   /// Messages for the user (waiting for a lock, skipped sources). May be empty.
   std::function<void(const std::string&)> note;
   /// Byte progress over the whole install: (done, total).
@@ -30,34 +32,34 @@ struct InstallOptions {
 };
 
 /// One source installed or looked at.
-struct InstalledSource {
+struct MLSPACES_API InstalledSource {
   std::string type, name, version;
   std::filesystem::path dir;  ///< the version dir in the cache
   PackageManifest manifest;
 };
 
 /// What an install would fetch, and then did.
-struct InstallPlan {
+struct MLSPACES_API InstallPlan {
   struct Item {
     const InstalledSource* source = nullptr;
     std::string archive;
     uint64_t size = 0, unpacked_bytes = 0;
     uint32_t index = 0;  ///< the archive's entry in the source's manifest and UID index
   };
-  std::vector<Item> archives;           ///< not yet installed, sorted
-  size_t assets = 0;                    ///< assets selected
-  size_t already_installed = 0;         ///< selected archives already there
+  std::vector<Item> archives;    ///< not yet installed, sorted
+  size_t assets = 0;             ///< assets selected
+  size_t already_installed = 0;  ///< selected archives already there
   uint64_t download_bytes = 0, unpacked_bytes = 0;
 };
 
 /// A `--where KEY=VALUE` filter on annotations: KEY is a top-level field or a JSON pointer;
 /// matches when the value (or, for a list, any element) printed as text equals VALUE.
-struct WhereFilter {
+struct MLSPACES_API WhereFilter {
   std::string key, value;
   static WhereFilter Parse(const std::string& flag);  ///< @throws UsageError
 };
 
-class Installer {
+class MLSPACES_API Installer {
  public:
   explicit Installer(ResourceSettings settings, InstallOptions options = {});
   ~Installer();

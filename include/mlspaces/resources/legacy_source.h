@@ -5,6 +5,8 @@
 // probe instead of scanning its folders (see docs/resources.md, "MolmoSpaces-format sources").
 #pragma once
 
+#include "mlspaces/core/export.h"
+
 #include <cstddef>
 #include <filesystem>
 #include <string>
@@ -12,7 +14,7 @@
 
 namespace mlspaces {
 
-struct LegacyIndexReport {
+struct MLSPACES_API LegacyIndexReport {
   size_t assets = 0, archives = 0;
   std::vector<std::string> warnings;  ///< one line each (duplicate UIDs)
   std::filesystem::path index_dir;    ///< <version_dir>/.mlspaces/index
@@ -28,11 +30,11 @@ struct LegacyIndexReport {
 /// order wins, each other one is a warning line naming both paths.
 /// @throws Error naming the file (missing, not gzip, truncated, bad JSON, wrong shapes or bad
 /// path components with the JSON pointer).
-LegacyIndexReport BuildLegacyIndex(const std::filesystem::path& version_dir,
-                                   const std::string& name);
+MLSPACES_API LegacyIndexReport BuildLegacyIndex(const std::filesystem::path& version_dir,
+                                                const std::string& name);
 
 /// One object source under <assets>/objects, as `index-builtin` finds it.
-struct ObjectSource {
+struct MLSPACES_API ObjectSource {
   enum class Kind {
     kPackage,  ///< has our UID index already (an mlspaces package): nothing to do
     kLegacy,   ///< has the original's tries file: BuildLegacySourceIndex indexes it
@@ -48,12 +50,12 @@ struct ObjectSource {
 /// is empty, every folder or link to one there, sorted by name.
 /// @throws UsageError for a name that is not one folder name; Error naming the path for a
 /// named source that is missing or not a source, or a missing objects folder.
-std::vector<ObjectSource> FindObjectSources(const std::filesystem::path& assets_dir,
-                                            const std::vector<std::string>& names);
+MLSPACES_API std::vector<ObjectSource> FindObjectSources(const std::filesystem::path& assets_dir,
+                                                         const std::vector<std::string>& names);
 
 /// BuildLegacyIndex of a kLegacy source: its root resolved (links followed) as the version
 /// dir, its name as the library name. @throws Error as BuildLegacyIndex, or naming the root
 /// when it cannot be resolved.
-LegacyIndexReport BuildLegacySourceIndex(const ObjectSource& source);
+MLSPACES_API LegacyIndexReport BuildLegacySourceIndex(const ObjectSource& source);
 
 }  // namespace mlspaces

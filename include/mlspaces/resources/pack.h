@@ -1,6 +1,8 @@
 // `mlspaces pack`: a user asset + grasp library -> a published, versioned package.
 #pragma once
 
+#include "mlspaces/core/export.h"
+
 #include <cstdint>
 #include <filesystem>
 #include <functional>
@@ -9,7 +11,7 @@
 
 namespace mlspaces {
 
-struct PackOptions {
+struct MLSPACES_API PackOptions {
   std::string name;     ///< source name (default: the library folder's name)
   std::string version;  ///< default: today's UTC date, YYYYMMDD
   std::string data_type = "objects";
@@ -24,7 +26,7 @@ struct PackOptions {
   std::function<void(size_t, size_t)> progress;
 };
 
-struct PackReport {
+struct MLSPACES_API PackReport {
   std::filesystem::path package_dir;  ///< <out>/<type>/<name>/<version>
   std::string name, version;
   size_t assets = 0, archives = 0, grasp_sets = 0, grasps = 0;
@@ -37,7 +39,7 @@ struct PackReport {
 /// <out_dir>/mlspaces_sources.json. Written under a temp name and renamed into place, so a
 /// crashed pack leaves no half package. Same inputs and options -> same bytes.
 /// @throws Error naming the file at fault; UsageError for bad options.
-PackReport PackLibrary(const std::filesystem::path& library_dir,
-                       const std::filesystem::path& out_dir, PackOptions options);
+MLSPACES_API PackReport PackLibrary(const std::filesystem::path& library_dir,
+                                    const std::filesystem::path& out_dir, PackOptions options);
 
 }  // namespace mlspaces

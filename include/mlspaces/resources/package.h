@@ -2,6 +2,8 @@
 // and SHA-256, and what each archive holds.
 #pragma once
 
+#include "mlspaces/core/export.h"
+
 #include <cstdint>
 #include <filesystem>
 #include <map>
@@ -22,14 +24,14 @@ inline constexpr std::string_view kOriginalTriesFile = "mjthor_resources_combine
 /// The per-archive member listing ({path: {size, sha256}}), shipped inside the archive.
 inline constexpr std::string_view kMemberListDir = ".mlspaces/members";
 
-struct PackageFile {
+struct MLSPACES_API PackageFile {
   uint64_t size = 0;
   std::string sha256;
 };
 
-struct PackageArchive {
-  std::string name;          ///< file name, "<source>_<nnnnn>.tar.zst"
-  uint64_t size = 0;         ///< compressed bytes (what a download costs)
+struct MLSPACES_API PackageArchive {
+  std::string name;   ///< file name, "<source>_<nnnnn>.tar.zst"
+  uint64_t size = 0;  ///< compressed bytes (what a download costs)
   std::string sha256;
   uint64_t unpacked_bytes = 0;
   uint32_t assets = 0;
@@ -37,7 +39,7 @@ struct PackageArchive {
   std::string members_sha256;
 };
 
-struct PackageManifest {
+struct MLSPACES_API PackageManifest {
   std::string data_type = "objects";
   std::string name;
   std::string version;
@@ -54,6 +56,5 @@ struct PackageManifest {
   static PackageManifest Parse(const std::string& json, const std::string& origin);
   static PackageManifest Load(const std::filesystem::path& file);
 };
-
 
 }  // namespace mlspaces

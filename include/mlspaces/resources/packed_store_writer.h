@@ -5,6 +5,8 @@
 // the order of Add calls.
 #pragma once
 
+#include "mlspaces/core/export.h"
+
 #include <cstdint>
 #include <filesystem>
 #include <memory>
@@ -19,7 +21,7 @@
 namespace mlspaces {
 
 /// Appends poses to a grasp shard file; returns offsets for PackedAssetInput::Grasps.
-class GraspShardWriter {
+class MLSPACES_API GraspShardWriter {
  public:
   /// Starts a shard (written to a temp file beside `path`, renamed into place by Finish;
   /// removed if the writer is destroyed unfinished). @throws Error naming the path.
@@ -40,16 +42,16 @@ class GraspShardWriter {
 };
 
 /// One asset handed to the store writer.
-struct PackedAssetInput {
+struct MLSPACES_API PackedAssetInput {
   std::string uid;
-  std::string mjcf;            ///< relative to the package root
+  std::string mjcf;  ///< relative to the package root
   uint32_t archive = 0;
   /// Null: no metadata. Read during Add only (not kept).
   const Annotation* annotation = nullptr;
   struct Grasps {
     std::string robot, joint;  ///< joint empty = pickup
     uint32_t archive = 0;
-    uint64_t offset = 0;       ///< GraspShardWriter::Append's return value
+    uint64_t offset = 0;  ///< GraspShardWriter::Append's return value
     uint32_t count = 0;
     DType stored_dtype = DType::kF8;
   };
@@ -58,7 +60,7 @@ struct PackedAssetInput {
 
 /// Streams assets into metadata.mlsm and builds uid_index.mlsx at Finish. Memory use is the
 /// index (tens of bytes per asset), not the metadata.
-class PackedStoreWriter {
+class MLSPACES_API PackedStoreWriter {
  public:
   /// `dir` is the package folder (created); `archives` are the archive file names, in index
   /// order. @throws Error naming the folder.

@@ -1,6 +1,8 @@
 // SHA-256 (OpenSSL's libcrypto) for package manifests and download checks.
 #pragma once
 
+#include "mlspaces/core/export.h"
+
 #include <cstddef>
 #include <filesystem>
 #include <memory>
@@ -10,7 +12,7 @@
 namespace mlspaces {
 
 /// Incremental SHA-256.
-class Sha256 {
+class MLSPACES_API Sha256 {
  public:
   Sha256();
   ~Sha256();
@@ -27,13 +29,13 @@ class Sha256 {
 };
 
 /// Hex SHA-256 of bytes.
-std::string Sha256Hex(std::string_view data);
+MLSPACES_API std::string Sha256Hex(std::string_view data);
 
 /// Hex SHA-256 and size of a file, read in large blocks. @throws Error naming the file.
-struct FileDigest {
+struct MLSPACES_API FileDigest {
   std::string sha256;
   uint64_t size = 0;
 };
-FileDigest Sha256File(const std::filesystem::path& path);
+MLSPACES_API FileDigest Sha256File(const std::filesystem::path& path);
 
 }  // namespace mlspaces

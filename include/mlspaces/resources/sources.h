@@ -2,6 +2,8 @@
 // dir of symlinks and the remote base URL (spec section 7).
 #pragma once
 
+#include "mlspaces/core/export.h"
+
 #include <filesystem>
 #include <map>
 #include <optional>
@@ -14,17 +16,18 @@ using SourceVersions = std::map<std::string, std::map<std::string, std::string>>
 
 /// The built-in table: objects thor / objaverse / objathor_metadata, grasps droid /
 /// droid_objaverse (the original's pins), robots and scenes (see docs/resources.md).
-const SourceVersions& BuiltinSourceVersions();
+MLSPACES_API const SourceVersions& BuiltinSourceVersions();
 
 /// Deep-merges a JSON pin file shaped like the table ({"objects": {"thor": "20251117"}}):
 /// leaf values override, new types and sources are added; a null leaf removes a source.
 /// @throws Error naming the file and the JSON pointer of a bad value.
-void MergePinFile(SourceVersions& versions, const std::filesystem::path& pin_file);
+MLSPACES_API void MergePinFile(SourceVersions& versions, const std::filesystem::path& pin_file);
 /// As MergePinFile, from JSON text (a remote listing); `origin` names it in errors.
-void MergePinJson(SourceVersions& versions, const std::string& json, const std::string& origin);
+MLSPACES_API void MergePinJson(SourceVersions& versions, const std::string& json,
+                               const std::string& origin);
 
 /// Everything a download or lookup needs to know about the resource dirs.
-struct ResourceSettings {
+struct MLSPACES_API ResourceSettings {
   std::filesystem::path cache_dir;   ///< versioned, read-only extracted data
   std::filesystem::path assets_dir;  ///< install dir: <type>/<source> symlinks into the cache
   std::string remote_url;            ///< base URL: <remote>/<type>/<source>/<version>/<file>
@@ -50,12 +53,12 @@ struct ResourceSettings {
 };
 
 /// The default install dir when MLSPACES_ASSETS_DIR is unset: ~/.cache/mlspaces/assets.
-std::filesystem::path DefaultAssetsDir();
+MLSPACES_API std::filesystem::path DefaultAssetsDir();
 
 /// Where an assets dir came from.
 enum class AssetsDirOrigin { kGiven, kEnvironment, kDefault };
 
-struct AssetsDirChoice {
+struct MLSPACES_API AssetsDirChoice {
   std::filesystem::path dir;
   AssetsDirOrigin origin = AssetsDirOrigin::kDefault;
 };

@@ -1,6 +1,8 @@
 // Physical facts of a single-body asset computed from its compiled model: mass and boxes.
 #pragma once
 
+#include "mlspaces/core/export.h"
+
 #include <array>
 #include <filesystem>
 
@@ -9,7 +11,7 @@
 namespace mlspaces::sim {
 
 /// What --compute-metadata writes for one asset.
-struct AssetFacts {
+struct MLSPACES_API AssetFacts {
   /// Compiled mass of the asset's one body (kg); mesh inertia as MuJoCo computes it (each
   /// mesh's `inertia` attribute, MuJoCo 3.5's default "legacy" when absent).
   double mass = 0;
@@ -25,16 +27,18 @@ struct AssetFacts {
 
 /// World-frame box of the geoms of `body` (its own geoms only, not its children's) for the
 /// poses in `d`; false when the body has no geoms.
-bool BodyGeomBox(const mjModel* m, const mjData* d, int body, std::array<double, 3>* lo,
-                 std::array<double, 3>* hi);
+MLSPACES_API bool BodyGeomBox(const mjModel* m, const mjData* d, int body,
+                              std::array<double, 3>* lo, std::array<double, 3>* hi);
 
 /// Facts of body 1 of a compiled model (and its descendants' geoms for the boxes).
 /// @throws Error when the model has not exactly one body besides the world.
-AssetFacts ComputeAssetFacts(const mjModel* m, const std::filesystem::path& path_for_errors);
+MLSPACES_API AssetFacts ComputeAssetFacts(const mjModel* m,
+                                          const std::filesystem::path& path_for_errors);
 
 /// Composes (physics_only: textures, materials and lights skipped; results bitwise equal a
 /// full compile's) and compiles an asset MJCF, then computes its facts.
 /// @throws Error naming the file, line and element for bad MJCF, or more than one body.
-AssetFacts ComputeAssetFacts(const std::filesystem::path& xml, bool physics_only = true);
+MLSPACES_API AssetFacts ComputeAssetFacts(const std::filesystem::path& xml,
+                                          bool physics_only = true);
 
 }  // namespace mlspaces::sim

@@ -2,15 +2,17 @@
 // <uid>_computed.json (mass, boundingBox, aabb), then write the index pointing at them.
 #pragma once
 
+#include "mlspaces/core/export.h"
+
 #include <cstddef>
 #include <filesystem>
 #include <functional>
 #include <string>
 #include <vector>
 
-#include "mlspaces/library/asset_index.h"
 #include "mlspaces/core/diagnostics.h"
 #include "mlspaces/core/json.h"
+#include "mlspaces/library/asset_index.h"
 #include "mlspaces/sim/asset_facts.h"
 
 namespace mlspaces::sim {
@@ -19,14 +21,14 @@ namespace mlspaces::sim {
 /// line: "<file>: line N, element <tag>: <message>" (path and field empty).
 using AssetFailure = Diagnostic;
 
-struct ComputeMetadataReport {
-  IndexReport index;                  ///< the index written (count, output, warnings)
-  size_t computed = 0;                ///< <uid>_computed.json files written now
-  size_t reused = 0;                  ///< existing computed files kept (no --overwrite)
-  std::vector<AssetFailure> failures; ///< sorted by UID; non-empty -> exit code 1
+struct MLSPACES_API ComputeMetadataReport {
+  IndexReport index;                   ///< the index written (count, output, warnings)
+  size_t computed = 0;                 ///< <uid>_computed.json files written now
+  size_t reused = 0;                   ///< existing computed files kept (no --overwrite)
+  std::vector<AssetFailure> failures;  ///< sorted by UID; non-empty -> exit code 1
 };
 
-struct ComputeMetadataOptions {
+struct MLSPACES_API ComputeMetadataOptions {
   int threads = 0;  ///< worker threads; 0 = all cores
   /// Called after each asset with (done, total), from worker threads (serialised).
   std::function<void(size_t, size_t)> progress;
@@ -34,7 +36,7 @@ struct ComputeMetadataOptions {
 
 /// The computed metadata: `source` in its key order, plus "mass" and "boundingBox"
 /// ({"x","y","z"}) only when absent, plus "aabb" ({"min":[x,y,z],"max":[x,y,z]}, always set).
-Json MakeComputedMetadata(const Json& source, const AssetFacts& facts);
+MLSPACES_API Json MakeComputedMetadata(const Json& source, const AssetFacts& facts);
 
 /// Refuses to replace an existing index unless options.overwrite (Error "<output> already
 /// exists. Use --overwrite to overwrite."); scans `dir` like BuildAssetIndex (duplicate UIDs

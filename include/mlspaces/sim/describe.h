@@ -2,6 +2,8 @@
 // box; joints; actuators; cameras; the compile warnings. `mlspaces inspect` prints it.
 #pragma once
 
+#include "mlspaces/core/export.h"
+
 #include <array>
 #include <cstdint>
 #include <optional>
@@ -14,7 +16,7 @@
 
 namespace mlspaces::sim {
 
-struct BodyDescription {
+struct MLSPACES_API BodyDescription {
   std::string name;    ///< "" when unnamed
   std::string parent;  ///< the parent body's name ("world" for top-level bodies)
   Pose pose;           ///< world pose at qpos0 (xpos, xquat after mj_kinematics)
@@ -24,28 +26,28 @@ struct BodyDescription {
   std::optional<std::array<Vec3, 2>> box;
 };
 
-struct JointDescription {
+struct MLSPACES_API JointDescription {
   std::string name;
   std::string type;  ///< "free", "ball", "slide" or "hinge"
   std::string body;
   std::optional<std::array<double, 2>> range;  ///< nullopt when not limited
 };
 
-struct ActuatorDescription {
+struct MLSPACES_API ActuatorDescription {
   std::string name;
   std::string transmission;  ///< "joint", "jointinparent", "tendon", "site", "body", ...
   std::string target;        ///< the name of the joint / tendon / site / body it drives
   std::optional<std::array<double, 2>> ctrlrange;  ///< nullopt when not limited
 };
 
-struct CameraDescription {
+struct MLSPACES_API CameraDescription {
   std::string name;
   std::string body;
   Vec3 pos{};  ///< world position at qpos0
   double fovy = 0;
 };
 
-struct ModelDescription {
+struct MLSPACES_API ModelDescription {
   std::string file;  ///< as given to DescribeModel
   int64_t ngeom = 0;
   std::vector<BodyDescription> bodies;  ///< every body, the world first
@@ -57,12 +59,12 @@ struct ModelDescription {
 
 /// Compiles `composer` and describes the model at qpos0 (after mj_kinematics).
 /// `file` is recorded as given. @throws Error as MjcfComposer::Compile.
-ModelDescription DescribeModel(const MjcfComposer& composer, const std::string& file);
+MLSPACES_API ModelDescription DescribeModel(const MjcfComposer& composer, const std::string& file);
 
 /// The JSON form (`mlspaces inspect --json`): {"file", "bodies": [{"name", "parent", "pos",
 /// "quat", "mass", "ngeom", "aabb": {"min", "max"} | null}], "joints": [{"name", "type",
 /// "body", "range" | null}], "actuators": [{"name", "transmission", "target",
 /// "ctrlrange" | null}], "cameras": [{"name", "body", "pos", "fovy"}], "warnings"}.
-Json ToJson(const ModelDescription& description);
+MLSPACES_API Json ToJson(const ModelDescription& description);
 
 }  // namespace mlspaces::sim

@@ -3,6 +3,8 @@
 // qpos[3:7]; w, x, y, z as Pose) or with row-major rotation matrices (xmat).
 #pragma once
 
+#include "mlspaces/core/export.h"
+
 #include <mujoco/mujoco.h>
 
 #include "mlspaces/core/transform.h"
@@ -10,16 +12,16 @@
 namespace mlspaces::sim {
 
 /// The pose of MuJoCo's pos[3] + quat[4] arrays, copied as they are.
-Pose PoseFromMj(const mjtNum* pos, const mjtNum* quat);
+MLSPACES_API Pose PoseFromMj(const mjtNum* pos, const mjtNum* quat);
 /// Writes a pose into MuJoCo's pos[3] + quat[4] arrays, as it is.
-void PoseToMj(const Pose& pose, mjtNum* pos, mjtNum* quat);
+MLSPACES_API void PoseToMj(const Pose& pose, mjtNum* pos, mjtNum* quat);
 /// The matrix of MuJoCo's pos[3] + row-major xmat[9] (e.g. site_xpos + site_xmat).
-Mat4 FrameToMat4(const mjtNum* pos, const mjtNum* xmat);
+MLSPACES_API Mat4 FrameToMat4(const mjtNum* pos, const mjtNum* xmat);
 
 /// World pose of a body after a forward pass (xpos, xquat).
-Pose BodyPose(const mjData* d, int body);
+MLSPACES_API Pose BodyPose(const mjData* d, int body);
 /// World matrix of a site / geom after a forward pass (xpos, xmat).
-Mat4 SiteMat4(const mjData* d, int site);
-Mat4 GeomMat4(const mjData* d, int geom);
+MLSPACES_API Mat4 SiteMat4(const mjData* d, int site);
+MLSPACES_API Mat4 GeomMat4(const mjData* d, int geom);
 
 }  // namespace mlspaces::sim

@@ -23,6 +23,8 @@
 // defined twice, both places.
 #pragma once
 
+#include "mlspaces/core/export.h"
+
 #include <array>
 #include <filesystem>
 #include <memory>
@@ -35,7 +37,7 @@
 
 namespace mlspaces::sim {
 
-struct ComposeOptions {
+struct MLSPACES_API ComposeOptions {
   /// Keep only what body masses and geometry need: drop textures, materials, skins and
   /// lights, and turn collisions off (no convex hulls to build). Masses, inertias and
   /// geom/mesh vertex data equal a full compile's; rendering and contacts do not.
@@ -44,13 +46,12 @@ struct ComposeOptions {
 
 /// A composed model (an mjSpec). Copying copies the spec (mj_copySpec), cheap next to a
 /// compile; a copy of a model with a reference MuJoCo cannot resolve throws its Error.
-class MjcfComposer {
+class MLSPACES_API MjcfComposer {
  public:
   /// Composes an MJCF file. @throws Error naming the file, line and element.
   explicit MjcfComposer(const std::filesystem::path& file, ComposeOptions options = {});
   /// Composes MJCF text; relative paths resolve against `path_for_errors`'s folder.
-  static MjcfComposer FromString(std::string_view xml,
-                                 const std::filesystem::path& path_for_errors,
+  static MjcfComposer FromString(std::string_view xml, const std::filesystem::path& path_for_errors,
                                  ComposeOptions options = {});
   MjcfComposer(const MjcfComposer& other);
   MjcfComposer& operator=(const MjcfComposer& other);

@@ -9,6 +9,8 @@
 // Warnings go to a thread-local collector (TakeMujocoWarnings) instead of stdout.
 #pragma once
 
+#include "mlspaces/core/export.h"
+
 #include <memory>
 #include <stdexcept>
 #include <string>
@@ -24,29 +26,29 @@ namespace mlspaces::sim {
 
 /// An error reported by MuJoCo: an mlspaces::Error whose message is MuJoCo's, unchanged
 /// (it may span lines; the layers above turn it into a located one-line Error where they can).
-class MujocoError : public Error {
+class MLSPACES_API MujocoError : public Error {
  public:
   explicit MujocoError(const std::string& message) : Error(message) {}
 };
 
 /// Installs mlspaces' global mju_user_error (throws MujocoError) and mju_user_warning
 /// (collects). Idempotent and thread-safe; every function of this layer calls it.
-void InstallMujocoHandlers();
+MLSPACES_API void InstallMujocoHandlers();
 
 /// Returns and clears the MuJoCo warnings collected on this thread.
-std::vector<std::string> TakeMujocoWarnings();
+MLSPACES_API std::vector<std::string> TakeMujocoWarnings();
 
-struct ModelDeleter {
+struct MLSPACES_API ModelDeleter {
   void operator()(mjModel* m) const { mj_deleteModel(m); }
 };
-struct DataDeleter {
+struct MLSPACES_API DataDeleter {
   void operator()(mjData* d) const { mj_deleteData(d); }
 };
 using ModelPtr = std::unique_ptr<mjModel, ModelDeleter>;
 using DataPtr = std::unique_ptr<mjData, DataDeleter>;
 
 /// One in-memory file for the VFS: a bare file name (no folders) and its bytes.
-struct VfsFile {
+struct MLSPACES_API VfsFile {
   std::string name;
   std::string data;
 };
@@ -59,12 +61,12 @@ ModelPtr LoadModelFromMemory(std::string_view xml, const std::string& main_name 
                              const std::vector<VfsFile>& extra = {});
 
 /// mj_makeData with a null check. @throws MujocoError.
-DataPtr MakeData(const mjModel* m);
+MLSPACES_API DataPtr MakeData(const mjModel* m);
 
 /// Name of object `id` of type `type`, or "" when unnamed.
-std::string MjName(const mjModel* m, mjtObj type, int id);
+MLSPACES_API std::string MjName(const mjModel* m, mjtObj type, int id);
 
 /// True when `body` is `root` or lies below it (the world body 0 holds every body).
-bool InSubtree(const mjModel* m, int body, int root);
+MLSPACES_API bool InSubtree(const mjModel* m, int body, int root);
 
 }  // namespace mlspaces::sim

@@ -9,6 +9,8 @@
 // process throws Error.
 #pragma once
 
+#include "mlspaces/core/export.h"
+
 #include <array>
 #include <memory>
 #include <optional>
@@ -21,19 +23,19 @@ namespace mlspaces::sim {
 enum class GlBackend { kOsMesa, kEgl };
 
 /// "osmesa" -> kOsMesa, "egl" -> kEgl. @throws mlspaces::UsageError for any other name.
-GlBackend ParseGlBackend(std::string_view name);
+MLSPACES_API GlBackend ParseGlBackend(std::string_view name);
 /// "osmesa" or "egl".
-std::string_view GlBackendName(GlBackend backend);
+MLSPACES_API std::string_view GlBackendName(GlBackend backend);
 
 /// The backend this process renders with: the one of the first Renderer that got as far as
 /// MuJoCo's render context; nullopt before that.
-std::optional<GlBackend> ProcessGlBackend();
+MLSPACES_API std::optional<GlBackend> ProcessGlBackend();
 
 /// Which EGL display an EGL Renderer uses: Mesa's surfaceless platform (CPU, llvmpipe), or
 /// the first device of EGL_EXT_platform_device (a GPU where the driver exposes one).
 enum class EglPlatform { kSurfaceless, kDevice };
 
-struct RenderOptions {
+struct MLSPACES_API RenderOptions {
   int width = 640;
   int height = 368;
   GlBackend backend = GlBackend::kOsMesa;
@@ -47,7 +49,7 @@ struct RenderOptions {
 /// row-major 3x3 rotation whose columns are the camera's x (right), y (up) and z (backward)
 /// axes in world coordinates; the camera looks along -z. `fovy_deg` is the vertical field of
 /// view; the horizontal one follows from the image's aspect ratio.
-struct CameraView {
+struct MLSPACES_API CameraView {
   std::array<double, 3> pos{0, 0, 0};
   std::array<double, 9> xmat{1, 0, 0, 0, 1, 0, 0, 0, 1};
   double fovy_deg = 45;
@@ -55,13 +57,13 @@ struct CameraView {
 
 /// A camera at `eye` looking at `target`, world +z up in the image (when the view is
 /// vertical, world +y is up in the image). @throws UsageError when eye == target.
-CameraView LookAt(const std::array<double, 3>& eye, const std::array<double, 3>& target,
-                  double fovy_deg = 45);
+MLSPACES_API CameraView LookAt(const std::array<double, 3>& eye,
+                               const std::array<double, 3>& target, double fovy_deg = 45);
 
 /// One GL context + mjrContext + mjvScene for one model. Not thread-safe: use a Renderer from
 /// one thread at a time (one per worker). Several Renderers may live in one thread; Render()
 /// makes its own context current.
-class Renderer {
+class MLSPACES_API Renderer {
  public:
   /// Renders `m` (shared, never modified: the Renderer keeps a private copy whose offscreen
   /// buffer is raised to width x height; an mjData of `m` works with it).

@@ -2,6 +2,8 @@
 // inserted under a prefix, compiled to one mjModel.
 #pragma once
 
+#include "mlspaces/core/export.h"
+
 #include <filesystem>
 #include <string>
 #include <string_view>
@@ -13,7 +15,7 @@
 
 namespace mlspaces::sim {
 
-class Scene {
+class MLSPACES_API Scene {
  public:
   /// Composes `xml` (MuJoCo's parser: <include>, <frame>, <model>, <attach>, ...) and loads
   /// its scene metadata

@@ -4,7 +4,7 @@ classes and structs defined at namespace scope, and function declarations there 
 not templates). Idempotent. Usage: add_api.py HEADER..."""
 import re, sys
 
-SKIP = ('//', '#', 'using ', 'template', 'inline ', 'constexpr ', 'static ', 'extern ', 'enum ',
+SKIP = ('//', '#', 'static_assert', 'return ', 'friend', 'using ', 'template', 'inline ', 'constexpr ', 'static ', 'extern ', 'enum ',
         'namespace', '}', 'friend ', 'typedef ', 'MLSPACES_API', 'class ', 'struct ', 'union ')
 
 def process(path):

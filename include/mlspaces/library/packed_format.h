@@ -17,7 +17,7 @@
 
 namespace mlspaces::packed {
 
-MLSPACES_API static_assert(std::endian::native == std::endian::little,
+static_assert(std::endian::native == std::endian::little,
                            "packed stores are read in place: little-endian hosts only");
 
 inline constexpr char kIndexMagic[8] = {'M', 'L', 'S', 'U', 'I', 'D', 'X', '1'};

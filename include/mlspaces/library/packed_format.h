@@ -18,7 +18,7 @@
 namespace mlspaces::packed {
 
 static_assert(std::endian::native == std::endian::little,
-                           "packed stores are read in place: little-endian hosts only");
+              "packed stores are read in place: little-endian hosts only");
 
 inline constexpr char kIndexMagic[8] = {'M', 'L', 'S', 'U', 'I', 'D', 'X', '1'};
 inline constexpr char kMetaMagic[8] = {'M', 'L', 'S', 'M', 'E', 'T', 'A', '1'};

@@ -13,6 +13,8 @@
 # RPATH, so nothing needs LD_LIBRARY_PATH. MuJoCo 2.x and untested major versions are refused
 # at configure time (MLSPACES_MUJOCO_MAJOR is the major version this tree is written for).
 #
+# Errors are one line each (a leading space keeps CMake from wrapping them).
+#
 # Sets MuJoCo_FOUND, MuJoCo_VERSION, MuJoCo_INCLUDE_DIR, MuJoCo_LIBRARY, MuJoCo_LIBRARY_DIR.
 
 set(MLSPACES_MUJOCO_MAJOR 3)
@@ -29,7 +31,7 @@ if(MUJOCO_DIR)
   set(_mujoco_where "MUJOCO_DIR=${MUJOCO_DIR}")
 else()
   if(NOT MLSPACES_PYTHON OR NOT EXISTS "${MLSPACES_PYTHON}")
-    message(FATAL_ERROR "MuJoCo: no MUJOCO_DIR and no project venv python at "
+    message(FATAL_ERROR " MuJoCo: no MUJOCO_DIR and no project venv python at "
                         "'${MLSPACES_PYTHON}': run scripts/install-deps.sh, or pass "
                         "-DMUJOCO_DIR=<prefix>")
   endif()
@@ -39,7 +41,7 @@ else()
     OUTPUT_VARIABLE _mujoco_hint OUTPUT_STRIP_TRAILING_WHITESPACE
     RESULT_VARIABLE _mujoco_rc ERROR_QUIET)
   if(NOT _mujoco_rc EQUAL 0 OR NOT _mujoco_hint)
-    message(FATAL_ERROR "MuJoCo: ${MLSPACES_PYTHON} has no 'mujoco' package: run "
+    message(FATAL_ERROR " MuJoCo: ${MLSPACES_PYTHON} has no 'mujoco' package: run "
                         "scripts/install-deps.sh (pip install -r requirements.txt), or pass "
                         "-DMUJOCO_DIR=<prefix>")
   endif()
@@ -63,7 +65,7 @@ else()
                NO_DEFAULT_PATH)
 endif()
 if(NOT MuJoCo_INCLUDE_DIR OR NOT MuJoCo_LIBRARY)
-  message(FATAL_ERROR "MuJoCo: no include/mujoco/mujoco.h or libmujoco.so in ${_mujoco_where}")
+  message(FATAL_ERROR " MuJoCo: no include/mujoco/mujoco.h or libmujoco.so in ${_mujoco_where}")
 endif()
 
 # mjVERSION_HEADER is 100*major + 10*minor + patch (2.2.2 -> 222) through 3.x, then 3.5.0 ->
@@ -72,7 +74,7 @@ file(STRINGS "${MuJoCo_INCLUDE_DIR}/mujoco/mujoco.h" _mujoco_ver_line
      REGEX "^#define mjVERSION_HEADER [0-9]+")
 string(REGEX REPLACE "^#define mjVERSION_HEADER ([0-9]+).*" "\\1" _mujoco_ver "${_mujoco_ver_line}")
 if(NOT _mujoco_ver)
-  message(FATAL_ERROR "MuJoCo: cannot read mjVERSION_HEADER from ${MuJoCo_INCLUDE_DIR}/mujoco/mujoco.h")
+  message(FATAL_ERROR " MuJoCo: cannot read mjVERSION_HEADER from ${MuJoCo_INCLUDE_DIR}/mujoco/mujoco.h")
 endif()
 if(_mujoco_ver GREATER_EQUAL 1000000)
   math(EXPR _mujoco_major "${_mujoco_ver} / 1000000")
@@ -85,7 +87,7 @@ else()
 endif()
 set(MuJoCo_VERSION "${_mujoco_major}.${_mujoco_minor}.${_mujoco_patch}")
 if(NOT _mujoco_major EQUAL MLSPACES_MUJOCO_MAJOR)
-  message(FATAL_ERROR "MuJoCo ${MuJoCo_VERSION} found in ${_mujoco_where}: mlspaces needs "
+  message(FATAL_ERROR " MuJoCo ${MuJoCo_VERSION} found in ${_mujoco_where}: mlspaces needs "
                       "MuJoCo ${MLSPACES_MUJOCO_MAJOR}.x (pinned in requirements.txt)")
 endif()
 

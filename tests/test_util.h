@@ -46,6 +46,18 @@ class TempDir {
   std::filesystem::path path_;
 };
 
+/// `n` bytes that do not compress (xorshift from `seed`): large archives, raw blocks.
+inline std::string Noise(size_t n, uint64_t seed) {
+  std::string out(n, '\0');
+  for (char& c : out) {
+    seed ^= seed << 13;
+    seed ^= seed >> 7;
+    seed ^= seed << 17;
+    c = static_cast<char>(seed);
+  }
+  return out;
+}
+
 /// Writes `text` to `path` (plain write, no fsync), creating parent folders.
 inline void WriteText(const std::filesystem::path& path, std::string_view text) {
   std::filesystem::create_directories(path.parent_path());

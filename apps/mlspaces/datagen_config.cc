@@ -53,7 +53,7 @@ datagen::ExperimentConfig DatagenConfigFlags::Resolve(
       ext == ".yaml" || ext == ".yml" || config.find('/') != std::string::npos;
   datagen::ExperimentConfig resolved;
   fs::path origin;
-  if (looks_like_file || fs::is_regular_file(file)) {
+  if (std::error_code ec; looks_like_file || fs::is_regular_file(file, ec)) {
     resolved = datagen::LoadConfigFile(file, registry);
     origin = file;
   } else {

@@ -35,8 +35,9 @@ Registry LibraryFlags::Build() const {
   Registry::Options options;
   // The default dir (where `mlspaces install` puts packages) only when it exists.
   const AssetsDirChoice assets_dir = ResolveAssetsDir(config.assets_dir);
+  std::error_code ignored;
   if (assets_dir.origin != AssetsDirOrigin::kDefault ||
-      std::filesystem::is_directory(assets_dir.dir)) {
+      std::filesystem::is_directory(assets_dir.dir, ignored)) {
     options.assets_dir = assets_dir.dir;
   }
   Registry registry(options);

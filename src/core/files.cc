@@ -5,6 +5,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cerrno>
 #include <cstdio>
@@ -155,6 +156,40 @@ bool WriteAll(int fd, std::string_view data) {
     data.remove_prefix(static_cast<size_t>(n));
   }
   return true;
+}
+
+void CreateDirectories(const fs::path& dir) {
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec) throw Error("cannot create folder: " + ec.message(), dir.string());
+}
+
+void RenamePath(const fs::path& from, const fs::path& to) {
+  std::error_code ec;
+  fs::rename(from, to, ec);
+  if (ec) throw Error("cannot rename to " + to.string() + ": " + ec.message(), from.string());
+}
+
+void RemoveAll(const fs::path& path) {
+  std::error_code ec;
+  fs::remove_all(path, ec);
+  if (ec) throw Error("cannot remove: " + ec.message(), path.string());
+}
+
+void RemovePath(const fs::path& path) {
+  std::error_code ec;
+  fs::remove(path, ec);
+  if (ec) throw Error("cannot remove: " + ec.message(), path.string());
+}
+
+std::vector<fs::path> ListFolder(const fs::path& dir) {
+  std::error_code ec;
+  std::vector<fs::path> out;
+  fs::directory_iterator it(dir, ec), end;
+  for (; !ec && it != end; it.increment(ec)) out.push_back(it->path());
+  if (ec) throw Error("cannot list folder: " + ec.message(), dir.string());
+  std::sort(out.begin(), out.end());
+  return out;
 }
 
 }  // namespace mlspaces

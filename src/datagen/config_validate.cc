@@ -67,19 +67,20 @@ void Validate(const ExperimentConfig& c, const fs::path& origin) {
   k.Check(!c.data_split.empty(), "data_split", "must not be empty");
   k.Check(!c.output_dir || !c.output_dir->empty(), "output_dir", "must not be empty");
 
-  for (size_t i = 0; i < c.libraries.asset_libraries.size(); ++i) {
-    const AssetLibrarySpec& s = c.libraries.asset_libraries[i];
-    const std::string key = "libraries.asset_libraries[" + std::to_string(i) + "]";
-    k.Check(!s.name.empty() && s.name.find('/') == std::string::npos, key + ".name",
+  // name and path of one asset or grasp library entry; returns its key for further checks.
+  auto check_library = [&k](const auto& spec, const char* list, size_t i) {
+    const std::string key = std::string("libraries.") + list + "[" + std::to_string(i) + "]";
+    k.Check(!spec.name.empty() && spec.name.find('/') == std::string::npos, key + ".name",
             "must be non-empty and without slashes");
-    k.Check(!s.dir.empty(), key + ".path", "must not be empty");
+    k.Check(!spec.dir.empty(), key + ".path", "must not be empty");
+    return key;
+  };
+  for (size_t i = 0; i < c.libraries.asset_libraries.size(); ++i) {
+    check_library(c.libraries.asset_libraries[i], "asset_libraries", i);
   }
   for (size_t i = 0; i < c.libraries.grasp_libraries.size(); ++i) {
     const GraspLibrarySpec& s = c.libraries.grasp_libraries[i];
-    const std::string key = "libraries.grasp_libraries[" + std::to_string(i) + "]";
-    k.Check(!s.name.empty() && s.name.find('/') == std::string::npos, key + ".name",
-            "must be non-empty and without slashes");
-    k.Check(!s.dir.empty(), key + ".path", "must not be empty");
+    const std::string key = check_library(s, "grasp_libraries", i);
     k.Check(!s.asset_library.empty(), key + ".asset_library", "must not be empty");
   }
 

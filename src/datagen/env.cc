@@ -64,7 +64,7 @@ std::filesystem::path RobotsDir() {
   // The source tree's copy while it exists (a build tree); an installed package's copy
   // (`cmake --install`: <prefix>/share/mlspaces/robots) once the sources are gone.
   const std::filesystem::path source = MLSPACES_DEFAULT_ROBOTS_DIR;
-  if (std::filesystem::is_directory(source)) return source;
+  if (std::error_code ec; std::filesystem::is_directory(source, ec)) return source;
   return MLSPACES_INSTALLED_ROBOTS_DIR;
 }
 
@@ -76,7 +76,7 @@ RobotSpec RobotSpecFromConfig(const RobotConfig& config) {
   RobotSpec spec = FrankaDroidSpec({}, {}, config.robot_namespace);
   spec.xml = config.robot_xml_path ? *config.robot_xml_path
                                    : RobotsDir() / config.name / (config.name + ".xml");
-  if (!std::filesystem::is_regular_file(spec.xml)) {
+  if (std::error_code ec; !std::filesystem::is_regular_file(spec.xml, ec)) {
     throw Error("robot model not found (set MLSPACES_ROBOTS_DIR or robot_config.robot_xml_path)",
                 spec.xml.string(), "robot_config.robot_xml_path");
   }

@@ -42,7 +42,7 @@ MergeReport MergeRuns(const std::vector<fs::path>& inputs, const fs::path& outpu
   std::string config_text, hash;
   for (const fs::path& in : inputs) {
     const fs::path file = in / "config.yaml";
-    if (!fs::is_regular_file(file)) throw Error("not a run folder (no config.yaml)", in.string());
+    if (!IsFile(file)) throw Error("not a run folder (no config.yaml)", in.string());
     ExperimentConfig c = LoadConfigFile(file, configs);
     const std::string h = DataConfigHashHex(c);
     if (!config) {
@@ -55,7 +55,7 @@ MergeReport MergeRuns(const std::vector<fs::path>& inputs, const fs::path& outpu
                   file.string());
     }
   }
-  if (fs::exists(output / "config.yaml")) {
+  if (std::error_code exists_ec; fs::exists(output / "config.yaml", exists_ec)) {
     throw Error("the output folder already holds a run", output.string());
   }
   MergeReport report;
@@ -66,7 +66,7 @@ MergeReport MergeRuns(const std::vector<fs::path>& inputs, const fs::path& outpu
         fs::path(item.scene_name()) / (BatchFileStem(item.batch, item.num_batches) + ".h5");
     std::optional<fs::path> where;
     for (const fs::path& in : inputs) {
-      if (!fs::is_regular_file(in / rel)) continue;
+      if (!IsFile(in / rel)) continue;
       if (where) {
         throw Error(
             "two inputs hold " + rel.string() + ": " + where->string() + " and " + in.string(),
@@ -92,7 +92,7 @@ MergeReport MergeRuns(const std::vector<fs::path>& inputs, const fs::path& outpu
   RemoveDeadTempFiles(output);  // journal or summary temp files of a merge that was killed
   for (const auto& [item, in] : found) {
     const fs::path dir = output / item->scene_name();
-    fs::create_directories(dir, ec);
+    CreateDirectories(dir);
     const std::string stem = BatchFileStem(item->batch, item->num_batches);
     const fs::path h5 = in / item->scene_name() / (stem + ".h5");
     LinkOrCopy(h5, dir / h5.filename());
@@ -100,21 +100,21 @@ MergeReport MergeRuns(const std::vector<fs::path>& inputs, const fs::path& outpu
     ++report.batch_files;
     // The batch's videos: episode_<k>_<camera>_batch_<b>_of_<n>.mp4.
     const std::string suffix = "_" + stem.substr(std::string("trajectories_").size()) + ".mp4";
-    for (const auto& e : fs::directory_iterator(in / item->scene_name())) {
-      const std::string name = e.path().filename().string();
+    for (const fs::path& e : ListFolder(in / item->scene_name())) {
+      const std::string name = e.filename().string();
       if (name.rfind("episode_", 0) == 0 && name.size() > suffix.size() &&
           name.compare(name.size() - suffix.size(), suffix.size(), suffix) == 0) {
-        LinkOrCopy(e.path(), dir / name);
+        LinkOrCopy(e, dir / name);
       }
     }
   }
   // Journals: every input's, as one file sorted by scene and episode.
   std::vector<AttemptRecord> all;
   for (const fs::path& in : inputs) {
-    for (const auto& e : fs::directory_iterator(in)) {
-      const std::string name = e.path().filename().string();
-      if (name.rfind("journal", 0) == 0 && e.path().extension() == ".jsonl") {
-        const JournalContents j = ReadJournal(e.path());
+    for (const fs::path& e : ListFolder(in)) {
+      const std::string name = e.filename().string();
+      if (name.rfind("journal", 0) == 0 && e.extension() == ".jsonl") {
+        const JournalContents j = ReadJournal(e);
         all.insert(all.end(), j.records.begin(), j.records.end());
       }
     }

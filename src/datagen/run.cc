@@ -59,7 +59,7 @@ ExperimentConfig SettleRunConfig(const ExperimentConfig& config, const fs::path&
         "a sharded run needs a seed (set `seed` or --seed), so that every shard "
         "draws the same episodes");
   }
-  if (!fs::exists(file)) {
+  if (!IsFile(file)) {
     if (!run.seed) run.seed = DrawSeed();
     return run;
   }
@@ -189,7 +189,7 @@ class ItemRunner {
                                       std::pair{&cam.depth_video_file, cam.name + "_depth"}}) {
             if (file->empty()) continue;
             const std::string final_name = recorder.VideoFileName(recorder.next_index(), camera);
-            fs::rename(rec_options.dir / *file, rec_options.dir / final_name);
+            RenamePath(rec_options.dir / *file, rec_options.dir / final_name);
             *file = final_name;
             CrashPoint("video given its final name");
           }
@@ -374,7 +374,7 @@ RunReport RunDatagen(const ExperimentConfig& input, const TaskSamplerRegistry& s
   const ExperimentConfig config = SettleRunConfig(input, config_file, journal_file, options);
   report.seed = *config.seed;
   const std::string hash = DataConfigHashHex(config);
-  if (!fs::exists(config_file)) {
+  if (!IsFile(config_file)) {
     WriteFileAtomic(config_file,
                     "# mlspaces datagen run; data hash " + hash + "\n" + DumpConfig(config));
   }
@@ -396,7 +396,7 @@ RunReport RunDatagen(const ExperimentConfig& input, const TaskSamplerRegistry& s
     total_episodes += item.episodes;
     const fs::path dir = report.folder / item.scene_name();
     const std::string stem = BatchFileStem(item.batch, item.num_batches);
-    if (fs::exists(dir / (stem + ".h5"))) {
+    if (IsFile(dir / (stem + ".h5"))) {
       fs::remove_all(dir / (stem + ".parts"), ec);  // left by a kill after the merge
       ++report.items_skipped;
       done_episodes += item.episodes;

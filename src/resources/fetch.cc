@@ -323,7 +323,7 @@ void FetchFile(const std::string& url, const fs::path& dest, const FetchExpect& 
   for (int attempt = 0;; ++attempt) {
     uint64_t offset = SizeOr0(part);
     if (expect.size && offset > *expect.size) {  // a leftover of something else
-      fs::remove(part);
+      RemovePath(part);
       offset = 0;
     }
     if (expect.size && offset == *expect.size && offset > 0) break;  // complete: just verify
@@ -350,14 +350,14 @@ void FetchFile(const std::string& url, const fs::path& dest, const FetchExpect& 
       long long first, total;
       ParseContentRange(a.content_range, &first, &total);
       if (total >= 0 && static_cast<uint64_t>(total) == offset) break;
-      fs::remove(part);
+      RemovePath(part);
       if (!retried_416) {
         retried_416 = true;
         --attempt;  // a restart from 0, not a failure
         continue;
       }
     }
-    if (a.bad_range) fs::remove(part);
+    if (a.bad_range) RemovePath(part);
     if (!a.transient() || attempt >= options.retries) {
       throw FetchError(AfterAttempts(a.Describe(sink_error), attempt + 1), url, a.not_found());
     }
@@ -366,13 +366,13 @@ void FetchFile(const std::string& url, const fs::path& dest, const FetchExpect& 
 
   const FileDigest digest = Sha256File(part);
   if (expect.size && digest.size != *expect.size) {
-    fs::remove(part);
+    RemovePath(part);
     throw Error("size mismatch: downloaded " + std::to_string(digest.size) + " bytes, expected " +
                     std::to_string(*expect.size),
                 url);
   }
   if (!expect.sha256.empty() && digest.sha256 != expect.sha256) {
-    fs::remove(part);
+    RemovePath(part);
     throw Error("SHA-256 mismatch: downloaded " + digest.sha256 + ", expected " + expect.sha256,
                 url);
   }

@@ -151,7 +151,8 @@ struct Installer::Impl {
     if (ec) throw Error("cannot create symlink: " + ec.message(), tmp.string());
     fs::rename(tmp, link, ec);
     if (ec) {
-      fs::remove(tmp);
+      std::error_code ignored;
+      fs::remove(tmp, ignored);
       throw Error("cannot rename symlink into place: " + ec.message(), link.string());
     }
     CrashPoint("assets-dir symlink renamed into place");
@@ -283,7 +284,7 @@ struct Installer::Impl {
       FetchFile(settings.Url(src.type, src.name, src.version, name), download,
                 FetchExpect{a->size, a->sha256}, f);
     } else if (Sha256File(download).sha256 != a->sha256) {
-      fs::remove(download);  // a complete download that went bad on disk: fetch again
+      RemovePath(download);  // a complete download that went bad on disk: fetch again
       FetchFile(settings.Url(src.type, src.name, src.version, name), download,
                 FetchExpect{a->size, a->sha256}, f);
     }

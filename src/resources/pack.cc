@@ -284,7 +284,7 @@ PackReport PackLibrary(const fs::path& library_dir, const fs::path& out_dir, Pac
     const ArchivePlan& plan = plans[i];
     ArchiveResult r;
     const fs::path staging = tmp_dir / ".staging" / plan.stem;
-    fs::create_directories(staging);
+    CreateDirectories(staging);
     // Grasp shard.
     const std::string shard_rel = GraspShardMember(plan.name);
     const fs::path shard_path = staging / "shard.mlsg";
@@ -355,7 +355,7 @@ PackReport PackLibrary(const fs::path& library_dir, const fs::path& out_dir, Pac
     r.archive.assets = static_cast<uint32_t>(plan.uids.size());
     r.archive.members_file = listing_rel;
     r.archive.members_sha256 = Sha256Hex(listing_text);
-    fs::remove_all(staging);
+    RemoveAll(staging);
     return r;
   };
 
@@ -412,16 +412,16 @@ PackReport PackLibrary(const fs::path& library_dir, const fs::path& out_dir, Pac
   WriteFileAtomic(tmp_dir / std::string(kOriginalSizeManifestFile), sizes.dump(1) + "\n", false);
   WriteFileAtomic(tmp_dir / std::string(kOriginalTriesFile), Gzip(tries.dump()), false);
   WriteFileAtomic(tmp_dir / std::string(kPackageManifestFile), manifest.Serialize(), false);
-  fs::remove_all(tmp_dir / ".staging");
+  RemoveAll(tmp_dir / ".staging");
   SyncFileSystem(tmp_dir);  // one flush for every file above, before the rename publishes them
 
   if (fs::exists(final_dir, ec)) {
     const fs::path old = parent / (options.version + ".old" + TempSuffix());
-    fs::rename(final_dir, old);
-    fs::rename(tmp_dir, final_dir);
+    RenamePath(final_dir, old);
+    RenamePath(tmp_dir, final_dir);
     fs::remove_all(old, ec);
   } else {
-    fs::rename(tmp_dir, final_dir);
+    RenamePath(tmp_dir, final_dir);
   }
   cleanup.dir.clear();
   FsyncPath(parent, true, parent.string());

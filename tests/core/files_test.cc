@@ -11,6 +11,8 @@
 
 #include <gtest/gtest.h>
 
+#include "test_util.h"
+
 namespace mlspaces {
 namespace {
 
@@ -53,6 +55,35 @@ TEST(FilesTest, WriteAllReportsAFailedWrite) {
   // A closed descriptor.
   EXPECT_FALSE(WriteAll(fds[1], "x"));
   EXPECT_EQ(errno, EBADF);
+}
+
+TEST(FilesTest, FileSystemEditsThrowErrorNamingThePath) {
+  // std::filesystem's own calls would throw filesystem_error, which the CLI reports as an
+  // internal error; these wrappers throw mlspaces::Error with the path.
+  testing::TempDir dir;
+  testing::WriteText(dir / "file", "x");
+  const std::string under_file = (dir / "file" / "sub").string();
+  testing::ExpectError([&] { CreateDirectories(dir / "file" / "sub"); },
+                       {under_file, "cannot create folder"});
+  testing::ExpectError([&] { RenamePath(dir / "missing", dir / "to"); },
+                       {(dir / "missing").string(), "cannot rename to " + (dir / "to").string()});
+  testing::ExpectError([&] { RemovePath(dir / "file" / "sub"); }, {under_file, "cannot remove"});
+  testing::ExpectError([&] { RemoveAll(dir / "file" / "sub"); }, {under_file, "cannot remove"});
+  testing::ExpectError([&] { ListFolder(dir / "file"); },
+                       {(dir / "file").string(), "cannot list folder"});
+  testing::ExpectError([&] { ListFolder(dir / "missing"); }, {"cannot list folder"});
+
+  // And they do their work.
+  CreateDirectories(dir / "a" / "b");
+  testing::WriteText(dir / "a" / "z", "z");
+  RenamePath(dir / "file", dir / "a" / "y");
+  EXPECT_EQ(ListFolder(dir / "a"), (std::vector<std::filesystem::path>{
+                                       dir / "a" / "b", dir / "a" / "y", dir / "a" / "z"}));
+  RemovePath(dir / "a" / "y");
+  RemovePath(dir / "a" / "y");  // gone already: no error
+  RemoveAll(dir / "a");
+  RemoveAll(dir / "a");
+  EXPECT_FALSE(std::filesystem::exists(dir / "a"));
 }
 
 }  // namespace

@@ -17,6 +17,7 @@ namespace {
 namespace fs = std::filesystem;
 using ::mlspaces::testing::ExpectError;
 using ::mlspaces::testing::ListFiles;
+using ::mlspaces::testing::Noise;
 using ::mlspaces::testing::RunProgram;
 using ::mlspaces::testing::RunPython;
 using ::mlspaces::testing::Slurp;
@@ -25,18 +26,6 @@ using ::mlspaces::testing::WriteText;
 using ::testing::ElementsAre;
 using ::testing::ElementsAreArray;
 using ::testing::HasSubstr;
-
-/// Bytes that do not compress (xorshift), so the archive is large and its blocks raw.
-std::string Noise(size_t n, uint64_t seed) {
-  std::string out(n, '\0');
-  for (char& c : out) {
-    seed ^= seed << 13;
-    seed ^= seed >> 7;
-    seed ^= seed << 17;
-    c = static_cast<char>(seed);
-  }
-  return out;
-}
 
 mode_t ModeOf(const fs::path& p) {
   struct stat st {};

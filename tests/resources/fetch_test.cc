@@ -18,23 +18,13 @@ namespace fs = std::filesystem;
 using ::mlspaces::testing::ExpectError;
 using ::mlspaces::testing::HttpTestServer;
 using ::mlspaces::testing::ListFiles;
+using ::mlspaces::testing::Noise;
 using ::mlspaces::testing::Slurp;
 using ::mlspaces::testing::TempDir;
 using ::mlspaces::testing::WriteText;
 using nlohmann::json;
 using ::testing::ElementsAre;
 using ::testing::HasSubstr;
-
-std::string Noise(size_t n, uint64_t seed) {
-  std::string out(n, '\0');
-  for (char& c : out) {
-    seed ^= seed << 13;
-    seed ^= seed >> 7;
-    seed ^= seed << 17;
-    c = static_cast<char>(seed);
-  }
-  return out;
-}
 
 class Fetch : public ::testing::Test {
  protected:

@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <string>
 #include <string_view>
+#include <vector>
 
 namespace mlspaces {
 
@@ -53,6 +54,27 @@ MLSPACES_API std::string Errno(std::string_view what);
 /// Writes all of `data` to `fd`, retrying short writes and EINTR.
 /// @returns false when a write fails (errno says why) or writes nothing (e.g. a closed pipe).
 MLSPACES_API bool WriteAll(int fd, std::string_view data);
+
+// --- File-system edits that throw Error -------------------------------------------------------
+// std::filesystem's throwing calls raise std::filesystem::filesystem_error, which is not an
+// mlspaces::Error; library code uses these instead (or the error_code overloads).
+
+/// fs::create_directories. @throws Error naming `dir` and the reason.
+MLSPACES_API void CreateDirectories(const std::filesystem::path& dir);
+
+/// fs::rename. @throws Error naming both paths and the reason.
+MLSPACES_API void RenamePath(const std::filesystem::path& from, const std::filesystem::path& to);
+
+/// fs::remove_all (a missing path is no error). @throws Error naming `path` and the reason.
+MLSPACES_API void RemoveAll(const std::filesystem::path& path);
+
+/// fs::remove of one file or empty folder (a missing path is no error).
+/// @throws Error naming `path` and the reason.
+MLSPACES_API void RemovePath(const std::filesystem::path& path);
+
+/// The entries of `dir` (files, folders, links; not recursive), sorted by name.
+/// @throws Error naming `dir` when it cannot be read.
+MLSPACES_API std::vector<std::filesystem::path> ListFolder(const std::filesystem::path& dir);
 
 /// fsync of a file, or of a folder (`directory`) after a rename into it.
 /// @throws Error naming `error_path` on failure.

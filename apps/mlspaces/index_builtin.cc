@@ -40,7 +40,9 @@ int Run(const IndexBuiltinFlags& flags) {
       std::printf("objects/%s: %zu assets in %zu archives indexed\n", n, report.assets,
                   report.archives);
       std::fflush(stdout);
-      for (const std::string& w : report.warnings) Warn("objects/" + source.name + ": " + w);
+      for (const Diagnostic& w : report.warnings) {
+        Warn("objects/" + source.name + ": " + LegacyWarningLine(w));
+      }
     }
   }
   if (sources.empty()) std::printf("no sources under %s\n", (assets / "objects").c_str());

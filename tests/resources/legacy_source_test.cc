@@ -269,12 +269,20 @@ TEST(LegacyIndex, CompactedKeysDuplicatesAndNonXmlLeaves) {
   EXPECT_EQ(report.archives, 4u);
   EXPECT_EQ(report.assets, 5u);  // c, dup, only_b, dup2, r.s
   ASSERT_EQ(report.warnings.size(), 2u);
-  EXPECT_THAT(report.warnings[0], HasSubstr("duplicate UID dup:"));
-  EXPECT_THAT(report.warnings[0], HasSubstr("b.tar.zst: x/y/dup.xml is ignored"));
-  EXPECT_THAT(report.warnings[0], HasSubstr("a.tar.zst: z/dup.xml wins"));
+  // Each warning names the file ignored (archive, path in it) and the UID.
+  EXPECT_EQ(report.warnings[0].path, "b.tar.zst");
+  EXPECT_EQ(report.warnings[0].field, "x/y/dup.xml");
+  EXPECT_EQ(report.warnings[0].uid, "dup");
+  EXPECT_EQ(report.warnings[0].severity, Severity::kWarning);
+  EXPECT_EQ(report.warnings[0].message, "is ignored; a.tar.zst: z/dup.xml wins");
+  EXPECT_EQ(LegacyWarningLine(report.warnings[0]),
+            "duplicate UID dup: b.tar.zst: x/y/dup.xml is ignored; a.tar.zst: z/dup.xml wins");
   // '-' sorts before '/', so "a-b/dup2.xml" comes first although the walk meets "a" first.
-  EXPECT_THAT(report.warnings[1], HasSubstr("c.tar.zst: a/dup2.xml is ignored"));
-  EXPECT_THAT(report.warnings[1], HasSubstr("c.tar.zst: a-b/dup2.xml wins"));
+  EXPECT_EQ(report.warnings[1].path, "c.tar.zst");
+  EXPECT_EQ(report.warnings[1].field, "a/dup2.xml");
+  EXPECT_EQ(report.warnings[1].uid, "dup2");
+  EXPECT_EQ(LegacyWarningLine(report.warnings[1]),
+            "duplicate UID dup2: c.tar.zst: a/dup2.xml is ignored; c.tar.zst: a-b/dup2.xml wins");
 
   const auto lib = PackedLibrary::Open(report.index_dir, "hand", dir);
   lib->Check();
@@ -307,6 +315,22 @@ TEST(LegacyIndex, CompactedKeysDuplicatesAndNonXmlLeaves) {
   const LegacyIndexReport empty = BuildLegacyIndex(dir, "hand");
   EXPECT_EQ(empty.assets, 0u);
   EXPECT_EQ(PackedLibrary::Open(empty.index_dir, "hand", dir)->size(), 0u);
+}
+
+TEST(LegacyIndex, AFileNamedOnlyXmlIsAWarningNamingArchiveAndPath) {
+  TempDir tmp;
+  const fs::path dir = tmp / "v";
+  WriteTries(dir, R"({"a.tar.zst": {"d": {".xml": {}}, "ok.xml": {}}})");
+  const LegacyIndexReport report = BuildLegacyIndex(dir, "hand");
+  EXPECT_EQ(report.assets, 1u);
+  ASSERT_EQ(report.warnings.size(), 1u);
+  const Diagnostic& w = report.warnings[0];
+  EXPECT_EQ(w.path, "a.tar.zst");
+  EXPECT_EQ(w.field, "d/.xml");
+  EXPECT_EQ(w.uid, "");
+  EXPECT_EQ(w.severity, Severity::kWarning);
+  EXPECT_EQ(LegacyWarningLine(w),
+            "a.tar.zst: d/.xml: a file named only \".xml\" has no UID; ignored");
 }
 
 TEST(LegacyIndex, BadTriesFilesAreOneLineErrorsNamingFileAndPointer) {

@@ -5,6 +5,7 @@
 // probe instead of scanning its folders (see docs/resources.md, "MolmoSpaces-format sources").
 #pragma once
 
+#include "mlspaces/core/diagnostics.h"
 #include "mlspaces/core/export.h"
 
 #include <cstddef>
@@ -16,9 +17,20 @@ namespace mlspaces {
 
 struct MLSPACES_API LegacyIndexReport {
   size_t assets = 0, archives = 0;
-  std::vector<std::string> warnings;  ///< one line each (duplicate UIDs)
-  std::filesystem::path index_dir;    ///< <version_dir>/.mlspaces/index
+  /// Files not indexed, one warning each (severity kWarning), path = the archive name (a key
+  /// of the tries file), field = the file's path in it:
+  ///  - a file named only ".xml": uid empty, message = why it was ignored;
+  ///  - a UID found twice: uid = the UID, path/field = the file ignored, message = "is ignored;
+  ///    <archive>: <path> wins" naming the file kept.
+  /// Printed as LegacyWarningLine.
+  std::vector<Diagnostic> warnings;
+  std::filesystem::path index_dir;  ///< <version_dir>/.mlspaces/index
 };
+
+/// A warning of LegacyIndexReport on one line: Diagnostic::ToString for one without a UID;
+/// "duplicate UID <uid>: <archive>: <path> is ignored; <archive>: <path> wins" for a UID
+/// found twice.
+MLSPACES_API std::string LegacyWarningLine(const Diagnostic& warning);
 
 /// Reads <version_dir>/mjthor_resources_combined_meta.json.gz (gzip JSON {archive: trie}; a
 /// trie is a nested object whose keys are path components or '/'-joined runs of components, a

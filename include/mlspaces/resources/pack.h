@@ -1,6 +1,7 @@
 // `mlspaces pack`: a user asset + grasp library -> a published, versioned package.
 #pragma once
 
+#include "mlspaces/core/diagnostics.h"
 #include "mlspaces/core/export.h"
 
 #include <cstdint>
@@ -31,7 +32,10 @@ struct MLSPACES_API PackReport {
   std::string name, version;
   size_t assets = 0, archives = 0, grasp_sets = 0, grasps = 0;
   uint64_t archive_bytes = 0, unpacked_bytes = 0;
-  std::vector<std::string> warnings;  ///< one line each
+  /// What was left out, one warning each (severity kWarning), printed as
+  /// Diagnostic::ToString: path = the file left out (a symbolic link; a grasp file of a UID
+  /// not in the asset index, with uid = that UID), message = why.
+  std::vector<Diagnostic> warnings;
 };
 
 /// Packs `library_dir` (it must hold assets_index.json) into

@@ -221,7 +221,7 @@ TEST(PackUnitsTest, LeftOutFilesAreWarningsNamingFileAndUid) {
   const fs::path lib = tmp / "lib";
   testing::WriteText(lib / "box" / "box.xml", "<mujoco model=\"box\"/>\n");
   testing::WriteText(lib / "box" / "box.json", testing::MinimalMetadata("box"));
-  fs::create_symlink("box.xml", lib / "box" / "link.xml");
+  fs::create_symlink("box.json", lib / "box" / "link.txt");
   WriteAssetIndex(lib, AssetIndexOptions{});
   // A grasp library with grasps for a UID the asset index lacks.
   const fs::path grasps = tmp / "grasps";
@@ -242,7 +242,7 @@ TEST(PackUnitsTest, LeftOutFilesAreWarningsNamingFileAndUid) {
                                   ": grasps for UID ghost, which is not in the asset index, "
                                   "not packed");
   const Diagnostic& link = report.warnings[1];
-  EXPECT_EQ(link.path, (fs::absolute(lib) / "box" / "link.xml").string());
+  EXPECT_EQ(link.path, (fs::absolute(lib) / "box" / "link.txt").string());
   EXPECT_EQ(link.uid, "");
   EXPECT_EQ(link.ToString(), link.path + ": symbolic link not packed");
 }

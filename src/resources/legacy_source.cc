@@ -177,7 +177,7 @@ std::string LegacyWarningLine(const Diagnostic& warning) {
 }
 
 LegacyIndexReport BuildLegacyIndex(const fs::path& version_dir, const std::string& name) {
-  const fs::path tries_path = version_dir / std::string(kOriginalTriesFile);
+  const fs::path tries_path = version_dir / std::string(kTriesFile);
   const std::string file = tries_path.string();
   std::error_code ec;
   if (!fs::exists(tries_path, ec)) {
@@ -256,7 +256,7 @@ LegacyIndexReport BuildLegacyIndex(const fs::path& version_dir, const std::strin
 std::vector<ObjectSource> FindObjectSources(const fs::path& assets_dir,
                                             const std::vector<std::string>& names) {
   const fs::path objects = assets_dir / "objects";
-  const std::string tries_file(kOriginalTriesFile);
+  const std::string tries_file(kTriesFile);
   const std::string index_file(kUidIndexFile);
   auto kind_of = [&](const fs::path& root) {
     if (IsFile(root / index_file)) return ObjectSource::Kind::kPackage;

@@ -411,8 +411,8 @@ PackReport PackLibrary(const fs::path& library_dir, const fs::path& out_dir, Pac
   manifest.num_grasp_sets = report.grasp_sets;
   manifest.num_grasps = report.grasps;
   manifest.robots.assign(robots.begin(), robots.end());
-  WriteFileAtomic(tmp_dir / std::string(kOriginalSizeManifestFile), sizes.dump(1) + "\n", false);
-  WriteFileAtomic(tmp_dir / std::string(kOriginalTriesFile), Gzip(tries.dump()), false);
+  WriteFileAtomic(tmp_dir / std::string(kSizeManifestFile), sizes.dump(1) + "\n", false);
+  WriteFileAtomic(tmp_dir / std::string(kTriesFile), Gzip(tries.dump()), false);
   WriteFileAtomic(tmp_dir / std::string(kPackageManifestFile), manifest.Serialize(), false);
   fs::remove_all(tmp_dir / ".staging");
   SyncFileSystem(tmp_dir);  // one flush for every file above, before the rename publishes them

@@ -1,8 +1,11 @@
-// MolmoSpaces-format sources: built-in data installed by the ORIGINAL resource manager (a
-// cache version folder with the remote manifest, the gzip "tries" file, extracted archives and
-// `.<archive>_complete_extract` flags, but none of our stores). BuildLegacyIndex turns the
-// tries into our UID index, so the Registry answers lookups on such a source with one hash
-// probe instead of scanning its folders (see docs/resources.md, "MolmoSpaces-format sources").
+// Tries-only ("legacy") sources: built-in data installed without our stores, as a cache
+// version folder with the remote size manifest, the gzip tries file (kTriesFile), extracted
+// archives and `.<archive>_complete_extract` flags. BuildLegacyIndex turns the tries into our
+// UID index, so the Registry answers lookups on such a source with one hash probe instead of
+// scanning its folders. Where such sources come from and how duplicates are resolved:
+// docs/resources.md (`index-builtin`).
+//
+// Everything here returns values; nothing keeps a reference to its arguments.
 #pragma once
 
 #include "mlspaces/core/diagnostics.h"
@@ -15,6 +18,10 @@
 
 namespace mlspaces {
 
+// =============================================================================================
+// Building the index of one source
+
+/// What BuildLegacyIndex wrote and what it left out.
 struct MLSPACES_API LegacyIndexReport {
   size_t assets = 0, archives = 0;
   /// Files not indexed, one warning each (severity kWarning), path = the archive name (a key
@@ -45,11 +52,14 @@ MLSPACES_API std::string LegacyWarningLine(const Diagnostic& warning);
 MLSPACES_API LegacyIndexReport BuildLegacyIndex(const std::filesystem::path& version_dir,
                                                 const std::string& name);
 
+// =============================================================================================
+// Finding the object sources of an assets dir
+
 /// One object source under <assets>/objects, as `index-builtin` finds it.
 struct MLSPACES_API ObjectSource {
   enum class Kind {
     kPackage,  ///< has our UID index already (an mlspaces package): nothing to do
-    kLegacy,   ///< has the original's tries file: BuildLegacySourceIndex indexes it
+    kLegacy,   ///< has the tries file (kTriesFile): BuildLegacySourceIndex indexes it
     kOther,    ///< neither (skipped)
   };
   std::string name;            ///< the folder name

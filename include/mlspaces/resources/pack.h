@@ -1,4 +1,5 @@
-// `mlspaces pack`: a user asset + grasp library -> a published, versioned package.
+// `mlspaces pack`: a user asset + grasp library -> a published, versioned package. What a
+// package holds: docs/resources.md ("A package"); the store layout: docs/formats.md.
 #pragma once
 
 #include "mlspaces/core/diagnostics.h"
@@ -12,6 +13,9 @@
 
 namespace mlspaces {
 
+// =============================================================================================
+// Options and report
+
 struct MLSPACES_API PackOptions {
   std::string name;     ///< source name (default: the library folder's name)
   std::string version;  ///< default: today's UTC date, YYYYMMDD
@@ -23,7 +27,8 @@ struct MLSPACES_API PackOptions {
   int zstd_level = 3;
   int threads = 0;  ///< 0 = hardware concurrency
   bool overwrite = false;
-  /// Called as archives finish: (archives done, total).
+  /// Called as archives finish, in order, on the calling thread: (archives done, total). May
+  /// be empty.
   std::function<void(size_t, size_t)> progress;
 };
 
@@ -37,6 +42,9 @@ struct MLSPACES_API PackReport {
   /// not in the asset index, with uid = that UID), message = why.
   std::vector<Diagnostic> warnings;
 };
+
+// =============================================================================================
+// Packing
 
 /// Packs `library_dir` (it must hold assets_index.json) into
 /// <out_dir>/<type>/<name>/<version>/ and merges {type: {name: version}} into

@@ -5,6 +5,7 @@
 #include <string>
 
 #include "commands.h"
+#include "mlspaces/core/diagnostics.h"
 #include "mlspaces/core/error.h"
 #include "mlspaces/core/progress.h"
 #include "mlspaces/library/asset_index.h"
@@ -40,8 +41,8 @@ int RunComputeMetadata(const IndexAssetsFlags& flags) {
   };
   sim::ComputeMetadataReport report = sim::ComputeAssetMetadata(flags.dir, options, compute);
   if (bar) bar->Finish();
-  for (const std::string& warning : report.index.warnings) {
-    std::fprintf(stderr, "%s\n", warning.c_str());
+  for (const Diagnostic& warning : report.index.warnings) {
+    std::fprintf(stderr, "%s\n", IndexWarningLine(warning).c_str());
   }
   for (const sim::AssetFailure& failure : report.failures) {
     std::fprintf(stderr, "mlspaces: error: %s\n", failure.message.c_str());
@@ -65,8 +66,8 @@ int Run(const IndexAssetsFlags& flags) {
   options.overwrite = flags.overwrite;
   options.suppress_missing_metadata = flags.suppress_missing_metadata;
   IndexReport report = WriteAssetIndex(flags.dir, options);
-  for (const std::string& warning : report.warnings) {
-    std::fprintf(stderr, "%s\n", warning.c_str());
+  for (const Diagnostic& warning : report.warnings) {
+    std::fprintf(stderr, "%s\n", IndexWarningLine(warning).c_str());
   }
   std::printf("Wrote %s with %zu assets.\n", report.output.c_str(), report.count);
   return 0;

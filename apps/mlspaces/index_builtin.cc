@@ -34,13 +34,15 @@ int Run(const IndexBuiltinFlags& flags) {
       std::printf("objects/%s: already an mlspaces package, skipped\n", n);
     } else if (source.kind == ObjectSource::Kind::kOther) {
       std::printf("objects/%s: no %s (not a MolmoSpaces-format source), skipped\n", n,
-                  std::string(kOriginalTriesFile).c_str());
+                  std::string(kTriesFile).c_str());
     } else {
       const LegacyIndexReport report = BuildLegacySourceIndex(source);
       std::printf("objects/%s: %zu assets in %zu archives indexed\n", n, report.assets,
                   report.archives);
       std::fflush(stdout);
-      for (const std::string& w : report.warnings) Warn("objects/" + source.name + ": " + w);
+      for (const Diagnostic& w : report.warnings) {
+        Warn("objects/" + source.name + ": " + LegacyWarningLine(w));
+      }
     }
   }
   if (sources.empty()) std::printf("no sources under %s\n", (assets / "objects").c_str());

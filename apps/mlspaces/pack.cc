@@ -27,7 +27,7 @@ int Run(PackFlags& flags) {
   // The bar's total is only known once the library is read; PackLibrary reports it per step.
   const PackReport r = PackLibrary(flags.library_dir, flags.out_dir, flags.options);
   bar.Finish();
-  for (const std::string& w : r.warnings) Warn(w);
+  for (const Diagnostic& w : r.warnings) Warn(w.ToString());
   std::printf(
       "Packed %zu assets (%zu grasps in %zu sets) into %zu archives: %.1f MB "
       "(%.1f MB unpacked)\n",

@@ -69,7 +69,7 @@ int Run(const InspectFlags& flags) {
     std::printf("  %-24s body %s pos %s\n", Name(c.name).c_str(), c.body.c_str(),
                 Vec(c.pos).c_str());
   }
-  for (const std::string& w : model.warnings) Warn(w);
+  for (const Diagnostic& w : model.warnings) Warn(sim::MujocoWarningLine(w));
   return 0;
 }
 

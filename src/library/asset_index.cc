@@ -86,6 +86,10 @@ std::string AssetIndex::Serialize() const {
   return out;
 }
 
+std::string IndexWarningLine(const Diagnostic& warning) {
+  return "Warning: " + warning.message + " Skipping.";
+}
+
 AssetIndex BuildAssetIndex(const fs::path& dir, const AssetIndexOptions& options,
                            IndexReport* report, bool use_computed) {
   const fs::path root = internal::ResolvePath(dir);
@@ -100,7 +104,10 @@ AssetIndex BuildAssetIndex(const fs::path& dir, const AssetIndexOptions& options
       std::string message = "Expected metadata JSON for " + d.AbsChild(name) + " at " +
                             d.AbsChild(json_name) + ", but it was not found.";
       if (options.suppress_missing_metadata) {
-        if (report != nullptr) report->warnings.push_back("Warning: " + message + " Skipping.");
+        if (report != nullptr) {
+          report->warnings.emplace_back(d.AbsChild(name), "", std::move(message), uid,
+                                        Severity::kWarning);
+        }
         return;
       }
       throw Error(message, {}, {}, uid);

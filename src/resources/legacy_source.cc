@@ -115,7 +115,7 @@ std::optional<std::string_view> BadComponent(std::string_view key) {
 /// .xml leaves to `out`. @throws Error with the JSON pointer of a bad node or key.
 void WalkTrie(const FlatJson& trie, const std::string& archive, uint32_t archive_index,
               const std::string& file, std::vector<Candidate>& out,
-              std::vector<std::string>& warnings) {
+              std::vector<Diagnostic>& warnings) {
   struct Frame {
     FlatJson::const_iterator it, end;
     size_t prefix_len;  ///< length of `rel` for this node (its folder path)
@@ -159,7 +159,8 @@ void WalkTrie(const FlatJson& trie, const std::string& archive, uint32_t archive
     const size_t slash = rel.rfind('/');
     const size_t name_start = slash == std::string::npos ? 0 : slash + 1;
     if (rel.size() - name_start == kXml.size()) {
-      warnings.push_back(archive + ": " + rel + ": a file named only \".xml\" has no UID; ignored");
+      warnings.emplace_back(archive, rel, "a file named only \".xml\" has no UID; ignored", "",
+                            Severity::kWarning);
       continue;
     }
     out.push_back(
@@ -169,8 +170,14 @@ void WalkTrie(const FlatJson& trie, const std::string& archive, uint32_t archive
 
 }  // namespace
 
+std::string LegacyWarningLine(const Diagnostic& warning) {
+  if (warning.uid.empty()) return warning.ToString();
+  return "duplicate UID " + warning.uid + ": " + warning.path + ": " + warning.field + " " +
+         warning.message;
+}
+
 LegacyIndexReport BuildLegacyIndex(const fs::path& version_dir, const std::string& name) {
-  const fs::path tries_path = version_dir / std::string(kOriginalTriesFile);
+  const fs::path tries_path = version_dir / std::string(kTriesFile);
   const std::string file = tries_path.string();
   std::error_code ec;
   if (!fs::exists(tries_path, ec)) {
@@ -226,9 +233,9 @@ LegacyIndexReport BuildLegacyIndex(const fs::path& version_dir, const std::strin
     }
     const Candidate& w = candidates[it->second];
     if (w.archive == c.archive && w.path == c.path) continue;  // one file listed twice
-    report.warnings.push_back("duplicate UID " + c.uid + ": " + archives[c.archive] + ": " +
-                              c.path + " is ignored; " + archives[w.archive] + ": " + w.path +
-                              " wins");
+    report.warnings.emplace_back(archives[c.archive], c.path,
+                                 "is ignored; " + archives[w.archive] + ": " + w.path + " wins",
+                                 c.uid, Severity::kWarning);
   }
 
   report.index_dir = version_dir / std::string(kLegacyIndexDir);
@@ -249,7 +256,7 @@ LegacyIndexReport BuildLegacyIndex(const fs::path& version_dir, const std::strin
 std::vector<ObjectSource> FindObjectSources(const fs::path& assets_dir,
                                             const std::vector<std::string>& names) {
   const fs::path objects = assets_dir / "objects";
-  const std::string tries_file(kOriginalTriesFile);
+  const std::string tries_file(kTriesFile);
   const std::string index_file(kUidIndexFile);
   auto kind_of = [&](const fs::path& root) {
     if (IsFile(root / index_file)) return ObjectSource::Kind::kPackage;

@@ -59,7 +59,7 @@ struct ArchiveResult {
   std::vector<PackedAssetInput> assets;
   std::vector<std::unique_ptr<Annotation>> annotations;
   size_t grasp_sets = 0, grasps = 0;
-  std::vector<std::string> warnings;
+  std::vector<Diagnostic> warnings;
 };
 
 std::string TodayUtc() {
@@ -109,7 +109,7 @@ std::string Gzip(const std::string& data) {
 /// The files of a unit, sorted, relative to the library root.
 std::vector<std::string> UnitFiles(const fs::path& root, const Unit& unit, const AssetIndex& index,
                                    const std::set<std::string>& skip,
-                                   std::vector<std::string>& warnings) {
+                                   std::vector<Diagnostic>& warnings) {
   std::vector<std::string> files;
   if (unit.dir.empty()) {
     for (const std::string& uid : unit.uids) {
@@ -131,7 +131,7 @@ std::vector<std::string> UnitFiles(const fs::path& root, const Unit& unit, const
       const fs::path& p = it->path();
       const std::string rel = RelativeGenericPath(p, root);
       if (it->is_symlink()) {
-        warnings.push_back(p.string() + ": symbolic link not packed");
+        warnings.emplace_back(p.string(), "", "symbolic link not packed", "", Severity::kWarning);
         if (it->is_directory()) it.disable_recursion_pending();
         continue;
       }
@@ -187,8 +187,10 @@ PackReport PackLibrary(const fs::path& library_dir, const fs::path& out_dir, Pac
     const GraspIndex gindex = GraspIndex::Load(grasp_root / "grasps_index.json");
     auto add = [&](const std::string& uid, GraspFile file) {
       if (index.entries.count(uid) == 0) {
-        report.warnings.push_back(file.path.string() + ": grasps for UID " + uid +
-                                  ", which is not in the asset index, not packed");
+        report.warnings.emplace_back(
+            file.path.string(), "",
+            "grasps for UID " + uid + ", which is not in the asset index, not packed", uid,
+            Severity::kWarning);
         return;
       }
       const std::string rel = RelativeGenericPath(file.path, root);
@@ -409,8 +411,8 @@ PackReport PackLibrary(const fs::path& library_dir, const fs::path& out_dir, Pac
   manifest.num_grasp_sets = report.grasp_sets;
   manifest.num_grasps = report.grasps;
   manifest.robots.assign(robots.begin(), robots.end());
-  WriteFileAtomic(tmp_dir / std::string(kOriginalSizeManifestFile), sizes.dump(1) + "\n", false);
-  WriteFileAtomic(tmp_dir / std::string(kOriginalTriesFile), Gzip(tries.dump()), false);
+  WriteFileAtomic(tmp_dir / std::string(kSizeManifestFile), sizes.dump(1) + "\n", false);
+  WriteFileAtomic(tmp_dir / std::string(kTriesFile), Gzip(tries.dump()), false);
   WriteFileAtomic(tmp_dir / std::string(kPackageManifestFile), manifest.Serialize(), false);
   RemoveAll(tmp_dir / ".staging");
   SyncFileSystem(tmp_dir);  // one flush for every file above, before the rename publishes them

@@ -24,6 +24,7 @@
 #include "mlspaces/core/error.h"
 #include "mlspaces/core/files.h"
 #include "mlspaces/core/json.h"
+#include "mlspaces/library/annotation.h"
 #include "mlspaces/library/msgpack.h"
 #include "mlspaces/library/package_layout.h"
 #include "mlspaces/library/packed_format.h"

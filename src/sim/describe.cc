@@ -139,7 +139,7 @@ Json ToJson(const ModelDescription& description) {
   }
   out["cameras"] = cameras;
   Json warnings = Json::array();
-  for (const std::string& w : description.warnings) warnings.push_back(w);
+  for (const Diagnostic& w : description.warnings) warnings.push_back(MujocoWarningLine(w));
   out["warnings"] = warnings;
   return out;
 }

@@ -240,7 +240,7 @@ struct MjcfComposer::Impl {
   ComposeOptions options;
   fs::path path;
   std::vector<SourceRoot> roots;  // the composed file, then each run-time attach
-  mutable std::vector<std::string> warnings;
+  mutable std::vector<Diagnostic> warnings;
   mutable std::mutex mutex;
 
   /// Compiles the spec itself. A compile leaves the spec as it was, and a spec compiles again
@@ -258,9 +258,12 @@ struct MjcfComposer::Impl {
     if (!m) internal::ThrowCompileError(SpecError(spec.get()), roots);
     ModelPtr model(m);
     if (mjs_isWarning(spec.get()) && !SpecError(spec.get()).empty()) {
-      warnings.push_back("MuJoCo: " + internal::OneLine(SpecError(spec.get())));
+      warnings.emplace_back(path.string(), "", internal::OneLine(SpecError(spec.get())), "",
+                            Severity::kWarning);
     }
-    for (std::string& w : TakeMujocoWarnings()) warnings.push_back("MuJoCo: " + w);
+    for (std::string& w : TakeMujocoWarnings()) {
+      warnings.emplace_back(path.string(), "", std::move(w), "", Severity::kWarning);
+    }
     return model;
   }
 
@@ -445,7 +448,9 @@ ModelPtr MjcfComposer::Compile(const mjVFS* vfs) const {
 
 mjSpec* MjcfComposer::spec() { return impl_->spec.get(); }
 
-const std::vector<std::string>& MjcfComposer::warnings() const { return impl_->warnings; }
+const std::vector<Diagnostic>& MjcfComposer::warnings() const { return impl_->warnings; }
+
+std::string MujocoWarningLine(const Diagnostic& warning) { return "MuJoCo: " + warning.message; }
 
 const fs::path& MjcfComposer::path() const { return impl_->path; }
 

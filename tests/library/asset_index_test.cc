@@ -184,7 +184,12 @@ TEST(AssetIndexTest, MissingMetadataIsAnErrorUnlessSuppressed) {
   AssetIndex index = BuildAssetIndex(root, options, &report);
   EXPECT_EQ(index.entries.size(), 1u);
   ASSERT_EQ(report.warnings.size(), 1u);
-  EXPECT_EQ(report.warnings[0],
+  const Diagnostic& w = report.warnings[0];
+  EXPECT_EQ(w.path, (root / "inc/include.xml").string());
+  EXPECT_EQ(w.field, "");
+  EXPECT_EQ(w.uid, "include");
+  EXPECT_EQ(w.severity, Severity::kWarning);
+  EXPECT_EQ(IndexWarningLine(w),
             "Warning: Expected metadata JSON for " + (root / "inc/include.xml").string() + " at " +
                 (root / "inc/include.json").string() + ", but it was not found. Skipping.");
 }

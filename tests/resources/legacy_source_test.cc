@@ -55,7 +55,7 @@ std::string Gzip(const std::string& data, int level = Z_DEFAULT_COMPRESSION) {
 }
 
 void WriteTries(const fs::path& version_dir, const std::string& json) {
-  WriteText(version_dir / std::string(kOriginalTriesFile), Gzip(json));
+  WriteText(version_dir / std::string(kTriesFile), Gzip(json));
 }
 
 /// Installs `package` (a remote version folder written by pack) into `version_dir` the way
@@ -64,10 +64,10 @@ void WriteTries(const fs::path& version_dir, const std::string& json) {
 void InstallLikeTheOriginal(const fs::path& package, const fs::path& version_dir,
                             const fs::path& staging_root) {
   fs::create_directories(version_dir);
-  for (std::string_view f : {kOriginalSizeManifestFile, kOriginalTriesFile}) {
+  for (std::string_view f : {kSizeManifestFile, kTriesFile}) {
     fs::copy_file(package / std::string(f), version_dir / std::string(f));
   }
-  const FlatJson sizes = ParseFlatJsonFile(version_dir / std::string(kOriginalSizeManifestFile));
+  const FlatJson sizes = ParseFlatJsonFile(version_dir / std::string(kSizeManifestFile));
   ASSERT_FALSE(sizes.empty());
   for (auto it = sizes.begin(); it != sizes.end(); ++it) {
     const std::string& archive = it.key();
@@ -202,10 +202,10 @@ TEST_F(LegacySourceTest, ThorComesFirstAheadOfOtherSourcesAndUserLibraries) {
 TEST(ObjectSources, AllFoldersSortedWithTheirKind) {
   TempDir tmp;
   const fs::path objects = tmp / "assets" / "objects";
-  WriteText(objects / "b_legacy" / std::string(kOriginalTriesFile), "x");
+  WriteText(objects / "b_legacy" / std::string(kTriesFile), "x");
   WriteText(objects / "a_package" / std::string(kUidIndexFile), "x");
   fs::create_directories(objects / "c_other");
-  WriteText(tmp / "elsewhere" / std::string(kOriginalTriesFile), "x");
+  WriteText(tmp / "elsewhere" / std::string(kTriesFile), "x");
   fs::create_directory_symlink(tmp / "elsewhere", objects / "d_link");
   WriteText(objects / "e_file.txt", "not a folder");
   fs::create_directory_symlink(tmp / "gone", objects / "f_dangling");
@@ -269,12 +269,20 @@ TEST(LegacyIndex, CompactedKeysDuplicatesAndNonXmlLeaves) {
   EXPECT_EQ(report.archives, 4u);
   EXPECT_EQ(report.assets, 5u);  // c, dup, only_b, dup2, r.s
   ASSERT_EQ(report.warnings.size(), 2u);
-  EXPECT_THAT(report.warnings[0], HasSubstr("duplicate UID dup:"));
-  EXPECT_THAT(report.warnings[0], HasSubstr("b.tar.zst: x/y/dup.xml is ignored"));
-  EXPECT_THAT(report.warnings[0], HasSubstr("a.tar.zst: z/dup.xml wins"));
+  // Each warning names the file ignored (archive, path in it) and the UID.
+  EXPECT_EQ(report.warnings[0].path, "b.tar.zst");
+  EXPECT_EQ(report.warnings[0].field, "x/y/dup.xml");
+  EXPECT_EQ(report.warnings[0].uid, "dup");
+  EXPECT_EQ(report.warnings[0].severity, Severity::kWarning);
+  EXPECT_EQ(report.warnings[0].message, "is ignored; a.tar.zst: z/dup.xml wins");
+  EXPECT_EQ(LegacyWarningLine(report.warnings[0]),
+            "duplicate UID dup: b.tar.zst: x/y/dup.xml is ignored; a.tar.zst: z/dup.xml wins");
   // '-' sorts before '/', so "a-b/dup2.xml" comes first although the walk meets "a" first.
-  EXPECT_THAT(report.warnings[1], HasSubstr("c.tar.zst: a/dup2.xml is ignored"));
-  EXPECT_THAT(report.warnings[1], HasSubstr("c.tar.zst: a-b/dup2.xml wins"));
+  EXPECT_EQ(report.warnings[1].path, "c.tar.zst");
+  EXPECT_EQ(report.warnings[1].field, "a/dup2.xml");
+  EXPECT_EQ(report.warnings[1].uid, "dup2");
+  EXPECT_EQ(LegacyWarningLine(report.warnings[1]),
+            "duplicate UID dup2: c.tar.zst: a/dup2.xml is ignored; c.tar.zst: a-b/dup2.xml wins");
 
   const auto lib = PackedLibrary::Open(report.index_dir, "hand", dir);
   lib->Check();
@@ -299,8 +307,7 @@ TEST(LegacyIndex, CompactedKeysDuplicatesAndNonXmlLeaves) {
 
   // Concatenated gzip members (gzip -c a b) read as one stream.
   const std::string json = R"({"a.tar.zst": {"u": {"u.xml": {}}}})";
-  WriteText(dir / std::string(kOriginalTriesFile),
-            Gzip(json.substr(0, 10)) + Gzip(json.substr(10)));
+  WriteText(dir / std::string(kTriesFile), Gzip(json.substr(0, 10)) + Gzip(json.substr(10)));
   EXPECT_EQ(BuildLegacyIndex(dir, "hand").assets, 1u);
   // An empty tries file gives an empty, valid index.
   WriteTries(dir, "{}");
@@ -309,26 +316,42 @@ TEST(LegacyIndex, CompactedKeysDuplicatesAndNonXmlLeaves) {
   EXPECT_EQ(PackedLibrary::Open(empty.index_dir, "hand", dir)->size(), 0u);
 }
 
+TEST(LegacyIndex, AFileNamedOnlyXmlIsAWarningNamingArchiveAndPath) {
+  TempDir tmp;
+  const fs::path dir = tmp / "v";
+  WriteTries(dir, R"({"a.tar.zst": {"d": {".xml": {}}, "ok.xml": {}}})");
+  const LegacyIndexReport report = BuildLegacyIndex(dir, "hand");
+  EXPECT_EQ(report.assets, 1u);
+  ASSERT_EQ(report.warnings.size(), 1u);
+  const Diagnostic& w = report.warnings[0];
+  EXPECT_EQ(w.path, "a.tar.zst");
+  EXPECT_EQ(w.field, "d/.xml");
+  EXPECT_EQ(w.uid, "");
+  EXPECT_EQ(w.severity, Severity::kWarning);
+  EXPECT_EQ(LegacyWarningLine(w),
+            "a.tar.zst: d/.xml: a file named only \".xml\" has no UID; ignored");
+}
+
 TEST(LegacyIndex, BadTriesFilesAreOneLineErrorsNamingFileAndPointer) {
   TempDir tmp;
   const fs::path dir = tmp / "v";
-  const std::string file = (dir / std::string(kOriginalTriesFile)).string();
+  const std::string file = (dir / std::string(kTriesFile)).string();
   ExpectError([&] { BuildLegacyIndex(dir, "x"); }, {file, "no MolmoSpaces tries file"});
 
-  WriteText(dir / std::string(kOriginalTriesFile), R"({"a.tar.zst": {}})");
+  WriteText(dir / std::string(kTriesFile), R"({"a.tar.zst": {}})");
   ExpectError([&] { BuildLegacyIndex(dir, "x"); }, {file, "not a gzip file"});
-  WriteText(dir / std::string(kOriginalTriesFile), "");
+  WriteText(dir / std::string(kTriesFile), "");
   ExpectError([&] { BuildLegacyIndex(dir, "x"); }, {file, "not a gzip file"});
 
   const std::string good = Gzip(R"({"a.tar.zst": {"u": {"u.xml": {}}}})");
-  WriteText(dir / std::string(kOriginalTriesFile), good.substr(0, good.size() / 2));
+  WriteText(dir / std::string(kTriesFile), good.substr(0, good.size() / 2));
   ExpectError([&] { BuildLegacyIndex(dir, "x"); }, {file, "truncated gzip stream"});
   std::string flipped = good;
   flipped[12] = static_cast<char>(flipped[12] ^ 0x55);
   flipped[13] = static_cast<char>(flipped[13] ^ 0x55);
-  WriteText(dir / std::string(kOriginalTriesFile), flipped);
+  WriteText(dir / std::string(kTriesFile), flipped);
   ExpectError([&] { BuildLegacyIndex(dir, "x"); }, {file});
-  WriteText(dir / std::string(kOriginalTriesFile), good + "junk");
+  WriteText(dir / std::string(kTriesFile), good + "junk");
   ExpectError([&] { BuildLegacyIndex(dir, "x"); }, {file, "trailing bytes"});
 
   struct Case {
@@ -432,7 +455,7 @@ TEST(LegacyIndex, ScalesToObjaverseSize) {
             "\"col_1.obj\":{},\"col_2.obj\":{}}}}";
   }
   json += "}";
-  WriteText(tmp / std::string(kOriginalTriesFile), Gzip(json, Z_BEST_SPEED));
+  WriteText(tmp / std::string(kTriesFile), Gzip(json, Z_BEST_SPEED));
   const auto start = std::chrono::steady_clock::now();
   const LegacyIndexReport report = BuildLegacyIndex(tmp.path(), "objaverse");
   const double seconds =

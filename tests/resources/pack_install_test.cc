@@ -216,6 +216,37 @@ TEST(PackUnitsTest, RootLevelAssetsAndNestedFoldersGoTogether) {
   EXPECT_EQ(m.archives[1].assets, 2u);
 }
 
+TEST(PackUnitsTest, LeftOutFilesAreWarningsNamingFileAndUid) {
+  TempDir tmp;
+  const fs::path lib = tmp / "lib";
+  testing::WriteText(lib / "box" / "box.xml", "<mujoco model=\"box\"/>\n");
+  testing::WriteText(lib / "box" / "box.json", testing::MinimalMetadata("box"));
+  fs::create_symlink("box.json", lib / "box" / "link.txt");
+  WriteAssetIndex(lib, AssetIndexOptions{});
+  // A grasp library with grasps for a UID the asset index lacks.
+  const fs::path grasps = tmp / "grasps";
+  WriteNpz(grasps / "ghost" / "droid" / "grasps.npz",
+           {{"transforms", NpyArray::FromDoubles({1, 4, 4}, std::vector<double>(16, 0.0))}});
+  WriteGraspIndex(grasps, GraspIndexOptions{});
+  PackOptions options;
+  options.name = "warn";
+  options.version = "1";
+  options.grasp_dir = grasps;
+  const PackReport report = PackLibrary(lib, tmp / "out", options);
+  ASSERT_EQ(report.warnings.size(), 2u);
+  const Diagnostic& ghost = report.warnings[0];  // found while reading the grasps, first
+  EXPECT_EQ(ghost.path, (grasps / "ghost" / "droid" / "grasps.npz").string());
+  EXPECT_EQ(ghost.uid, "ghost");
+  EXPECT_EQ(ghost.severity, Severity::kWarning);
+  EXPECT_EQ(ghost.ToString(), ghost.path +
+                                  ": grasps for UID ghost, which is not in the asset index, "
+                                  "not packed");
+  const Diagnostic& link = report.warnings[1];
+  EXPECT_EQ(link.path, (fs::absolute(lib) / "box" / "link.txt").string());
+  EXPECT_EQ(link.uid, "");
+  EXPECT_EQ(link.ToString(), link.path + ": symbolic link not packed");
+}
+
 TEST_F(PackInstallTest, ServeInstallLocateAndLoadGrasps) {
   testing::HttpTestServer server(remote);
   Installer installer(Settings(server.url()));

@@ -81,5 +81,14 @@ TEST(DescribeModelTest, JsonFormKeepsTheInspectLayout) {
   EXPECT_TRUE(j["warnings"].is_array());
 }
 
+TEST(DescribeModelTest, WarningsAreDiagnosticsAndJsonStrings) {
+  ModelDescription d;
+  d.file = "given.xml";
+  d.warnings.emplace_back("/tmp/describe.xml", "", "Warning: something odd", "",
+                          Severity::kWarning);
+  EXPECT_EQ(MujocoWarningLine(d.warnings[0]), "MuJoCo: Warning: something odd");
+  EXPECT_EQ(ToJson(d)["warnings"], Json::parse(R"(["MuJoCo: Warning: something odd"])"));
+}
+
 }  // namespace
 }  // namespace mlspaces::sim

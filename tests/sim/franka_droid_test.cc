@@ -136,7 +136,7 @@ ModelPtr Compose(const std::string& scene_xml, const Pose& base = {}) {
   const auto tops = composer.Attach(kRobot, "world", "robot_0/", base);
   EXPECT_EQ(tops, std::vector<std::string>{"robot_0/base"});
   ModelPtr m = composer.Compile();
-  EXPECT_TRUE(composer.warnings().empty()) << composer.warnings().front();
+  EXPECT_TRUE(composer.warnings().empty()) << sim::MujocoWarningLine(composer.warnings().front());
   return m;
 }
 

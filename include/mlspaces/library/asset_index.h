@@ -2,6 +2,7 @@
 // bytes written match MolmoSpaces': docs/formats.md ("Files we match exactly").
 #pragma once
 
+#include "mlspaces/core/diagnostics.h"
 #include "mlspaces/core/export.h"
 
 #include <filesystem>
@@ -41,13 +42,19 @@ struct MLSPACES_API AssetIndexOptions {
   bool suppress_missing_metadata = false;  ///< skip XMLs without <uid>.json, with a warning
 };
 
-/// Per-asset problems collected while building (warnings for skipped files).
+/// What building an index found and wrote.
 struct MLSPACES_API IndexReport {
-  std::vector<std::string> warnings;  ///< one line each, "file: message"
-  size_t count = 0;                   ///< assets (or grasp files) written
-  size_t robots = 0;                  ///< index-grasps: robots with pickup grasps
+  /// Files skipped, one warning each (severity kWarning): path = the skipped file, uid = its
+  /// UID, message = what is wrong. `index-assets` prints each as IndexWarningLine.
+  std::vector<Diagnostic> warnings;
+  size_t count = 0;   ///< assets (or grasp files) written
+  size_t robots = 0;  ///< index-grasps: robots with pickup grasps
   std::filesystem::path output;
 };
+
+/// A warning of IndexReport as `index-assets` prints it: "Warning: <message> Skipping."
+/// (the message names the files, so the line is the same text as before Diagnostic).
+MLSPACES_API std::string IndexWarningLine(const Diagnostic& warning);
 
 /// Scans `dir` recursively (sorted, symlinked folders not followed) for `<uid>.xml` with a
 /// sibling `<uid>.json` (and optional `<uid>.npz`), and builds the index in memory.

@@ -1,4 +1,5 @@
-// .tar.zst archives (libarchive): deterministic writing and safe extraction.
+// .tar.zst archives (libarchive): deterministic writing and safe extraction. Plain functions
+// on files: safe to call from several threads on different archives.
 #pragma once
 
 #include "mlspaces/core/export.h"
@@ -10,6 +11,9 @@
 #include <vector>
 
 namespace mlspaces {
+
+// =============================================================================================
+// Writing
 
 /// One file to put in an archive.
 struct MLSPACES_API ArchiveMember {
@@ -30,6 +34,9 @@ struct MLSPACES_API ArchiveWriteOptions {
 /// @throws Error naming the archive or the member's source file.
 uint64_t WriteTarZst(const std::filesystem::path& out, std::span<const ArchiveMember> members,
                      const ArchiveWriteOptions& options = {});
+
+// =============================================================================================
+// Reading
 
 /// What an extraction produced.
 struct MLSPACES_API ExtractReport {

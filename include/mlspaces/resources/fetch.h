@@ -1,4 +1,5 @@
-// Downloads over http(s):// and file:// (libcurl), resumable and verified.
+// Downloads over http(s):// and file:// (libcurl), resumable and verified. Safe to call from
+// several threads for different destinations (the installer's download workers do).
 #pragma once
 
 #include "mlspaces/core/export.h"
@@ -8,10 +9,14 @@
 #include <functional>
 #include <optional>
 #include <string>
+#include <utility>
 
 #include "mlspaces/core/error.h"
 
 namespace mlspaces {
+
+// =============================================================================================
+// Errors and options
 
 /// A download that failed after its last attempt. `not_found()` tells a plain "there is no
 /// such file" (HTTP 404, a missing file:// file) from every other failure, for callers that
@@ -38,7 +43,8 @@ struct MLSPACES_API FetchOptions {
   /// fsync the finished file and its folder before returning. Off for downloads that are
   /// re-checked against their SHA-256 before use anyway (the installer's archives).
   bool sync = true;
-  /// Called with (bytes so far, total or 0 when unknown); may be empty.
+  /// Called with (bytes so far, total or 0 when unknown) on the thread that called FetchFile;
+  /// may be empty.
   std::function<void(uint64_t, uint64_t)> progress;
 };
 
@@ -48,16 +54,22 @@ struct MLSPACES_API FetchExpect {
   std::string sha256;
 };
 
+// =============================================================================================
+// Downloads
+
 /// Downloads `url` into `dest`: bytes go to `dest`.part (kept between attempts and runs, so a
 /// later call resumes it with a Range request; a server that ignores Range restarts it), and
 /// when complete the size and SHA-256 are checked and the file is renamed to `dest`. A
 /// mismatch deletes the partial file and throws. HTTP 4xx (other than 429) is not retried.
 /// @throws Error naming the URL (and the HTTP status or curl error) after the last attempt.
-void FetchFile(const std::string& url, const std::filesystem::path& dest,
-               const FetchExpect& expect = {}, const FetchOptions& options = {});
+MLSPACES_API void FetchFile(const std::string& url, const std::filesystem::path& dest,
+                            const FetchExpect& expect = {}, const FetchOptions& options = {});
 
 /// Downloads a small file into memory (manifests); same retries. @throws Error naming the URL.
-std::string FetchToString(const std::string& url, const FetchOptions& options = {});
+MLSPACES_API std::string FetchToString(const std::string& url, const FetchOptions& options = {});
+
+// =============================================================================================
+// URLs
 
 /// Joins a base URL and a relative path with exactly one '/'.
 MLSPACES_API std::string JoinUrl(const std::string& base, const std::string& relative);

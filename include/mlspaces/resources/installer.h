@@ -2,7 +2,13 @@
 // library, verification. Downloads resume, every file is checked against the manifest's
 // SHA-256, archives are extracted safely into a staging folder and renamed into place, and an
 // extraction flag marks an archive done. Concurrent installers on one cache take a per-version
-// flock, which the kernel releases when a holder dies.
+// flock, which the kernel releases when a holder dies. The steps and their guarantees:
+// docs/resources.md ("Install").
+//
+// One Installer is used from one thread at a time. Lifetimes: references and pointers it
+// returns (settings(), Setup's InstalledSource, InstallPlan::Item::source) stay valid until the
+// Installer is destroyed; a plan must not outlive the Installer that made it. Shared pointers
+// (Library) keep what they point to alive on their own.
 #pragma once
 
 #include "mlspaces/core/export.h"
@@ -10,7 +16,6 @@
 #include <cstdint>
 #include <filesystem>
 #include <functional>
-#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -31,6 +36,9 @@ struct MLSPACES_API InstallOptions {
   int retries = 3;
 };
 
+// =============================================================================================
+// Options, sources and plans
+
 /// One source installed or looked at.
 struct MLSPACES_API InstalledSource {
   std::string type, name, version;
@@ -41,6 +49,8 @@ struct MLSPACES_API InstalledSource {
 /// What an install would fetch, and then did.
 struct MLSPACES_API InstallPlan {
   struct Item {
+    /// The source the archive belongs to (owned by the Installer that made the plan; never
+    /// null in a plan it returned).
     const InstalledSource* source = nullptr;
     std::string archive;
     uint64_t size = 0, unpacked_bytes = 0;
@@ -61,26 +71,43 @@ struct MLSPACES_API WhereFilter {
 
 class MLSPACES_API Installer {
  public:
+  // ===========================================================================================
+  // Construction
+
   explicit Installer(ResourceSettings settings, InstallOptions options = {});
   ~Installer();
 
+  /// The settings given (valid for the Installer's life).
   const ResourceSettings& settings() const;
 
+  // ===========================================================================================
+  // Sources
+
   /// Makes sure a source's manifest and stores are in the cache (downloading them if needed)
-  /// and that <assets>/<type>/<name> links to its version dir. @throws Error (unknown source,
-  /// download or checksum failure, not an mlspaces package).
+  /// and that <assets>/<type>/<name> links to its version dir. Set up once per Installer: a
+  /// second call returns the same object. @returns a reference valid for the Installer's
+  /// life. @throws Error (unknown source, download or checksum failure, not an mlspaces
+  /// package).
   const InstalledSource& Setup(const std::string& type, const std::string& name);
-  /// The opened stores of a set-up source.
+  /// The opened stores of a source, set up first if needed (opened once per Installer).
+  /// @returns never null. @throws Error as Setup, or for a bad store.
   std::shared_ptr<const PackedLibrary> Library(const std::string& type, const std::string& name);
 
-  /// Plans installing UIDs: each is looked up in the object sources in the original's order
-  /// (thor, then the others alphabetically); sources that are not mlspaces packages on the
-  /// remote are skipped with a note. @throws Error "<uid> not found in object sources [...]".
+  // ===========================================================================================
+  // Planning and installing
+
+  /// Plans installing UIDs: each is looked up in the object sources in priority order (thor,
+  /// then the others alphabetically; docs/resources.md); sources that are not mlspaces
+  /// packages on the remote are skipped with a note.
+  /// @throws Error "<uid> not found in object sources [...]".
   InstallPlan PlanUids(const std::vector<std::string>& uids);
   /// Plans installing a whole library, or the assets whose annotation matches every filter.
   InstallPlan PlanLibrary(const std::string& name, const std::vector<WhereFilter>& where);
   /// Downloads, verifies and extracts a plan's archives (with their grasp shards).
   void Install(const InstallPlan& plan);
+
+  // ===========================================================================================
+  // Verification
 
   /// A problem of an installed file: path = the file, message; field empty.
   using Problem = Diagnostic;

@@ -1,10 +1,14 @@
-// MolmoSpaces-format sources: built-in data installed by the ORIGINAL resource manager (a
-// cache version folder with the remote manifest, the gzip "tries" file, extracted archives and
-// `.<archive>_complete_extract` flags, but none of our stores). BuildLegacyIndex turns the
-// tries into our UID index, so the Registry answers lookups on such a source with one hash
-// probe instead of scanning its folders (see docs/resources.md, "MolmoSpaces-format sources").
+// Tries-only ("legacy") sources: built-in data installed without our stores, as a cache
+// version folder with the remote size manifest, the gzip tries file (kTriesFile), extracted
+// archives and `.<archive>_complete_extract` flags. BuildLegacyIndex turns the tries into our
+// UID index, so the Registry answers lookups on such a source with one hash probe instead of
+// scanning its folders. Where such sources come from and how duplicates are resolved:
+// docs/resources.md (`index-builtin`).
+//
+// Everything here returns values; nothing keeps a reference to its arguments.
 #pragma once
 
+#include "mlspaces/core/diagnostics.h"
 #include "mlspaces/core/export.h"
 
 #include <cstddef>
@@ -14,11 +18,26 @@
 
 namespace mlspaces {
 
+// =============================================================================================
+// Building the index of one source
+
+/// What BuildLegacyIndex wrote and what it left out.
 struct MLSPACES_API LegacyIndexReport {
   size_t assets = 0, archives = 0;
-  std::vector<std::string> warnings;  ///< one line each (duplicate UIDs)
-  std::filesystem::path index_dir;    ///< <version_dir>/.mlspaces/index
+  /// Files not indexed, one warning each (severity kWarning), path = the archive name (a key
+  /// of the tries file), field = the file's path in it:
+  ///  - a file named only ".xml": uid empty, message = why it was ignored;
+  ///  - a UID found twice: uid = the UID, path/field = the file ignored, message = "is ignored;
+  ///    <archive>: <path> wins" naming the file kept.
+  /// Printed as LegacyWarningLine.
+  std::vector<Diagnostic> warnings;
+  std::filesystem::path index_dir;  ///< <version_dir>/.mlspaces/index
 };
+
+/// A warning of LegacyIndexReport on one line: Diagnostic::ToString for one without a UID;
+/// "duplicate UID <uid>: <archive>: <path> is ignored; <archive>: <path> wins" for a UID
+/// found twice.
+MLSPACES_API std::string LegacyWarningLine(const Diagnostic& warning);
 
 /// Reads <version_dir>/mjthor_resources_combined_meta.json.gz (gzip JSON {archive: trie}; a
 /// trie is a nested object whose keys are path components or '/'-joined runs of components, a
@@ -33,11 +52,14 @@ struct MLSPACES_API LegacyIndexReport {
 MLSPACES_API LegacyIndexReport BuildLegacyIndex(const std::filesystem::path& version_dir,
                                                 const std::string& name);
 
+// =============================================================================================
+// Finding the object sources of an assets dir
+
 /// One object source under <assets>/objects, as `index-builtin` finds it.
 struct MLSPACES_API ObjectSource {
   enum class Kind {
     kPackage,  ///< has our UID index already (an mlspaces package): nothing to do
-    kLegacy,   ///< has the original's tries file: BuildLegacySourceIndex indexes it
+    kLegacy,   ///< has the tries file (kTriesFile): BuildLegacySourceIndex indexes it
     kOther,    ///< neither (skipped)
   };
   std::string name;            ///< the folder name

@@ -1,6 +1,8 @@
-// `mlspaces pack`: a user asset + grasp library -> a published, versioned package.
+// `mlspaces pack`: a user asset + grasp library -> a published, versioned package. What a
+// package holds: docs/resources.md ("A package"); the store layout: docs/formats.md.
 #pragma once
 
+#include "mlspaces/core/diagnostics.h"
 #include "mlspaces/core/export.h"
 
 #include <cstdint>
@@ -10,6 +12,9 @@
 #include <vector>
 
 namespace mlspaces {
+
+// =============================================================================================
+// Options and report
 
 struct MLSPACES_API PackOptions {
   std::string name;     ///< source name (default: the library folder's name)
@@ -22,7 +27,8 @@ struct MLSPACES_API PackOptions {
   int zstd_level = 3;
   int threads = 0;  ///< 0 = hardware concurrency
   bool overwrite = false;
-  /// Called as archives finish: (archives done, total).
+  /// Called as archives finish, in order, on the calling thread: (archives done, total). May
+  /// be empty.
   std::function<void(size_t, size_t)> progress;
 };
 
@@ -31,8 +37,14 @@ struct MLSPACES_API PackReport {
   std::string name, version;
   size_t assets = 0, archives = 0, grasp_sets = 0, grasps = 0;
   uint64_t archive_bytes = 0, unpacked_bytes = 0;
-  std::vector<std::string> warnings;  ///< one line each
+  /// What was left out, one warning each (severity kWarning), printed as
+  /// Diagnostic::ToString: path = the file left out (a symbolic link; a grasp file of a UID
+  /// not in the asset index, with uid = that UID), message = why.
+  std::vector<Diagnostic> warnings;
 };
+
+// =============================================================================================
+// Packing
 
 /// Packs `library_dir` (it must hold assets_index.json) into
 /// <out_dir>/<type>/<name>/<version>/ and merges {type: {name: version}} into

@@ -1,5 +1,6 @@
 // A published package's manifest, mlspaces_package.json: what `pack` wrote, every file's size
-// and SHA-256, and what each archive holds.
+// and SHA-256, and what each archive holds; and the names of the files a package folder holds
+// (docs/resources.md, "A package"). Manifests are plain values.
 #pragma once
 
 #include "mlspaces/core/export.h"
@@ -8,21 +9,28 @@
 #include <filesystem>
 #include <map>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "mlspaces/library/package_layout.h"  // ExtractFlagName
 
 namespace mlspaces {
 
+// =============================================================================================
+// File names in a package folder
+
 inline constexpr std::string_view kPackageManifestFile = "mlspaces_package.json";
 inline constexpr int kPackageFormatVersion = 1;
-/// The original's remote manifest ({archive: size in MB}) and tries, also written by pack so
-/// MolmoSpaces' resource manager can serve an mlspaces package.
-inline constexpr std::string_view kOriginalSizeManifestFile =
-    "mjthor_resource_file_to_size_mb.json";
-inline constexpr std::string_view kOriginalTriesFile = "mjthor_resources_combined_meta.json.gz";
+/// The remote size manifest ({archive: size in MB}) and the tries (gzip JSON {archive: trie
+/// of member paths}) of the remote layout; pack writes both beside the manifest, and a
+/// tries-only source is indexed from the tries (legacy_source.h). See docs/resources.md.
+inline constexpr std::string_view kSizeManifestFile = "mjthor_resource_file_to_size_mb.json";
+inline constexpr std::string_view kTriesFile = "mjthor_resources_combined_meta.json.gz";
 /// The per-archive member listing ({path: {size, sha256}}), shipped inside the archive.
 inline constexpr std::string_view kMemberListDir = ".mlspaces/members";
+
+// =============================================================================================
+// The manifest
 
 struct MLSPACES_API PackageFile {
   uint64_t size = 0;

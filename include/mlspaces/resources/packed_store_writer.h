@@ -3,6 +3,9 @@
 // PackedLibrary (include/mlspaces/library/packed_store.h); the byte layout is in
 // docs/formats.md ("Packed stores"). Output is byte-identical for the same input, whatever
 // the order of Add calls.
+//
+// A writer is used from one thread at a time. Nothing it is given is kept after the call
+// returns (PackedAssetInput::annotation is read during Add only).
 #pragma once
 
 #include "mlspaces/core/export.h"
@@ -16,9 +19,13 @@
 
 #include "mlspaces/core/npy.h"
 #include "mlspaces/core/transform.h"
-#include "mlspaces/library/annotation.h"
 
 namespace mlspaces {
+
+struct Annotation;  // mlspaces/library/annotation.h
+
+// =============================================================================================
+// Grasp shards
 
 /// Appends poses to a grasp shard file; returns offsets for PackedAssetInput::Grasps.
 class MLSPACES_API GraspShardWriter {
@@ -40,6 +47,9 @@ class MLSPACES_API GraspShardWriter {
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };
+
+// =============================================================================================
+// The UID index and the metadata store
 
 /// One asset handed to the store writer.
 struct MLSPACES_API PackedAssetInput {

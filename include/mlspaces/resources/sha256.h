@@ -1,9 +1,11 @@
-// SHA-256 (OpenSSL's libcrypto) for package manifests and download checks.
+// SHA-256 (OpenSSL's libcrypto) for package manifests and download checks. A Sha256 object
+// is used from one thread at a time; the free functions are safe from several threads.
 #pragma once
 
 #include "mlspaces/core/export.h"
 
 #include <cstddef>
+#include <cstdint>
 #include <filesystem>
 #include <memory>
 #include <string>
@@ -31,11 +33,12 @@ class MLSPACES_API Sha256 {
 /// Hex SHA-256 of bytes.
 MLSPACES_API std::string Sha256Hex(std::string_view data);
 
-/// Hex SHA-256 and size of a file, read in large blocks. @throws Error naming the file.
+/// The hex SHA-256 and size of a file.
 struct MLSPACES_API FileDigest {
   std::string sha256;
   uint64_t size = 0;
 };
+/// Hex SHA-256 and size of a file, read in large blocks. @throws Error naming the file.
 MLSPACES_API FileDigest Sha256File(const std::filesystem::path& path);
 
 }  // namespace mlspaces

@@ -1,5 +1,8 @@
 // Data sources and where they live: the pinned versions, the cache dir, the install (assets)
-// dir of symlinks and the remote base URL (spec section 7).
+// dir of symlinks and the remote base URL (spec section 7). The built-in pins, the variables'
+// defaults and where they come from: docs/resources.md ("Data sources and versions").
+//
+// Everything here returns values; nothing keeps a reference to its arguments.
 #pragma once
 
 #include "mlspaces/core/export.h"
@@ -11,11 +14,15 @@
 
 namespace mlspaces {
 
+// =============================================================================================
+// Versions
+
 /// data type -> source -> pinned version. An empty version means "known, not pinned".
 using SourceVersions = std::map<std::string, std::map<std::string, std::string>>;
 
 /// The built-in table: objects thor / objaverse / objathor_metadata, grasps droid /
-/// droid_objaverse (the original's pins), robots and scenes (see docs/resources.md).
+/// droid_objaverse (pinned), robots and scenes (not pinned); docs/resources.md lists them.
+/// The reference is to a static table: valid for the life of the program, never modified.
 MLSPACES_API const SourceVersions& BuiltinSourceVersions();
 
 /// Deep-merges a JSON pin file shaped like the table ({"objects": {"thor": "20251117"}}):
@@ -26,6 +33,9 @@ MLSPACES_API void MergePinFile(SourceVersions& versions, const std::filesystem::
 MLSPACES_API void MergePinJson(SourceVersions& versions, const std::string& json,
                                const std::string& origin);
 
+// =============================================================================================
+// Settings: dirs, remote, versions
+
 /// Everything a download or lookup needs to know about the resource dirs.
 struct MLSPACES_API ResourceSettings {
   std::filesystem::path cache_dir;   ///< versioned, read-only extracted data
@@ -34,10 +44,10 @@ struct MLSPACES_API ResourceSettings {
   SourceVersions versions;           ///< built-ins, then the pin file
   std::filesystem::path pin_file;    ///< empty when none
 
-  /// From the environment: MLSPACES_CACHE_DIR (default ~/.cache/molmo-spaces-resources, the
-  /// original's, so both tools share one cache), MLSPACES_ASSETS_DIR (default
-  /// ~/.cache/mlspaces/assets), MLSPACES_REMOTE_URL (default the original's R2 bucket),
-  /// MLSPACES_PINNED_ASSETS_FILE. Non-empty arguments override the environment.
+  /// From the environment: MLSPACES_CACHE_DIR (default ~/.cache/molmo-spaces-resources),
+  /// MLSPACES_ASSETS_DIR (default ~/.cache/mlspaces/assets), MLSPACES_REMOTE_URL (default the
+  /// public R2 bucket of the built-in data), MLSPACES_PINNED_ASSETS_FILE. Non-empty arguments
+  /// override the environment.
   /// @throws Error when the two dirs overlap or the pin file is missing or bad.
   static ResourceSettings FromEnvironment(const std::string& remote_override = {},
                                           const std::filesystem::path& pin_override = {});
@@ -51,6 +61,9 @@ struct MLSPACES_API ResourceSettings {
   std::string Url(const std::string& type, const std::string& source, const std::string& version,
                   const std::string& file) const;
 };
+
+// =============================================================================================
+// The install (assets) dir
 
 /// The default install dir when MLSPACES_ASSETS_DIR is unset: ~/.cache/mlspaces/assets.
 MLSPACES_API std::filesystem::path DefaultAssetsDir();
@@ -67,6 +80,7 @@ struct MLSPACES_API AssetsDirChoice {
 /// when it has a value (a --assets-dir flag, a libraries YAML's assets_dir), else
 /// MLSPACES_ASSETS_DIR when set and non-empty, else DefaultAssetsDir(). The path is returned
 /// as it was given (not made absolute).
-AssetsDirChoice ResolveAssetsDir(const std::optional<std::filesystem::path>& given = {});
+MLSPACES_API AssetsDirChoice
+ResolveAssetsDir(const std::optional<std::filesystem::path>& given = {});
 
 }  // namespace mlspaces

@@ -54,7 +54,7 @@ struct MLSPACES_API ModelDescription {
   std::vector<JointDescription> joints;
   std::vector<ActuatorDescription> actuators;
   std::vector<CameraDescription> cameras;
-  std::vector<std::string> warnings;  ///< MuJoCo's compile warnings
+  std::vector<Diagnostic> warnings;  ///< MuJoCo's compile warnings (MjcfComposer::warnings)
 };
 
 /// Compiles `composer` and describes the model at qpos0 (after mj_kinematics).
@@ -64,7 +64,8 @@ MLSPACES_API ModelDescription DescribeModel(const MjcfComposer& composer, const 
 /// The JSON form (`mlspaces inspect --json`): {"file", "bodies": [{"name", "parent", "pos",
 /// "quat", "mass", "ngeom", "aabb": {"min", "max"} | null}], "joints": [{"name", "type",
 /// "body", "range" | null}], "actuators": [{"name", "transmission", "target",
-/// "ctrlrange" | null}], "cameras": [{"name", "body", "pos", "fovy"}], "warnings"}.
+/// "ctrlrange" | null}], "cameras": [{"name", "body", "pos", "fovy"}], "warnings":
+/// [MujocoWarningLine, ...]}.
 MLSPACES_API Json ToJson(const ModelDescription& description);
 
 }  // namespace mlspaces::sim

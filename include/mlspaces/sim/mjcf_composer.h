@@ -23,6 +23,7 @@
 // defined twice, both places.
 #pragma once
 
+#include "mlspaces/core/diagnostics.h"
 #include "mlspaces/core/export.h"
 
 #include <array>
@@ -101,8 +102,10 @@ class MLSPACES_API MjcfComposer {
   /// composer; edits show in Compile, Emit and copies).
   mjSpec* spec();
 
-  /// MuJoCo's compile warnings, of every Compile/Emit so far.
-  const std::vector<std::string>& warnings() const;
+  /// MuJoCo's compile warnings, of every Compile/Emit so far: severity kWarning, path = the
+  /// file this composer was built from, message = MuJoCo's text. Printed as
+  /// MujocoWarningLine. The reference lives as long as the composer; a Compile/Emit appends.
+  const std::vector<Diagnostic>& warnings() const;
 
   /// The file this composer was built from.
   const std::filesystem::path& path() const;
@@ -112,6 +115,9 @@ class MLSPACES_API MjcfComposer {
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };
+
+/// A MuJoCo warning of MjcfComposer::warnings on one line: "MuJoCo: <message>".
+MLSPACES_API std::string MujocoWarningLine(const Diagnostic& warning);
 
 /// Convenience: compose and compile a file. @throws Error.
 ModelPtr ComposeAndCompile(const std::filesystem::path& file, ComposeOptions options = {});

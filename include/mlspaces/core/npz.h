@@ -31,6 +31,7 @@ class MLSPACES_API NpzReader {
   NpzReader(const NpzReader&) = delete;
   NpzReader& operator=(const NpzReader&) = delete;
 
+  /// The path the reader was opened with; valid while the reader lives.
   const std::filesystem::path& path() const;
   /// Array names: member names with a trailing ".npy" removed, in archive order.
   std::vector<std::string> keys() const;

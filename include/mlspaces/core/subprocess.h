@@ -41,7 +41,8 @@ class MLSPACES_API Child {
   ~Child();
 
   pid_t pid() const { return pid_; }
-  /// The read end of the pipe; -1 once it was closed (end of the child's output).
+  /// The read end of the pipe, owned by this Child (do not close it); -1 once it was closed
+  /// (end of the child's output).
   int fd() const { return fd_; }
 
   /// Reads the rest of the child's output (until the pipe closes).

@@ -28,6 +28,9 @@ class MLSPACES_API Child {
   /// The exit status of a child whose body threw.
   static constexpr int kBodyThrew = 4;
 
+  // ===========================================================================================
+  // Construction
+
   /// Forks (after flushing stdio). The child runs body(write_fd), closes the pipe and leaves
   /// with _exit(status) (no atexit handlers, no stdio flush); the status is body's result,
   /// or kBodyThrew when it throws. Both pipe ends are close-on-exec.
@@ -39,6 +42,9 @@ class MLSPACES_API Child {
   Child(const Child&) = delete;
   Child& operator=(const Child&) = delete;
   ~Child();
+
+  // ===========================================================================================
+  // The child and its pipe
 
   pid_t pid() const { return pid_; }
   /// The read end of the pipe, owned by this Child (do not close it); -1 once it was closed

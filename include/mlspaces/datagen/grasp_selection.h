@@ -1,6 +1,6 @@
 // Grasp selection for the pick planner (spec 9): a ranking cost over world-frame candidates,
 // and a collision test of the open gripper at each candidate that adds no proxy bodies to the
-// simulated model. Differences from the reference implementation: docs/datagen.md ("The planner").
+// simulated model. Differences from the reference implementation: docs/datagen.md.
 //
 // Collision test design (GraspCollisionChecker). A separate *probe model* is compiled once per
 // scene: a copy of the composed scene (robot and objects included) with one free-floating probe

@@ -1,6 +1,6 @@
 // The pick planner policy (spec 8): plan a grasp from the object's grasp library, then drive the
 // arm through the pick phases (PolicyPhase) with per-step IK, retrying from the current state
-// when a phase fails. Differences from the reference implementation: docs/datagen.md ("The planner").
+// when a phase fails. Differences from the reference implementation: docs/datagen.md.
 //
 // Plan (at the start of an episode and on every retry):
 //   1. candidates = object pose x library grasps, plus their 180-degree flips about the TCP z;
@@ -107,8 +107,9 @@ class MLSPACES_API PickPlanner {
   // Construction
 
   /// Builds the IK solver and the grasp collision probe for `env`'s model. `env` and `robot`
-  /// are kept by pointer: both (and the model) must outlive the planner. One planner serves every episode of the env. `policy_dt` is the policy
-  /// step in seconds (the experiment's policy_dt_ms / 1000).
+  /// are kept by pointer: both (and the model) must outlive the planner. One planner serves
+  /// every episode of the env. `policy_dt` is the policy step in seconds (the experiment's
+  /// policy_dt_ms / 1000).
   PickPlanner(const Env& env, const RobotView& robot, const PolicyConfig& config, double policy_dt);
   ~PickPlanner();
   PickPlanner(const PickPlanner&) = delete;

@@ -13,7 +13,13 @@
 #include <string_view>
 #include <vector>
 
-#include <mujoco/mujoco.h>
+// MuJoCo's structs, declared as <mujoco/mujoco.h> declares them (include it to use them).
+// NOLINTBEGIN(modernize-use-using): MuJoCo's own form of these declarations
+struct mjModel_;
+typedef struct mjModel_ mjModel;
+struct mjData_;
+typedef struct mjData_ mjData;
+// NOLINTEND(modernize-use-using)
 
 namespace mlspaces::datagen {
 

@@ -144,8 +144,8 @@ class MLSPACES_API TaskSamplerRegistry {
   /// Registered names as given, sorted case-insensitively.
   std::vector<std::string> names() const;
 
-  /// Creates sampler `name`: never null, owned by the caller. @throws Error (field /task_sampler_config/task_sampler_class)
-  /// listing the valid names for an unknown one.
+  /// Creates sampler `name`: never null, owned by the caller. @throws Error (field
+  /// /task_sampler_config/task_sampler_class) listing the valid names for an unknown one.
   std::unique_ptr<TaskSampler> Create(std::string_view name, const ExperimentConfig& config,
                                       uint64_t run_seed) const;
   /// Creates config.task_sampler_config.task_sampler_class.

@@ -42,7 +42,8 @@ struct MLSPACES_API VideoFrame {
 ///
 /// Every frame is `width` x `height` RGB, 3 bytes a pixel, rows top to bottom, no padding.
 /// A width or height that is not a multiple of 16 is scaled up (bicubic) to the next multiple
-/// of 16 (as imageio's macro_block_size=16 does): a 33x17 camera gives a 48x32 video. encoded_width()/encoded_height() say what the file holds.
+/// of 16 (as imageio's macro_block_size=16 does): a 33x17 camera gives a 48x32 video.
+/// encoded_width()/encoded_height() say what the file holds.
 ///
 /// Bytes are deterministic: the same frames and options give the same file (fixed x264 thread
 /// count, bit-exact muxer and scaler flags, no creation time or library version in the file).

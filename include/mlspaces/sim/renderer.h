@@ -17,6 +17,7 @@
 #include <string_view>
 
 // MuJoCo's structs, declared as <mujoco/mujoco.h> declares them (include it to use them).
+// NOLINTBEGIN(modernize-use-using): MuJoCo's own form of these declarations
 struct mjModel_;
 typedef struct mjModel_ mjModel;
 struct mjData_;
@@ -25,6 +26,7 @@ struct mjvScene_;
 typedef struct mjvScene_ mjvScene;
 struct mjvOption_;
 typedef struct mjvOption_ mjvOption;
+// NOLINTEND(modernize-use-using)
 
 namespace mlspaces::sim {
 

@@ -32,7 +32,6 @@ class MLSPACES_API Scene {
   // ===========================================================================================
   // Insertion
 
-
   /// Inserts the asset `uid` (located through `registry`, user libraries included) under body
   /// `parent_body` ("world" for the worldbody) at `pose`, with `prefix` on every name (empty:
   /// "<uid>_<n>/", n counting insertions). Adds a scene-metadata entry keyed by the inserted

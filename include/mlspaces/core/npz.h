@@ -35,7 +35,7 @@ class MLSPACES_API NpzReader {
   NpzReader& operator=(const NpzReader&) = delete;
 
   // ===========================================================================================
-  // Members
+  // Contents
 
   /// The path the reader was opened with; valid while the reader lives.
   const std::filesystem::path& path() const;

@@ -1,7 +1,7 @@
 // Datagen job configs: plain structs of the experiment config (the top level and its task,
 // task sampler, robot, camera and policy sub-configs), loaded strictly from YAML, overridden
-// with `--set a.b=v`, dumped as canonical YAML, hashed, and registered by name. Field names,
-// defaults and how they relate to the dataset format's configs: docs/config.md.
+// with `--set a.b=v`, dumped as canonical YAML, hashed, and registered by name. Fields, their
+// defaults and where they come from: docs/config.md.
 //
 // Every struct has defaulted members and one `Serialize(Archive*)` member listing its fields;
 // the same description drives loading, `--set`, dumping, hashing and path resolution.

@@ -147,7 +147,7 @@ class MLSPACES_API Env {
   // ===========================================================================================
   // Access (see the file comment for lifetimes)
 
-  /// The compiled model: never null, shared by every Env made from it.
+  /// The compiled model: never null.
   const mjModel* model() const { return model_.get(); }
   std::shared_ptr<const mjModel> shared_model() const { return model_; }
   /// The Env's own mjData: never null.

@@ -25,7 +25,7 @@ MLSPACES_API size_t DTypeSize(DType dtype);
 
 /// One per-step numeric dataset: a row of `row_shape` values per step, stored as `dtype`.
 /// Its dataset shape is (T, *row_shape). Rows are appended in step order. The references its
-/// accessors return are valid while the Series lives; bytes() until the next Append.
+/// accessors return are valid while the Series lives (Append grows bytes()).
 class MLSPACES_API Series {
  public:
   Series() = default;

@@ -60,7 +60,7 @@ struct MLSPACES_API VfsFile {
 ModelPtr LoadModelFromMemory(std::string_view xml, const std::string& main_name = "model.xml",
                              const std::vector<VfsFile>& extra = {});
 
-/// mj_makeData with a null check: never null, owned by the caller; `m` must outlive it.
+/// mj_makeData with a null check: never null, owned by the caller, for use with `m`.
 /// @throws MujocoError.
 MLSPACES_API DataPtr MakeData(const mjModel* m);
 

@@ -5,6 +5,8 @@
 #include <cmath>
 #include <utility>
 
+#include <mujoco/mujoco.h>
+
 #include "mlspaces/core/error.h"
 #include "mlspaces/core/progress.h"
 #include "mlspaces/core/transform.h"

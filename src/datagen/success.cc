@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <string>
 
+#include <mujoco/mujoco.h>
+
 #include "mlspaces/core/error.h"
 #include "mlspaces/sim/mujoco_handlers.h"
 

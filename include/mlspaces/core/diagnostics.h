@@ -40,7 +40,9 @@ class MLSPACES_API Diagnostics {
   void Warning(std::string path, std::string field, std::string message, std::string uid = {});
   void Add(Diagnostic d) { items_.push_back(std::move(d)); }
 
+  /// The diagnostics so far, in order; valid until the next Error/Warning/Add/Take.
   const std::vector<Diagnostic>& items() const { return items_; }
+  /// Moves the diagnostics out.
   std::vector<Diagnostic> Take() { return std::move(items_); }
   size_t size() const { return items_.size(); }
   size_t errors() const;

@@ -18,6 +18,8 @@ class MLSPACES_API Error : public std::runtime_error {
   explicit Error(std::string message, std::string path = {}, std::string field = {},
                  std::string uid = {});
 
+  // The accessors' references are valid while the Error lives.
+
   /// The message alone, without path and field.
   const std::string& message() const { return message_; }
   /// The file the error is about; may be empty.

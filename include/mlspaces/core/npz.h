@@ -23,6 +23,9 @@ namespace mlspaces {
 /// An open .npz. Opening maps the file and reads the zip central directory only.
 class MLSPACES_API NpzReader {
  public:
+  // ===========================================================================================
+  // Construction
+
   /// @throws Error if the file is missing or not a valid zip.
   explicit NpzReader(const std::filesystem::path& path);
   ~NpzReader();
@@ -31,10 +34,17 @@ class MLSPACES_API NpzReader {
   NpzReader(const NpzReader&) = delete;
   NpzReader& operator=(const NpzReader&) = delete;
 
+  // ===========================================================================================
+  // Contents
+
+  /// The path the reader was opened with; valid while the reader lives.
   const std::filesystem::path& path() const;
   /// Array names: member names with a trailing ".npy" removed, in archive order.
   std::vector<std::string> keys() const;
   bool Contains(std::string_view key) const;
+  // ===========================================================================================
+  // Reading (the arrays returned are copies, owned by the caller)
+
   /// Header of one array; for STORED members no data is read.
   /// @throws Error if the key is absent or the member is corrupt.
   NpyHeader ReadHeader(std::string_view key) const;

@@ -26,10 +26,10 @@ MLSPACES_API double TranslationDistance(const Mat4& a, const Mat4& b);
 MLSPACES_API Mat4 InterpolatePose(const Mat4& a, const Mat4& b, double s);
 
 struct MLSPACES_API SegmentTiming {
-  /// Linear TCP speed, m/s (the original's segment speeds: 0.20 to pregrasp, 0.08 after).
+  /// Linear TCP speed, m/s.
   double speed = 0.08;
-  /// Angular speed bound, rad/s; <= 0 ignores rotation as the original does (where a pure
-  /// re-orientation then gets duration 0, spec 15.10).
+  /// Angular speed bound, rad/s; <= 0 ignores rotation (a pure re-orientation then gets
+  /// duration 0, spec 15.10).
   double angular_speed = 1.0;
 };
 

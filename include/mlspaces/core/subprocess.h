@@ -28,6 +28,9 @@ class MLSPACES_API Child {
   /// The exit status of a child whose body threw.
   static constexpr int kBodyThrew = 4;
 
+  // ===========================================================================================
+  // Construction
+
   /// Forks (after flushing stdio). The child runs body(write_fd), closes the pipe and leaves
   /// with _exit(status) (no atexit handlers, no stdio flush); the status is body's result,
   /// or kBodyThrew when it throws. Both pipe ends are close-on-exec.
@@ -40,8 +43,12 @@ class MLSPACES_API Child {
   Child& operator=(const Child&) = delete;
   ~Child();
 
+  // ===========================================================================================
+  // The child and its pipe
+
   pid_t pid() const { return pid_; }
-  /// The read end of the pipe; -1 once it was closed (end of the child's output).
+  /// The read end of the pipe, owned by this Child (do not close it); -1 once it was closed
+  /// (end of the child's output).
   int fd() const { return fd_; }
 
   /// Reads the rest of the child's output (until the pipe closes).

@@ -3,8 +3,8 @@
 //    sites, robot bases and task poses are.
 //  - Mat4: the same rigid transform as a row-major 4x4 homogeneous matrix: what grasp arrays
 //    store and what composes (operator*, InverseRigid).
-//  - The 7-vector [x, y, z, qw, qx, qy, qz] of the original's Python API (`pose_mat_to_7d`),
-//    for datasets and configs: ToArray7 / FromArray7.
+//  - The 7-vector [x, y, z, qw, qx, qy, qz] (position, then quaternion), for datasets and
+//    configs: ToArray7 / FromArray7 (the layout is the dataset format's, see docs/formats.md).
 // Quaternion helpers (multiply, conjugate, normalise, slerp, to/from rotation matrices) live
 // here too; SE(3) interpolation and timing in core/se3.h; MuJoCo's xpos/xquat/xmat arrays
 // convert in sim/mj_pose.h.
@@ -21,7 +21,7 @@ using Vec3 = std::array<double, 3>;
 using Quat = std::array<double, 4>;
 /// Row-major 3x3 rotation (MuJoCo's xmat layout).
 using Rot3 = std::array<double, 9>;
-/// [x, y, z, qw, qx, qy, qz]: the original's 7-vector pose layout.
+/// [x, y, z, qw, qx, qy, qz]: the 7-vector pose layout (docs/formats.md).
 using Array7 = std::array<double, 7>;
 
 /// Row-major 4x4 homogeneous transform: m[r*4 + c]. Default is the identity.

@@ -171,6 +171,7 @@ class MLSPACES_API YamlReader {
  public:
   explicit YamlReader(YamlContext ctx) : ctx_(std::move(ctx)) {}
 
+  /// The context the reader was built with; valid while the reader lives.
   const YamlContext& context() const { return ctx_; }
 
   /// @throws Error "<key>: <message>" (key "top level" when empty) with the file and the

@@ -7,8 +7,8 @@
 //       3 rotation draws ~ N(0, sigma_r) truncated to +-max_tcp_rotation_noise;
 //   q = clip(q_cmd + J^+ n, joint limits)   (J^+ n: minimum-norm least squares).
 //
-// The draws come from the episode's own Rng (the original uses NumPy's global RNG), so noise
-// is reproducible per episode. The recorded actions stay un-noised.
+// The draws come from the episode's own Rng, so noise is reproducible per episode. The
+// recorded actions stay un-noised.
 #pragma once
 
 #include "mlspaces/core/export.h"

@@ -9,10 +9,13 @@
 //     R_body * camera_offset + p_body, rotation R_body * R(camera_quaternion) in MuJoCo's camera
 //     convention (looks along -z, +y up).
 // Per step and camera (float64): cam2world_gl (4x4, columns right, -up, forward, position:
-// OpenCV-style axes as the original), extrinsic_cv = inverse(cam2world_gl)[:3] (3x4, world to
-// camera), intrinsic_cv = [[f, 0, W/2], [0, f, H/2], [0, 0, 1]] with f = (H/2) / tan(fovy/2).
-// visibility_constraints only steer the original's randomised camera placement; the
-// cameras here are fixed, so they are not used.
+// OpenCV-style axes, as in the dataset format: docs/dataset.md), extrinsic_cv =
+// inverse(cam2world_gl)[:3] (3x4, world to camera), intrinsic_cv = [[f, 0, W/2], [0, f, H/2],
+// [0, 0, 1]] with f = (H/2) / tan(fovy/2).
+// The cameras are fixed, so visibility_constraints are not used (docs/datagen.md).
+//
+// Lifetimes: the models and data passed in are read during the call only. References a
+// CameraSystem or CameraRecorder returns (name(), cameras()) are valid while it lives.
 #pragma once
 
 #include "mlspaces/core/export.h"
@@ -22,8 +25,6 @@
 #include <memory>
 #include <string>
 #include <vector>
-
-#include <mujoco/mujoco.h>
 
 #include "mlspaces/datagen/config.h"
 #include "mlspaces/datagen/episode_record.h"
@@ -67,10 +68,16 @@ class MLSPACES_API CameraSystem {
 /// (it owns a GL context).
 class MLSPACES_API CameraRecorder {
  public:
+  // ===========================================================================================
+  // Construction
+
   /// @throws Error when a camera cannot be resolved or no GL context can be made.
   CameraRecorder(const mjModel* m, const CameraSystemConfig& config, double fps,
                  sim::GlBackend backend);
   ~CameraRecorder();
+
+  // ===========================================================================================
+  // Episodes
 
   /// Starts episode `episode`: its videos are written in `dir` under TempVideoName().
   void Begin(const std::filesystem::path& dir, int64_t episode);
@@ -86,7 +93,11 @@ class MLSPACES_API CameraRecorder {
   /// The name an episode's video has until it is kept: .episode_<episode>_<camera>.mp4.
   static std::string TempVideoName(int64_t episode, const std::string& camera);
 
+  // ===========================================================================================
+  // Access
+
   const CameraSystem& cameras() const { return system_; }
+  /// Seconds spent rendering / encoding so far, over every episode.
   double render_seconds() const { return render_seconds_; }
   double encode_seconds() const { return encode_seconds_; }
 

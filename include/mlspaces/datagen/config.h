@@ -1,11 +1,10 @@
-// Datagen job configs: plain structs mirroring MolmoSpaces' experiment config model
-// (MlSpacesExpConfig / PickBaseConfig and its task, task sampler, robot, camera and policy
-// sub-configs), loaded strictly from YAML, overridden with `--set a.b=v`, dumped as canonical
-// YAML, hashed, and registered by name. See docs/config.md.
+// Datagen job configs: plain structs of the experiment config (the top level and its task,
+// task sampler, robot, camera and policy sub-configs), loaded strictly from YAML, overridden
+// with `--set a.b=v`, dumped as canonical YAML, hashed, and registered by name. Fields, their
+// defaults and where they come from: docs/config.md.
 //
-// Every struct has defaulted members (the original's defaults, deviations in docs/config.md)
-// and one `Serialize(Archive*)` member listing its fields; the same description drives
-// loading, `--set`, dumping, hashing and path resolution.
+// Every struct has defaulted members and one `Serialize(Archive*)` member listing its fields;
+// the same description drives loading, `--set`, dumping, hashing and path resolution.
 #pragma once
 
 #include "mlspaces/core/export.h"
@@ -219,7 +218,7 @@ struct MLSPACES_API CommandMode {
   }
 };
 
-/// ActionNoiseConfig (enabled by default, as in the original).
+/// Task-space action noise (datagen/action_noise.h); enabled by default.
 struct MLSPACES_API ActionNoiseConfig {
   bool enabled = true;
   double action_scale_factor = 0.1;
@@ -306,8 +305,8 @@ struct MLSPACES_API CameraSystemConfig {
   /// H.264 encoding of the videos: x264 constant rate factor (0-51) and preset.
   int64_t video_crf = 25;
   std::string video_preset = "veryfast";
-  /// MuJoCo's shadows and floor reflections (on, as the original's renders). Without both a
-  /// frame renders about 5x faster on the CPU (llvmpipe).
+  /// MuJoCo's shadows and floor reflections (on by default). Without both a frame renders
+  /// about 5x faster on the CPU (llvmpipe).
   bool shadows = true;
   bool reflections = true;
 
@@ -407,8 +406,8 @@ struct MLSPACES_API PolicyConfig {
 // ---------------------------------------------------------------------------------------
 // The experiment config.
 
-/// MlSpacesExpConfig with PickBaseConfig's defaults. `libraries` (asset and grasp libraries
-/// to register, core's LibraryConfig) is ours: the original registers them in Python.
+/// The whole job config, with PickBaseConfig's defaults. `libraries`: the asset and grasp
+/// libraries to register (library's LibraryConfig).
 struct MLSPACES_API ExperimentConfig {
   int64_t num_envs = 1;
   int64_t num_workers = 1;
@@ -468,9 +467,8 @@ struct MLSPACES_API ExperimentConfig {
 
 using ConfigFactory = std::function<ExperimentConfig()>;
 
-/// Configs by name, like the original's @register_config. A value, not a process global:
-/// register explicitly (no static-initialisation self-registration). Names are matched
-/// case-insensitively.
+/// Configs by name. A value, not a process global: register explicitly (no
+/// static-initialisation self-registration). Names are matched case-insensitively.
 class MLSPACES_API ConfigRegistry {
  public:
   /// A registry with the built-in configs: "PickBaseConfig" (the defaults) and
@@ -484,7 +482,8 @@ class MLSPACES_API ConfigRegistry {
   /// A fresh config from the factory of `name`. @throws Error naming the closest names
   /// ("did you mean ...") and listing every registered one.
   ExperimentConfig Make(std::string_view name) const;
-  /// The registered name spelled as registered. @throws Error as Make.
+  /// The registered name spelled as registered; valid until the next RegisterConfig or the
+  /// registry's end. @throws Error as Make.
   const std::string& CanonicalName(std::string_view name) const;
   /// Registered names in registration order.
   std::vector<std::string> Names() const;

@@ -5,6 +5,10 @@
 // mjData. Reset() = mj_resetData + the robot's home pose (the model's custom numerics
 // `<prefix>home_arm` / `<prefix>home_gripper`, arm servo targets set to it, gripper open) + the
 // mocap base at the configured base pose + mj_forward.
+//
+// Lifetimes: model() and data() are never null. model() is valid while the Env lives
+// (shared_model() keeps the model alive on its own); data() is owned by the Env. The
+// references the accessors return are valid while the Env lives and not across a move.
 #pragma once
 
 #include "mlspaces/core/export.h"
@@ -47,11 +51,11 @@ struct MLSPACES_API RobotSpec {
   /// Home angles overriding the numerics (e.g. robot_config.init_qpos); empty = the model's.
   std::vector<double> home_arm, home_gripper;
   /// A box pedestal of this full size (x, y, z; robot_config.base_size) in the base body,
-  /// standing on the base frame, with the arm root mounted on its top (as the original's
-  /// add_robot_to_scene). The base pose stays the floor pose; nullopt = no pedestal.
+  /// standing on the base frame, with the arm root mounted on its top (docs/datagen.md). The
+  /// base pose stays the floor pose; nullopt = no pedestal.
   std::optional<std::array<double, 3>> pedestal_size;
   /// robot_config.gravcomp: MuJoCo's body gravcomp is 1 on every body of the arm root's
-  /// subtree (as the original's apply_control_overrides), else 0 there.
+  /// subtree, else 0 there (docs/sim.md).
   bool gravcomp = true;
 
   // What the planner and recorder need (after the prefix); see RobotView.
@@ -91,6 +95,9 @@ MLSPACES_API RobotSpec RobotSpecFromConfig(const RobotConfig& config);
 
 class MLSPACES_API Env {
  public:
+  // ===========================================================================================
+  // Construction
+
   /// Inserts the robot into `scene` (which may already hold inserted assets), compiles it once
   /// and resets. `scene_key` names the scene for seeding (e.g. its path as written in the
   /// config); it should not depend on where the checkout lives.
@@ -102,9 +109,15 @@ class MLSPACES_API Env {
   Env(Env&&) noexcept = default;
   Env& operator=(Env&&) noexcept = default;
 
+  // ===========================================================================================
+  // Episodes
+
   /// Per-episode reset, no recompile: mj_resetData, robot home pose and servo targets,
   /// base mocap at robot().base, mj_forward. Every object returns to its compiled pose.
   void Reset();
+
+  // ===========================================================================================
+  // Bodies
 
   /// Body id. @throws Error naming the body when unknown.
   int BodyId(std::string_view name) const;
@@ -124,12 +137,20 @@ class MLSPACES_API Env {
   Pose GetRobotBasePose() const { return GetBodyPose(robot_base_body_); }
   void SetRobotBasePose(const Pose& pose) { SetBodyPose(robot_base_body_, pose); }
 
+  // ===========================================================================================
+  // Forward passes
+
   /// mj_fwdPosition (kinematics, collisions) / full mj_forward.
   void ForwardPosition();
   void Forward();
 
+  // ===========================================================================================
+  // Access (see the file comment for lifetimes)
+
+  /// The compiled model: never null.
   const mjModel* model() const { return model_.get(); }
   std::shared_ptr<const mjModel> shared_model() const { return model_; }
+  /// The Env's own mjData: never null.
   mjData* data() { return data_.get(); }
   const mjData* data() const { return data_.get(); }
   const RobotSpec& robot() const { return robot_; }

@@ -17,13 +17,15 @@ namespace mlspaces::datagen {
 /// Element type of a numeric dataset. kBool is written as h5py's bool (int8 enum FALSE/TRUE).
 enum class DType : uint8_t { kBool, kUint8, kInt32, kInt64, kFloat32, kFloat64 };
 
-/// Name of a dtype as numpy spells it ("bool", "uint8", "int32", "int64", "float32", ...).
+/// Name of a dtype as numpy spells it ("bool", "uint8", "int32", "int64", "float32", ...): a
+/// static string, never null.
 MLSPACES_API const char* DTypeName(DType dtype);
 /// Size of one element in bytes.
 MLSPACES_API size_t DTypeSize(DType dtype);
 
 /// One per-step numeric dataset: a row of `row_shape` values per step, stored as `dtype`.
-/// Its dataset shape is (T, *row_shape). Rows are appended in step order.
+/// Its dataset shape is (T, *row_shape). Rows are appended in step order. The references its
+/// accessors return are valid while the Series lives (Append grows bytes()).
 class MLSPACES_API Series {
  public:
   Series() = default;
@@ -104,12 +106,12 @@ struct MLSPACES_API EpisodeMetadata {
 
 /// One episode of T observations (T = 1 + number of policy steps). Every per-step member has
 /// exactly T entries; observation i is paired with action row i (row 0 the dummy, the last row
-/// the done sentinel), as in the original.
+/// the done sentinel), as the dataset format pairs them (docs/dataset.md).
 struct MLSPACES_API EpisodeRecord {
   EpisodeMetadata meta;
 
   /// obs/agent/qpos and qvel: per step, values per move group. Stored as JSON with every value
-  /// rounded to float32 (as the original), rows of 2000 bytes.
+  /// rounded to float32 (docs/dataset.md), rows of 2000 bytes.
   std::vector<MoveGroupValues> qpos, qvel;
   /// actions/<name> (commanded_action, joint_pos, joint_pos_rel, ee_twist, ee_pose): per step,
   /// values per move group, `{}` where the action is empty. JSON rows of 2000 bytes, float64.
@@ -144,7 +146,7 @@ inline size_t NumSteps(const EpisodeRecord& r) { return r.qpos.size(); }
 MLSPACES_API std::string DumpJsonCompactSorted(const Json& value);
 
 /// MoveGroupValues as a JSON object; with `round_to_float32` every value is first rounded to
-/// float32 (the original stores qpos/qvel that way).
+/// float32 (how qpos/qvel are stored, docs/dataset.md).
 MLSPACES_API Json MoveGroupJson(const MoveGroupValues& values, bool round_to_float32);
 
 }  // namespace mlspaces::datagen

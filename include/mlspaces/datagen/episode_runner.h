@@ -61,6 +61,9 @@ struct MLSPACES_API EpisodeRunnerOptions {
 
 class MLSPACES_API EpisodeRunner {
  public:
+  // ===========================================================================================
+  // Construction
+
   /// `env`, `sampler` and `registry` must outlive the runner. Builds the robot view and the
   /// planner (IK solver, grasp collision probe) once. @throws Error for a config the env
   /// cannot run (policy_dt not a multiple of sim_dt, a robot element missing).
@@ -68,14 +71,22 @@ class MLSPACES_API EpisodeRunner {
                 const ExperimentConfig& config, EpisodeRunnerOptions options = {});
   ~EpisodeRunner();
 
+  // ===========================================================================================
+  // Running
+
   /// Runs episode `episode` (its seed: EpisodeSeed(run seed, scene key, episode)).
   /// A hook's TaskRejected gives outcome sampler_reject; other sampler errors propagate.
   EpisodeResult Run(int64_t episode);
 
+  // ===========================================================================================
+  // Access
+
+  /// The robot's handles; valid while the runner lives.
   const RobotView& robot() const { return robot_; }
   /// Physics steps per policy step (policy_dt_ms / sim_dt_ms).
   int substeps() const { return substeps_; }
-  /// The camera recorder, or null when cameras are off.
+  /// The camera recorder, or null when cameras are off; owned by the runner, valid while it
+  /// lives.
   const CameraRecorder* cameras() const { return cameras_.get(); }
 
  private:

@@ -1,6 +1,6 @@
-// Grasp selection for the pick planner (spec 9): the original's ranking cost over world-frame
-// candidates, and a collision test of the open gripper at each candidate that keeps the
-// original's 128 proxy bodies out of the simulated model.
+// Grasp selection for the pick planner (spec 9): a ranking cost over world-frame candidates,
+// and a collision test of the open gripper at each candidate that adds no proxy bodies to the
+// simulated model. Differences from the reference implementation: docs/datagen.md.
 //
 // Collision test design (GraspCollisionChecker). A separate *probe model* is compiled once per
 // scene: a copy of the composed scene (robot and objects included) with one free-floating probe
@@ -10,15 +10,15 @@
 //    the compiled sim model at the model's reference pose qpos0 (franka_droid: drivers at 0 =
 //    fully open, 85 mm) and expressed in the TCP site frame (mesh geoms become their bounding
 //    box), or
-//  - kMolmoSpacesProxy: the original's three 5 mm cylinders (a 0.08 m bar 0.04 m behind the
-//    TCP and two 0.05 m fingers at y = +-0.04, z in [-0.04, 0.01]).
+//  - kMolmoSpacesProxy: three 5 mm cylinders (a 0.08 m bar 0.04 m behind the TCP and two
+//    0.05 m fingers at y = +-0.04, z in [-0.04, 0.01]).
 // Appending one body with a free joint keeps the sim's layout as a prefix of the probe model's:
 // qpos[0, nq_sim), mocap ids and geom ids [0, ngeom_sim) are the sim's, so SyncState copies the
 // episode's qpos and mocap poses verbatim and a contact names the sim geom that was hit. (A
 // mocap probe would not do: MuJoCo never collides two bodies welded to the world, so it would
 // miss the floor and every static geom.) In the probe model every non-probe geom gets
 // conaffinity 0 and explicit <pair>s are dropped, so mj_collision only generates probe
-// contacts: probe geoms have contype 0 / conaffinity 15 as the original's proxies, so they
+// contacts: probe geoms have contype 0 / conaffinity 15, so they
 // hit every geom with a contype bit in 0-3 (scene, objects and, unless disabled, the robot).
 // A candidate costs one mj_kinematics + mj_collision on the probe model's own mjData; the
 // episode's model and data are never touched.
@@ -41,7 +41,7 @@
 
 namespace mlspaces::datagen {
 
-/// Weights of the original's ranking cost (spec 9.1).
+/// Weights of the grasp ranking cost (spec 9.1).
 struct MLSPACES_API GraspCostWeights {
   double tcp_distance = 1.0;     ///< |p(T^-1 G)| (m)
   double tcp_angle_deg = 0.01;   ///< angle(T^-1 G) in degrees
@@ -56,7 +56,7 @@ double GraspCost(const Mat4& grasp, const Mat4& tcp, const Mat4& object,
                  const GraspCostWeights& weights = {});
 
 /// Indices of the `keep` cheapest grasps, cheapest first; ties keep input order (a stable
-/// argsort, as the original's).
+/// argsort).
 std::vector<size_t> RankGrasps(std::span<const Mat4> grasps, const Mat4& tcp, const Mat4& object,
                                size_t keep = 512, const GraspCostWeights& weights = {});
 
@@ -89,7 +89,7 @@ struct MLSPACES_API GraspProbeOptions {
   std::string gripper_body = "robot_0/gripper/base";
   /// The TCP site: the probe frame.
   std::string tcp_site = "robot_0/gripper/grasp_site";
-  /// Whether the probe may hit the robot's own geoms (the original's proxies do).
+  /// Whether the probe may hit the robot's own geoms.
   bool collide_with_robot = true;
   /// Names starting with this are robot geoms (for collide_with_robot = false).
   std::string robot_prefix = "robot_0/";
@@ -104,8 +104,13 @@ struct MLSPACES_API ProbeContact {
   double dist = 0;      ///< signed distance (negative = penetration)
 };
 
+/// Owns the probe model and its mjData; the sim model and data passed in are read during the
+/// call only.
 class MLSPACES_API GraspCollisionChecker {
  public:
+  // ===========================================================================================
+  // Construction
+
   /// Compiles the probe model from the composed scene `scene` (robot and objects inserted),
   /// whose compilation is `sim`. `sim` is read here only. @throws Error / std::invalid_argument
   /// for a missing gripper body or TCP site, or when the probe model's layout does not extend
@@ -113,16 +118,26 @@ class MLSPACES_API GraspCollisionChecker {
   GraspCollisionChecker(const sim::MjcfComposer& scene, const mjModel* sim,
                         GraspProbeOptions options = {});
 
+  // ===========================================================================================
+  // Per episode
+
   /// Copies qpos and mocap poses from the episode's data (of `sim`) into the probe data.
   void SyncState(const mjData* sim_data);
+
+  // ===========================================================================================
+  // Per candidate
 
   /// True when the open gripper placed with its TCP at `grasp` (world) touches anything.
   bool Collides(const Mat4& grasp);
   /// The contacts of the probe at `grasp` (empty = collision-free).
   std::vector<ProbeContact> Contacts(const Mat4& grasp);
-  /// Per candidate: true = collision-free (the original's get_noncolliding_grasp_mask).
+  /// Per candidate: true = collision-free.
   std::vector<bool> NonCollidingMask(std::span<const Mat4> grasps);
 
+  // ===========================================================================================
+  // Access
+
+  /// The probe model: never null, owned by the checker, valid while it lives.
   const mjModel* probe_model() const { return model_.get(); }
   int num_probe_geoms() const { return num_probe_geoms_; }
 

@@ -35,7 +35,7 @@ struct MLSPACES_API IkOptions {
   int max_iterations = 1000;  ///< per attempt (spec 8.4: 1000)
   double tolerance = 1e-4;    ///< stop when |[e_pos; e_rot]| < tolerance (spec 8.4: 1e-4)
   /// Minimum lambda (Levenberg-Marquardt: x4 after a step that does not lower |e|, /2 after
-  /// one that does); the original's 1e-12 is essentially undamped.
+  /// one that does); 1e-12 is essentially undamped.
   double damping = 1e-3;
   double max_step = 0.3;  ///< cap on max |dq_i| per iteration (rad or m)
   /// Null-space gain toward `rest` (e.g. the home pose); 0 (default) disables the secondary
@@ -44,9 +44,8 @@ struct MLSPACES_API IkOptions {
   double nullspace_gain = 0.0;
   /// Extra attempts from random configurations (uniform within limits, fixed-seed RNG,
   /// re-seeded per Solve) when the seeded attempt fails: 84% -> 99.7% of random reachable
-  /// poses from home with 8. They only cost time on failure. Set 0 for per-step tracking
-  /// (the original's behaviour: one attempt from the measured state), where a restart could
-  /// jump to another IK branch.
+  /// poses from home with 8. They only cost time on failure. Set 0 for per-step tracking (one
+  /// attempt from the measured state), where a restart could jump to another IK branch.
   int restarts = 8;
   uint64_t restart_seed = 0x5eed;
 };
@@ -67,6 +66,9 @@ MLSPACES_API std::vector<double> DampedLeastSquares(std::span<const double> jac,
 
 class MLSPACES_API IkSolver {
  public:
+  // ===========================================================================================
+  // Construction
+
   /// `m` must outlive the solver. `joints` are hinge or slide joints (one dof each); limited
   /// joints are clamped to their range, unlimited ones are not. `rest` (empty: the range
   /// midpoints, or 0 for unlimited joints) is the null-space target.
@@ -75,7 +77,11 @@ class MLSPACES_API IkSolver {
   IkSolver(const mjModel* m, std::string_view site, std::span<const std::string> joints,
            std::span<const double> rest = {}, IkOptions options = {});
 
-  /// Copies qpos and the mocap poses of `d` (same model) into the scratch data.
+  // ===========================================================================================
+  // Solving
+
+  /// Copies qpos and the mocap poses of `d` (same model) into the scratch data; `d` is read
+  /// during the call only.
   void SyncState(const mjData* d);
 
   /// Solves for the site's world pose `target` from `seed` (listed-joint order; clamped to
@@ -84,6 +90,9 @@ class MLSPACES_API IkSolver {
 
   /// World pose of the site at joint values q (other state as last synced).
   Mat4 Forward(std::span<const double> q);
+
+  // ===========================================================================================
+  // Access (references valid while the solver lives)
 
   size_t num_joints() const { return qpos_adr_.size(); }
   const std::vector<double>& lower() const { return lower_; }

@@ -38,7 +38,8 @@ inline constexpr std::array<Outcome, kOutcomeCount> kAllOutcomes = {
     Outcome::kSamplerReject, Outcome::kNoGrasp, Outcome::kIkFail, Outcome::kCollision,
     Outcome::kGraspSlip,     Outcome::kTimeout, Outcome::kSuccess};
 
-/// The outcome's snake_case name ("sampler_reject", ..., "success").
+/// The outcome's snake_case name ("sampler_reject", ..., "success"): a view of a static
+/// string, never dangles.
 MLSPACES_API std::string_view OutcomeName(Outcome outcome);
 /// The outcome named `name`, or nullopt.
 MLSPACES_API std::optional<Outcome> OutcomeFromName(std::string_view name);
@@ -88,6 +89,7 @@ class MLSPACES_API Journal {
   /// or non-finite timing, extra not an object) or an I/O failure.
   void Append(const AttemptRecord& record);
 
+  /// The journal file; valid while the Journal lives.
   const std::filesystem::path& path() const { return path_; }
   /// Bytes of a partial last line removed on open (0 when the file ended cleanly).
   size_t truncated_bytes() const { return truncated_bytes_; }

@@ -1,10 +1,10 @@
 // The pick planner policy (spec 8): plan a grasp from the object's grasp library, then drive the
-// arm through the original's phases with per-step IK, retrying from the current state when a
-// phase fails.
+// arm through the pick phases (PolicyPhase) with per-step IK, retrying from the current state
+// when a phase fails. Differences from the reference implementation: docs/datagen.md.
 //
 // Plan (at the start of an episode and on every retry):
 //   1. candidates = object pose x library grasps, plus their 180-degree flips about the TCP z;
-//   2. rank by the original's cost, keep policy.grasp_collision_max_grasps, drop those where
+//   2. rank by GraspCost, keep policy.grasp_collision_max_grasps, drop those where
 //      the open gripper would touch anything (GraspCollisionChecker, no proxy bodies in the
 //      simulated model), IK-check the rest in cost order from the measured arm state and take
 //      the first feasible one;
@@ -15,19 +15,20 @@
 //      lift height: straight up to it, then across in Cartesian space) -> down to the pregrasp
 //      (speed_fast) -> down to the grasp (speed_slow) -> settle -> close
 //      (gripper_close_duration) -> lift (speed_slow, holding) -> settle.
-//      The original moves in one Cartesian line to the pregrasp; a yawed object can then need
-//      a wrist turn past the joint limits mid-way, which per-step IK cannot follow.
+//      The joint-space travel avoids one Cartesian line to the pregrasp, along which a yawed
+//      object can need a wrist turn past the joint limits mid-way that per-step IK cannot
+//      follow.
 // Act (once per policy step, on the simulation clock d->time):
 //   - a Cartesian segment's target at elapsed time t is the straight-line/slerp interpolation
 //     between its end poses (a joint segment's: the joint-space interpolation), evaluated one
-//     policy step ahead (where the arm should be when the
-//     step ends; the original evaluates it at the step's start and so lags a step behind);
+//     policy step ahead (where the arm should be when the step ends, not where it was when the
+//     step started, which would lag a step behind);
 //     the arm command is an IK solution of it seeded with the previous command (continuous);
 //   - a move fails when the TCP is more than tcp_pos_err_threshold / tcp_rot_err_threshold
 //     from the target of the current time (something blocks the arm), when the gripper closes
 //     on nothing while holding (gap < gripper_empty_threshold), or after
 //     max_sequential_ik_failures IK failures in a row (phases are timed on the simulation
-//     clock and always end, so the original's phase_timeout has nothing to catch);
+//     clock and always end, so there is no phase timeout);
 //   - a failure replans from the current state (after re-opening the gripper), at most
 //     max_retries times; then the planner gives up (done, with the failure's reason).
 #pragma once
@@ -55,7 +56,7 @@
 
 namespace mlspaces::datagen {
 
-/// The original's policy phase ids (obs/extra/policy_phase).
+/// The policy phase ids (obs/extra/policy_phase; docs/dataset.md).
 enum class PolicyPhase : int64_t {
   kUnknown = 0,
   kGripperOpen = 1,
@@ -69,7 +70,7 @@ enum class PolicyPhase : int64_t {
   kGoHome = 9,
 };
 
-/// {"unknown": 0, "gripper-open": 1, ..., "go_home": 9}, the original's phase map.
+/// The phase map {"unknown": 0, "gripper-open": 1, ..., "go_home": 9}.
 MLSPACES_API Json PolicyPhaseMap();
 
 /// Why planning or execution failed.
@@ -80,6 +81,7 @@ enum class PlanFailure {
   kCollision,   ///< the TCP fell too far behind its target: the arm is blocked
   kEmptyGrasp,  ///< the gripper closed on nothing, or let go while lifting
 };
+/// The failure's name: a static string, never null.
 MLSPACES_API const char* PlanFailureName(PlanFailure failure);
 
 /// One policy step's command.
@@ -101,13 +103,20 @@ struct MLSPACES_API PlannerStats {
 
 class MLSPACES_API PickPlanner {
  public:
-  /// Builds the IK solver and the grasp collision probe for `env`'s model, which must outlive
-  /// the planner. One planner serves every episode of the env. `policy_dt` is the policy
-  /// step in seconds (the experiment's policy_dt_ms / 1000).
+  // ===========================================================================================
+  // Construction
+
+  /// Builds the IK solver and the grasp collision probe for `env`'s model. `env` and `robot`
+  /// are kept by pointer: both (and the model) must outlive the planner. One planner serves
+  /// every episode of the env. `policy_dt` is the policy step in seconds (the experiment's
+  /// policy_dt_ms / 1000).
   PickPlanner(const Env& env, const RobotView& robot, const PolicyConfig& config, double policy_dt);
   ~PickPlanner();
   PickPlanner(const PickPlanner&) = delete;
   PickPlanner& operator=(const PickPlanner&) = delete;
+
+  // ===========================================================================================
+  // Per episode
 
   /// Starts an episode: `object_body` is the pickup object's body id and `grasps` its library
   /// grasps in the body frame. Plans from the state in `d` (forward must have run).
@@ -116,6 +125,9 @@ class MLSPACES_API PickPlanner {
 
   /// The command for the policy step that starts at d->time.
   PlannerAction Act(const mjData* d);
+
+  // ===========================================================================================
+  // State (references valid while the planner lives; they change with Reset and Act)
 
   /// The phase of the last Act (kUnknown before the first).
   PolicyPhase phase() const { return phase_; }

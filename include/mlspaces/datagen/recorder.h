@@ -1,4 +1,4 @@
-// The trajectory recorder: writes episodes to HDF5 in MolmoSpaces' layout, one durable file per
+// The trajectory recorder: writes episodes to HDF5 in the dataset format, one durable file per
 // episode as soon as it ends, merged into trajectories_batch_<b>_of_<n>.h5 when the batch ends.
 // Schema and guarantees: docs/dataset.md.
 #pragma once
@@ -19,8 +19,8 @@ struct MLSPACES_API RecorderOptions {
   std::filesystem::path dir;
   int batch = 1;        ///< 1-based batch number in the file names
   int num_batches = 1;  ///< "..._batch_<batch>_of_<num_batches>"
-  /// Deflate level 0-9 for every dataset but obs_scene (0 = uncompressed). The original uses
-  /// lzf, which only h5py can read; deflate is built into every HDF5 reader.
+  /// Deflate level 0-9 for every dataset but obs_scene (0 = uncompressed). Deflate is built
+  /// into every HDF5 reader (docs/dataset.md).
   int compression_level = 4;
 };
 
@@ -44,8 +44,14 @@ MLSPACES_API std::string BatchFileStem(int batch, int num_batches);
 /// thread-safe, separate Recorders may run in separate threads.
 class MLSPACES_API Recorder {
  public:
+  // ===========================================================================================
+  // Construction
+
   /// @throws Error if the folder cannot be created or the options are out of range.
   explicit Recorder(RecorderOptions options);
+
+  // ===========================================================================================
+  // Names
 
   /// The final batch file: <dir>/trajectories_batch_<b>_of_<n>.h5.
   std::filesystem::path batch_file() const;
@@ -54,10 +60,15 @@ class MLSPACES_API Recorder {
   /// The index k the next written episode gets (= episodes written so far in this batch).
   int next_index() const { return static_cast<int>(parts_.size()); }
 
-  /// The original's video file name: episode_<k:08d>_<camera>_batch_<b>_of_<n>.mp4 (pass
-  /// "<camera>_depth" for a depth video). Write videos under this name in dir() before Write().
+  /// The video file name of the dataset format: episode_<k:08d>_<camera>_batch_<b>_of_<n>.mp4
+  /// (pass "<camera>_depth" for a depth video; docs/dataset.md). Write videos under this name
+  /// in dir() before Write().
   std::string VideoFileName(int episode_index, const std::string& camera) const;
+  /// The work item's folder (options.dir); valid while the Recorder lives.
   const std::filesystem::path& dir() const { return options_.dir; }
+
+  // ===========================================================================================
+  // Writing
 
   /// Checks `record` (every per-step field has NumSteps() rows, names are valid, flags are
   /// consistent, videos exist, metadata present) and writes it durably as traj_<next_index()>.

@@ -1,6 +1,9 @@
 // A robot's handles in a compiled model: the ids and addresses of its arm joints and servos,
 // gripper drivers and actuator, TCP site, finger pads and base, resolved once from a RobotSpec,
 // with the reads and writes the planner, the controller and the recorder make every step.
+//
+// Lifetimes: the model must outlive the view; the mjData passed to each call is used during
+// the call only. The references the accessors return are valid while the view lives.
 #pragma once
 
 #include "mlspaces/core/export.h"
@@ -19,10 +22,16 @@ namespace mlspaces::datagen {
 
 class MLSPACES_API RobotView {
  public:
+  // ===========================================================================================
+  // Construction
+
   /// Resolves every name of `spec` (under its prefix) in `m`, which must outlive the view.
   /// @throws Error naming the first element that is missing, or an arm joint without a
   /// position servo of its name.
   RobotView(const mjModel* m, const RobotSpec& spec);
+
+  // ===========================================================================================
+  // Joints and actuators
 
   size_t num_arm() const { return arm_qpos_.size(); }
   size_t num_gripper() const { return gripper_qpos_.size(); }
@@ -40,6 +49,9 @@ class MLSPACES_API RobotView {
   /// Sets the gripper ctrl, clipped to the actuator's ctrlrange.
   void SetGripperCtrl(mjData* d, double ctrl) const;
 
+  // ===========================================================================================
+  // Arm joints: limits, names, addresses
+
   /// Joint limits of the arm (lower, upper); unlimited joints get -inf / +inf.
   const std::vector<double>& arm_lower() const { return arm_lower_; }
   const std::vector<double>& arm_upper() const { return arm_upper_; }
@@ -48,13 +60,16 @@ class MLSPACES_API RobotView {
   /// qpos addresses of the arm joints, in spec order.
   const std::vector<int>& arm_qpos_adr() const { return arm_qpos_; }
 
+  // ===========================================================================================
+  // Kinematics and geometry
+
   /// World pose of the TCP site (after kinematics).
   Mat4 TcpPose(const mjData* d) const;
   /// World pose of the robot base (its mocap state).
   Mat4 BasePose(const mjData* d) const;
 
-  /// Distance between the two finger pad geoms (mj_geomDistance, as the original), clamped
-  /// at 0 (needs kinematics).
+  /// Distance between the two finger pad geoms (mj_geomDistance), clamped at 0 (needs
+  /// kinematics).
   double InterFingerDistance(const mjData* d) const;
 
   /// The 6 x num_arm() Jacobian of the TCP site over the arm dofs, row-major, rows
@@ -64,8 +79,14 @@ class MLSPACES_API RobotView {
   /// True when geom `g` belongs to the gripper subtree.
   bool IsGripperGeom(int g) const;
 
+  // ===========================================================================================
+  // Stepping
+
   /// `n` physics steps (mj_step; gravity compensation is MuJoCo's body gravcomp).
   void Step(mjData* d, int n) const;
+
+  // ===========================================================================================
+  // Ids in the model, and the spec
 
   int tcp_site() const { return tcp_site_; }
   int base_body() const { return base_body_; }

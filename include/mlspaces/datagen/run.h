@@ -56,7 +56,7 @@ struct MLSPACES_API WorkItem {
 
 /// The work items of a config, houses in order, batches in order. Per house:
 /// batches = max(1, round_half_even(samples_per_house / episodes_per_batch)), episodes split
-/// as evenly as possible (earlier batches get the remainder), as the original.
+/// as evenly as possible (earlier batches get the remainder; docs/datagen.md).
 MLSPACES_API std::vector<WorkItem> PlanWorkItems(const ExperimentConfig& config);
 
 /// The run folder: output_dir, or ./experiment_output/<tag> when output_dir is null.

@@ -13,7 +13,13 @@
 #include <string_view>
 #include <vector>
 
-#include <mujoco/mujoco.h>
+// MuJoCo's structs, declared as <mujoco/mujoco.h> declares them (include it to use them).
+// NOLINTBEGIN(modernize-use-using): MuJoCo's own form of these declarations
+struct mjModel_;
+typedef struct mjModel_ mjModel;
+struct mjData_;
+typedef struct mjData_ mjData;
+// NOLINTEND(modernize-use-using)
 
 namespace mlspaces::datagen {
 
@@ -30,14 +36,14 @@ struct MLSPACES_API PickSuccess {
   /// Names of the non-robot geoms the object touches, unique, in contact order ("geom 7" for
   /// an unnamed geom).
   std::vector<std::string> non_robot_geoms;
-  /// other_contacts == 0 and robot_contacts >= 1 (the original's `only_robot_contact`).
+  /// other_contacts == 0 and robot_contacts >= 1.
   bool only_robot_contact = false;
   /// The verdict: lifted and only_robot_contact.
   bool success = false;
   /// The supporting geom: the touching geom whose contact normal points most upward into the
   /// object (normal z >= 0.5), or -1 when nothing supports it from below.
   int supporting_geom = -1;
-  /// The original's reward: clip(lift, 0, 1000) when nothing supports the object or its
+  /// The reward (docs/datagen.md): clip(lift, 0, 1000) when nothing supports the object or its
   /// support is a visible robot geom (group 0-2), else 0.
   double reward = 0;
 };

@@ -1,6 +1,6 @@
-// Task samplers: the per-episode part of MolmoSpaces' PickTaskSampler (spec section 3).
+// Task samplers: the per-episode part of pick task sampling (spec section 3; docs/datagen.md).
 //
-// SampleTask(env, episode) runs the original's hooks in order on one Rng seeded with
+// SampleTask(env, episode) runs the hooks in order on one Rng seeded with
 // EpisodeSeed(run seed, env.scene_key(), episode):
 //   1. RandomizeScene(env, rng)      default: env.Reset() + U(+-noise) on the arm joints
 //                                    (robot_config.init_qpos_noise_range), servo targets too;
@@ -54,7 +54,7 @@ struct MLSPACES_API TaskDraft {
   std::optional<Pose> pickup_obj_goal_pose;
 };
 
-/// A sampled task (the original's frozen PickTaskConfig). Poses: world, xyz + quat wxyz.
+/// A sampled task, fixed once sampled. Poses: world, xyz + quat wxyz.
 struct MLSPACES_API Task {
   std::string pickup_obj_name;
   Pose robot_base_pose;
@@ -66,15 +66,24 @@ struct MLSPACES_API Task {
 
 class MLSPACES_API TaskSampler {
  public:
+  // ===========================================================================================
+  // Construction
+
   TaskSampler(ExperimentConfig config, uint64_t run_seed);
   virtual ~TaskSampler() = default;
   TaskSampler(const TaskSampler&) = delete;
   TaskSampler& operator=(const TaskSampler&) = delete;
 
+  // ===========================================================================================
+  // Sampling
+
   /// Samples episode `episode` in `env` (reset and randomised here; the model is reused).
   /// @throws Error naming the sampler and the field a hook left unset or malformed, or an
   /// Error from a hook.
   Task SampleTask(Env& env, int64_t episode);
+
+  // ===========================================================================================
+  // Access (references valid while the sampler lives)
 
   /// The name it was created under ("" when constructed directly).
   const std::string& name() const { return name_; }
@@ -82,6 +91,9 @@ class MLSPACES_API TaskSampler {
   uint64_t run_seed() const { return run_seed_; }
 
  protected:
+  // ===========================================================================================
+  // Hooks (see the file comment for their order and defaults)
+
   virtual void RandomizeScene(Env& env, Rng& rng);
   virtual std::string SelectPickupObject(Env& env, Rng& rng);
   virtual void SampleAndPlaceRobot(Env& env, Rng& rng, TaskDraft& draft) = 0;
@@ -125,14 +137,15 @@ class MLSPACES_API TaskSamplerRegistry {
   /// A registry holding the built-in samplers ("block_pickup").
   static TaskSamplerRegistry WithBuiltins();
 
-  /// @throws UsageError for an empty name or one already registered (any case).
+  /// @throws UsageError for an empty name or one already registered (any case). The factory
+  /// must not return null (Create throws Error then).
   void Register(std::string_view name, TaskSamplerFactory factory);
   bool Contains(std::string_view name) const;
   /// Registered names as given, sorted case-insensitively.
   std::vector<std::string> names() const;
 
-  /// Creates sampler `name`. @throws Error (field /task_sampler_config/task_sampler_class)
-  /// listing the valid names for an unknown one.
+  /// Creates sampler `name`: never null, owned by the caller. @throws Error (field
+  /// /task_sampler_config/task_sampler_class) listing the valid names for an unknown one.
   std::unique_ptr<TaskSampler> Create(std::string_view name, const ExperimentConfig& config,
                                       uint64_t run_seed) const;
   /// Creates config.task_sampler_config.task_sampler_class.

@@ -12,16 +12,16 @@
 
 namespace mlspaces::datagen {
 
-/// How a video is encoded. The defaults are the original's: libx264, yuv420p, crf 25, one
-/// frame per 66 ms policy step.
+/// How a video is encoded. The defaults are the dataset format's (docs/dataset.md): libx264,
+/// yuv420p, crf 25, one frame per 66 ms policy step.
 struct MLSPACES_API VideoOptions {
   /// Frames per second; stored as a rational (av_d2q, denominator <= 100000): 1000/66 is
-  /// exactly 500/33 (the original printed it as "15.15").
+  /// exactly 500/33.
   double fps = 1000.0 / 66.0;
   /// x264 constant rate factor, 0-51 (lower is better and bigger).
   int crf = 25;
-  /// x264 preset: ultrafast … placebo. The original used x264's default, "medium"; "veryfast" is
-  /// about 3x faster at the same crf, with files of similar size (bench/datagen_video_bench).
+  /// x264 preset: ultrafast … placebo. "veryfast" is about 3x faster than x264's default,
+  /// "medium", at the same crf, with files of similar size (bench/datagen_video_bench).
   std::string preset = "veryfast";
   /// x264 threads. The bytes depend on it, so it is fixed (never "auto", which would vary with
   /// the machine). 1 suits datagen, which runs one process per core.
@@ -42,8 +42,8 @@ struct MLSPACES_API VideoFrame {
 ///
 /// Every frame is `width` x `height` RGB, 3 bytes a pixel, rows top to bottom, no padding.
 /// A width or height that is not a multiple of 16 is scaled up (bicubic) to the next multiple
-/// of 16, as the original's imageio writer (macro_block_size=16) did: a 33x17 camera gives a
-/// 48x32 video. encoded_width()/encoded_height() say what the file holds.
+/// of 16 (as imageio's macro_block_size=16 does): a 33x17 camera gives a 48x32 video.
+/// encoded_width()/encoded_height() say what the file holds.
 ///
 /// Bytes are deterministic: the same frames and options give the same file (fixed x264 thread
 /// count, bit-exact muxer and scaler flags, no creation time or library version in the file).
@@ -55,6 +55,9 @@ struct MLSPACES_API VideoFrame {
 /// assigned to.
 class MLSPACES_API VideoWriter {
  public:
+  // ===========================================================================================
+  // Construction
+
   /// Opens the encoder and the temp file (creating missing parent folders).
   /// @throws Error naming `path` for a size outside 1..16384, bad options (fps <= 0, crf
   /// outside 0..51, unknown preset, threads < 1) or a file that cannot be created.
@@ -65,6 +68,9 @@ class MLSPACES_API VideoWriter {
   VideoWriter(const VideoWriter&) = delete;
   VideoWriter& operator=(const VideoWriter&) = delete;
 
+  // ===========================================================================================
+  // Writing
+
   /// Encodes one frame (width * height * 3 bytes). @throws Error naming the file on an encoder
   /// or write failure, or after Finish().
   void AddFrame(const unsigned char* rgb);
@@ -74,11 +80,15 @@ class MLSPACES_API VideoWriter {
   /// removed and nothing is left under `path`).
   void Finish();
 
+  // ===========================================================================================
+  // Access
+
   /// Frames added so far.
   int64_t frames() const;
   /// The size in the file: width and height rounded up to multiples of 16.
   int encoded_width() const;
   int encoded_height() const;
+  /// The final path (not the temp file); valid while the writer lives.
   const std::filesystem::path& path() const;
 
  private:

@@ -20,8 +20,9 @@ struct MLSPACES_API AssetFacts {
   /// their exact extents (a rotated cylinder or ellipsoid is not boxed by its local box).
   std::array<double, 3> aabb_min{0, 0, 0};
   std::array<double, 3> aabb_max{0, 0, 0};
-  /// The original's "boundingBox" meaning done right: the size of the box centred on the body
-  /// origin holding every geom, per axis 2 * max(|aabb_min|, |aabb_max|). Zero without geoms.
+  /// The size of the box centred on the body origin holding every geom, per axis
+  /// 2 * max(|aabb_min|, |aabb_max|) (the computed metadata's "boundingBox", docs/sim.md).
+  /// Zero without geoms.
   std::array<double, 3> bounding_box{0, 0, 0};
 };
 

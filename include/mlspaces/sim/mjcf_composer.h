@@ -21,6 +21,10 @@
 // element <tag>": MuJoCo's message, located in the file it is about (the scene, an included
 // file, an attached model's file; see src/sim/mjcf_source_map.h for how), and for a name
 // defined twice, both places.
+//
+// Lifetimes: a compiled model (ModelPtr) is owned by the caller and independent of the
+// composer. spec(), warnings() and path() refer into the composer: valid until it is destroyed
+// or assigned to (a moved-to composer carries them along).
 #pragma once
 
 #include "mlspaces/core/diagnostics.h"
@@ -49,6 +53,9 @@ struct MLSPACES_API ComposeOptions {
 /// compile; a copy of a model with a reference MuJoCo cannot resolve throws its Error.
 class MLSPACES_API MjcfComposer {
  public:
+  // ===========================================================================================
+  // Construction
+
   /// Composes an MJCF file. @throws Error naming the file, line and element.
   explicit MjcfComposer(const std::filesystem::path& file, ComposeOptions options = {});
   /// Composes MJCF text; relative paths resolve against `path_for_errors`'s folder.
@@ -59,6 +66,9 @@ class MLSPACES_API MjcfComposer {
   MjcfComposer(MjcfComposer&&) noexcept;
   MjcfComposer& operator=(MjcfComposer&&) noexcept;
   ~MjcfComposer();
+
+  // ===========================================================================================
+  // Attaching
 
   /// Attaches a model file at run time, as <attach> would: under body `parent_body` ("" or
   /// "world" for the worldbody), at `pose` relative to that body, with `prefix` on every name.
@@ -82,24 +92,35 @@ class MLSPACES_API MjcfComposer {
                                   std::string_view prefix, const Pose& pose,
                                   std::string_view body = {});
 
+  // ===========================================================================================
+  // Queries
+
   /// The names of the worldbody's child bodies ("" for an unnamed one), in order.
   std::vector<std::string> TopLevelBodies() const;
 
   /// True when a body of that name exists (mjs_findBody; names as prefixed).
   bool HasBody(std::string_view name) const;
 
+  // ===========================================================================================
+  // Compiling and emitting
+
   /// The composed model as plain MJCF (compiled, then written by MuJoCo). @throws Error as
   /// Compile.
   std::string Emit() const;
 
-  /// Compiles the composed model (the spec stays as it was). @throws Error with the source
-  /// file, line and element; for a name defined twice, naming both files and lines.
+  /// Compiles the composed model (the spec stays as it was): never null, owned by the caller.
+  /// @throws Error with the source file, line and element; for a name defined twice, naming
+  /// both files and lines.
   ModelPtr Compile() const { return Compile(nullptr); }
-  /// Compile where files in `vfs` take precedence over the disk (e.g. meshes given in memory).
+  /// Compile where files in `vfs` take precedence over the disk (e.g. meshes given in memory);
+  /// `vfs` may be null (the disk only) and is read during the call only.
   ModelPtr Compile(const mjVFS* vfs) const;
 
-  /// The composed model's mjSpec, for edits with MuJoCo's API before compiling (owned by the
-  /// composer; edits show in Compile, Emit and copies).
+  // ===========================================================================================
+  // Access
+
+  /// The composed model's mjSpec, for edits with MuJoCo's API before compiling: never null,
+  /// owned by the composer (do not delete it). Edits show in Compile, Emit and copies.
   mjSpec* spec();
 
   /// MuJoCo's compile warnings, of every Compile/Emit so far: severity kWarning, path = the
@@ -107,7 +128,7 @@ class MLSPACES_API MjcfComposer {
   /// MujocoWarningLine. The reference lives as long as the composer; a Compile/Emit appends.
   const std::vector<Diagnostic>& warnings() const;
 
-  /// The file this composer was built from.
+  /// The file this composer was built from (FromString: `path_for_errors`).
   const std::filesystem::path& path() const;
 
  private:
@@ -119,7 +140,7 @@ class MLSPACES_API MjcfComposer {
 /// A MuJoCo warning of MjcfComposer::warnings on one line: "MuJoCo: <message>".
 MLSPACES_API std::string MujocoWarningLine(const Diagnostic& warning);
 
-/// Convenience: compose and compile a file. @throws Error.
+/// Convenience: compose and compile a file; never null, owned by the caller. @throws Error.
 ModelPtr ComposeAndCompile(const std::filesystem::path& file, ComposeOptions options = {});
 
 }  // namespace mlspaces::sim

@@ -53,14 +53,15 @@ struct MLSPACES_API VfsFile {
   std::string data;
 };
 
-/// Compiles an MJCF document from memory through an mjVFS.
+/// Compiles an MJCF document from memory through an mjVFS; never null, owned by the caller.
 /// `xml` is stored as `main_name`; `extra` files (meshes, textures, includes) are added under
 /// their names. Files not in the VFS are read from disk as MuJoCo does (absolute paths work).
 /// @throws MujocoError with MuJoCo's message (e.g. "XML Error: ...\nElement 'geom', line 3").
 ModelPtr LoadModelFromMemory(std::string_view xml, const std::string& main_name = "model.xml",
                              const std::vector<VfsFile>& extra = {});
 
-/// mj_makeData with a null check. @throws MujocoError.
+/// mj_makeData with a null check: never null, owned by the caller, for use with `m`.
+/// @throws MujocoError.
 MLSPACES_API DataPtr MakeData(const mjModel* m);
 
 /// Name of object `id` of type `type`, or "" when unnamed.

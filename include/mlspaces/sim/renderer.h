@@ -16,7 +16,17 @@
 #include <optional>
 #include <string_view>
 
-#include <mujoco/mujoco.h>
+// MuJoCo's structs, declared as <mujoco/mujoco.h> declares them (include it to use them).
+// NOLINTBEGIN(modernize-use-using): MuJoCo's own form of these declarations
+struct mjModel_;
+typedef struct mjModel_ mjModel;
+struct mjData_;
+typedef struct mjData_ mjData;
+struct mjvScene_;
+typedef struct mjvScene_ mjvScene;
+struct mjvOption_;
+typedef struct mjvOption_ mjvOption;
+// NOLINTEND(modernize-use-using)
 
 namespace mlspaces::sim {
 
@@ -24,7 +34,7 @@ enum class GlBackend { kOsMesa, kEgl };
 
 /// "osmesa" -> kOsMesa, "egl" -> kEgl. @throws mlspaces::UsageError for any other name.
 MLSPACES_API GlBackend ParseGlBackend(std::string_view name);
-/// "osmesa" or "egl".
+/// "osmesa" or "egl" (a static string: never dangles).
 MLSPACES_API std::string_view GlBackendName(GlBackend backend);
 
 /// The backend this process renders with: the one of the first Renderer that got as far as
@@ -65,8 +75,12 @@ MLSPACES_API CameraView LookAt(const std::array<double, 3>& eye,
 /// makes its own context current.
 class MLSPACES_API Renderer {
  public:
+  // ===========================================================================================
+  // Construction
+
   /// Renders `m` (shared, never modified: the Renderer keeps a private copy whose offscreen
-  /// buffer is raised to width x height; an mjData of `m` works with it).
+  /// buffer is raised to width x height, so `m` need only live through the call; an mjData
+  /// of `m` works with it).
   /// @throws UsageError for a non-positive size or max_geom; Error (one line) when the GL
   /// library is missing, no GL context can be made, MuJoCo cannot make its render context, or
   /// this process already renders with the other backend. Nothing leaks on failure.
@@ -74,6 +88,9 @@ class MLSPACES_API Renderer {
   ~Renderer();
   Renderer(const Renderer&) = delete;
   Renderer& operator=(const Renderer&) = delete;
+
+  // ===========================================================================================
+  // Rendering
 
   /// Renders the state in `d` (an mjData of the model given to the constructor, positions
   /// current, e.g. after mj_forward/mj_step) seen from `view`.
@@ -95,13 +112,18 @@ class MLSPACES_API Renderer {
   /// @throws UsageError for an id out of range.
   static CameraView ModelCamera(const mjModel* m, const mjData* d, int camera_id);
 
+  // ===========================================================================================
+  // Access
+
   int width() const;
   int height() const;
   GlBackend backend() const;
   /// The abstract scene: its flags (scene().flags[mjRND_SHADOW], mjRND_REFLECTION,
-  /// mjRND_SKYBOX, ...) may be changed between renders.
+  /// mjRND_SKYBOX, ...) may be changed between renders. Owned by the Renderer, valid while
+  /// it lives.
   mjvScene& scene();
-  /// The visualisation options (geom groups, frames, ...) used by Render().
+  /// The visualisation options (geom groups, frames, ...) used by Render(). Owned by the
+  /// Renderer, valid while it lives.
   mjvOption& vis_option();
 
   struct Impl;

@@ -1,5 +1,8 @@
 // Run-time scene composition: a scene file + its metadata, objects inserted by UID, a robot
 // inserted under a prefix, compiled to one mjModel.
+//
+// Lifetimes: metadata() and composer() are valid while the Scene lives and change with each
+// insertion; a compiled model is owned by the caller and outlives the Scene.
 #pragma once
 
 #include "mlspaces/core/export.h"
@@ -17,17 +20,23 @@ namespace mlspaces::sim {
 
 class MLSPACES_API Scene {
  public:
+  // ===========================================================================================
+  // Construction
+
   /// Composes `xml` (MuJoCo's parser: <include>, <frame>, <model>, <attach>, ...) and loads
   /// its scene metadata
   /// (<scene>_metadata.json rules of FindSceneMetadataFile); {"objects": {}} when it has none.
   /// @throws Error for bad MJCF or bad metadata.
   static Scene Load(const std::filesystem::path& xml, ComposeOptions options = {});
 
+  // ===========================================================================================
+  // Insertion
+
   /// Inserts the asset `uid` (located through `registry`, user libraries included) under body
   /// `parent_body` ("world" for the worldbody) at `pose`, with `prefix` on every name (empty:
-  /// "<uid>_<n>/", n counting insertions). Adds the scene-metadata entry of the original
-  /// (asset_id, category, object_enum "temp_object", is_static false, boundingBox) plus
-  /// asset_library and mjcf_path, keyed by the inserted body's name.
+  /// "<uid>_<n>/", n counting insertions). Adds a scene-metadata entry keyed by the inserted
+  /// body's name: asset_id, category, object_enum "temp_object", is_static false, boundingBox,
+  /// asset_library and mjcf_path (the scene-metadata format: docs/formats.md).
   /// @returns that body name. @throws Error for an unknown UID or one without metadata.
   std::string InsertAsset(const Registry& registry, std::string_view uid, const Pose& pose,
                           std::string_view parent_body = "world", std::string_view prefix = {});
@@ -43,10 +52,17 @@ class MLSPACES_API Scene {
                                              const std::filesystem::path& path_for_errors,
                                              std::string_view prefix, const Pose& base);
 
-  /// Compiles the composed scene. @throws Error with file, line and element.
+  // ===========================================================================================
+  // Compiling and access
+
+  /// Compiles the composed scene: never null, owned by the caller. @throws Error with file,
+  /// line and element.
   ModelPtr Compile() const { return composer_.Compile(); }
 
+  /// The scene metadata, {"objects": {...}} with the inserted objects' entries; valid while
+  /// the Scene lives.
   const Json& metadata() const { return metadata_; }
+  /// The composer holding the scene and everything inserted; valid while the Scene lives.
   const MjcfComposer& composer() const { return composer_; }
 
  private:

@@ -29,7 +29,9 @@ CLI::Validator PositiveInteger() {
 
 }  // namespace mlspaces::cli
 
-int main(int argc, char** argv) {
+namespace {
+
+int Run(int argc, char** argv) {
   using namespace mlspaces;
   CLI::App app{"mlspaces: asset and grasp libraries and pick data generation for MuJoCo"};
   app.set_version_flag("--version", std::string("mlspaces ") + MLSPACES_VERSION);
@@ -92,4 +94,18 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "mlspaces: internal error: %s\n", e.what());
     return 1;
   }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  // Run reports every error itself; this catches what escapes its set-up (out of memory).
+  try {
+    return Run(argc, argv);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "mlspaces: internal error: %s\n", e.what());
+  } catch (...) {
+    std::fprintf(stderr, "mlspaces: internal error: unknown exception\n");
+  }
+  return 1;
 }

@@ -30,7 +30,7 @@ long ReadHolderPid(int fd) {
 
 }  // namespace
 
-FileLock::FileLock(const std::filesystem::path& path, std::function<void(long)> on_wait,
+FileLock::FileLock(const std::filesystem::path& path, const std::function<void(long)>& on_wait,
                    double timeout_s)
     : path_(path) {
   const std::string name = path.string();

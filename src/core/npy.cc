@@ -371,7 +371,6 @@ size_t DTypeSize(DType dtype) {
     case DType::kI8:
       return 8;
     case DType::kU1:
-      return 1;
     case DType::kB1:
       return 1;
   }

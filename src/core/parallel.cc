@@ -20,6 +20,7 @@ namespace {
 /// The shared state of one run: the next index, the errors by index and the stop flag.
 class Pool {
  public:
+  // NOLINTNEXTLINE(bugprone-throw-keyword-missing): a vector of n null exception_ptrs
   explicit Pool(size_t n) : n_(n), errors_(n) {}
 
   /// Runs items until none is left or a failure stopped the run. `may_start(i)` (under the

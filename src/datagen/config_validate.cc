@@ -69,7 +69,7 @@ void Validate(const ExperimentConfig& c, const fs::path& origin) {
 
   // name and path of one asset or grasp library entry; returns its key for further checks.
   auto check_library = [&k](const auto& spec, const char* list, size_t i) {
-    const std::string key = std::string("libraries.") + list + "[" + std::to_string(i) + "]";
+    std::string key = std::string("libraries.") + list + "[" + std::to_string(i) + "]";
     k.Check(!spec.name.empty() && spec.name.find('/') == std::string::npos, key + ".name",
             "must be non-empty and without slashes");
     k.Check(!spec.dir.empty(), key + ".path", "must not be empty");

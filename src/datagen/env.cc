@@ -63,7 +63,7 @@ std::filesystem::path RobotsDir() {
   }
   // The source tree's copy while it exists (a build tree); an installed package's copy
   // (`cmake --install`: <prefix>/share/mlspaces/robots) once the sources are gone.
-  const std::filesystem::path source = MLSPACES_DEFAULT_ROBOTS_DIR;
+  std::filesystem::path source = MLSPACES_DEFAULT_ROBOTS_DIR;
   if (std::error_code ec; std::filesystem::is_directory(source, ec)) return source;
   return MLSPACES_INSTALLED_ROBOTS_DIR;
 }

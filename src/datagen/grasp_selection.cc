@@ -159,7 +159,7 @@ GraspSelection SelectGrasp(std::span<const Mat4> grasps, const Mat4& tcp, const 
 }
 
 GraspCollisionChecker::GraspCollisionChecker(const sim::MjcfComposer& scene, const mjModel* sim,
-                                             GraspProbeOptions options) {
+                                             const GraspProbeOptions& options) {
   const std::string common = " contype=\"0\" conaffinity=\"15\" condim=\"3\" group=\"5\"" +
                              std::string(" margin=\"") + Num(options.clearance) +
                              "\" gap=\"0\" mass=\"0.01\"";

@@ -286,7 +286,9 @@ JournalSummary Summarize(const std::vector<AttemptRecord>& records) {
     ++s.counts[static_cast<int>(r.outcome)];
     bool& ok = episodes[{r.scene, r.episode}];
     ok = ok || r.outcome == Outcome::kSuccess;
-    for (const auto& [name, seconds] : r.timings) {
+    for (const auto& timing : r.timings) {
+      const std::string& name = timing.first;  // not a structured binding: the lambda uses it
+      const double seconds = timing.second;
       auto it = std::find_if(s.stages.begin(), s.stages.end(),
                              [&](const JournalSummary::Stage& st) { return st.name == name; });
       if (it == s.stages.end()) {

@@ -109,7 +109,7 @@ class MsgpackDecoder {
       Json value;
       if (!Value(value, depth + 1)) return false;
       // ordered_map::emplace keeps the first of duplicate keys, as nlohmann's reader does.
-      fields.emplace(std::move(key), std::move(value));
+      fields.emplace(key, std::move(value));
       key.clear();
     }
     return true;

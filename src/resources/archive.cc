@@ -75,11 +75,11 @@ std::vector<std::string> SplitPath(std::string_view path) {
 class Utf8Locale {
  public:
   Utf8Locale() {
-    utf8_ = ::newlocale(LC_CTYPE_MASK, "C.UTF-8", static_cast<locale_t>(0));
-    if (utf8_ != static_cast<locale_t>(0)) old_ = ::uselocale(utf8_);
+    utf8_ = ::newlocale(LC_CTYPE_MASK, "C.UTF-8", nullptr);
+    if (utf8_ != nullptr) old_ = ::uselocale(utf8_);
   }
   ~Utf8Locale() {
-    if (utf8_ == static_cast<locale_t>(0)) return;
+    if (utf8_ == nullptr) return;
     ::uselocale(old_);
     ::freelocale(utf8_);
   }
@@ -87,8 +87,8 @@ class Utf8Locale {
   Utf8Locale& operator=(const Utf8Locale&) = delete;
 
  private:
-  locale_t utf8_ = static_cast<locale_t>(0);
-  locale_t old_ = static_cast<locale_t>(0);
+  locale_t utf8_ = nullptr;
+  locale_t old_ = nullptr;
 };
 
 // ---------------------------------------------------------------------------------------

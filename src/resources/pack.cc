@@ -274,6 +274,7 @@ PackReport PackLibrary(const fs::path& library_dir, const fs::path& out_dir, Pac
   } cleanup{tmp_dir};
 
   std::vector<std::string> archive_names;
+  archive_names.reserve(plans.size());
   for (const ArchivePlan& p : plans) archive_names.push_back(p.name);
   PackedStoreWriter store(tmp_dir, options.name, archive_names);
 

@@ -295,18 +295,22 @@ class GlContext {
   }
 
   ~GlContext() {
-    if (backend_ == GlBackend::kOsMesa) {
-      const OsMesaApi& api = LoadOsMesa();
-      if (api.get_current_context() == osmesa_) api.make_current(nullptr, nullptr, 0, 0, 0);
-      api.destroy_context(osmesa_);
-    } else {
-      const EglApi& egl = LoadEgl();
-      if (egl.get_current_context() == egl_) {
-        egl.make_current(display_, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
+    // The GL library was loaded when this context was made, so LoadOsMesa/LoadEgl return
+    // their cached tables here; the try only keeps the destructor from throwing.
+    try {
+      if (backend_ == GlBackend::kOsMesa) {
+        const OsMesaApi& api = LoadOsMesa();
+        if (api.get_current_context() == osmesa_) api.make_current(nullptr, nullptr, 0, 0, 0);
+        api.destroy_context(osmesa_);
+      } else {
+        const EglApi& egl = LoadEgl();
+        if (egl.get_current_context() == egl_) {
+          egl.make_current(display_, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
+        }
+        egl.destroy_context(display_, egl_);
+        ReleaseEglDisplay(egl, platform_);
       }
-      egl.destroy_context(display_, egl_);
-      ReleaseEglDisplay(egl, platform_);
-    }
+    } catch (...) {}
   }
 
   GlContext(const GlContext&) = delete;

@@ -19,7 +19,8 @@ class MLSPACES_API FileLock {
   /// `on_wait(holder_pid)` is called once (may be empty), e.g. to print "waiting for pid N".
   /// `timeout_s` < 0 waits forever. @throws Error naming the path on timeout or I/O failure.
   explicit FileLock(const std::filesystem::path& path,
-                    std::function<void(long holder_pid)> on_wait = {}, double timeout_s = -1);
+                    const std::function<void(long holder_pid)>& on_wait = {},
+                    double timeout_s = -1);
   ~FileLock();
   FileLock(const FileLock&) = delete;
   FileLock& operator=(const FileLock&) = delete;

@@ -30,6 +30,7 @@
 namespace mlspaces::datagen {
 
 /// The outcome of one episode.
+// NOLINTNEXTLINE(bugprone-exception-escape): flags the implicit special members
 struct MLSPACES_API EpisodeResult {
   /// The journal line: outcome, message, per-stage timings (sample, grasps, plan, policy,
   /// physics, observe), and extra figures (lift, retries, grasp index, steps).

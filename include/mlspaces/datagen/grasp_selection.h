@@ -116,7 +116,7 @@ class MLSPACES_API GraspCollisionChecker {
   /// for a missing gripper body or TCP site, or when the probe model's layout does not extend
   /// the sim's.
   GraspCollisionChecker(const sim::MjcfComposer& scene, const mjModel* sim,
-                        GraspProbeOptions options = {});
+                        const GraspProbeOptions& options = {});
 
   // ===========================================================================================
   // Per episode

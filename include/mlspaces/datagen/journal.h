@@ -45,6 +45,7 @@ MLSPACES_API std::string_view OutcomeName(Outcome outcome);
 MLSPACES_API std::optional<Outcome> OutcomeFromName(std::string_view name);
 
 /// One attempt.
+// NOLINTNEXTLINE(bugprone-exception-escape): flags the implicit special members
 struct MLSPACES_API AttemptRecord {
   std::string scene;
   int64_t episode = 0;  // episode index within the scene

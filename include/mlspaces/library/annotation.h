@@ -16,6 +16,7 @@ namespace mlspaces {
 /// The metadata of one asset. `json` is the metadata file as written (key order kept).
 /// `arrays` are the NPZ's arrays, each at the JSON pointer its '/'-delimited key names
 /// ("description_short/clip" -> "/description_short/clip"); they are not copied into `json`.
+// NOLINTNEXTLINE(bugprone-exception-escape): flags the implicit special members
 struct MLSPACES_API Annotation {
   std::string uid;
   std::string library;

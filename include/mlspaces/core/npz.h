@@ -70,8 +70,8 @@ struct MLSPACES_API NpzWriteOptions {
 };
 
 /// Writes an .npz atomically; names get ".npy" appended. numpy's np.load reads the result.
-void WriteNpz(const std::filesystem::path& path,
-              const std::vector<std::pair<std::string, NpyArray>>& arrays,
-              const NpzWriteOptions& options = {});
+MLSPACES_API void WriteNpz(const std::filesystem::path& path,
+                           const std::vector<std::pair<std::string, NpyArray>>& arrays,
+                           const NpzWriteOptions& options = {});
 
 }  // namespace mlspaces

@@ -519,7 +519,8 @@ MLSPACES_API void ApplyOverride(ExperimentConfig& config, std::string_view assig
 /// Cross-field checks (time steps divide, counts positive, indices in range, camera fields
 /// match their type, ...). @throws Error whose message starts with the dotted key path;
 /// `origin` (may be empty) is used as the error's file.
-void Validate(const ExperimentConfig& config, const std::filesystem::path& origin = {});
+MLSPACES_API void Validate(const ExperimentConfig& config,
+                           const std::filesystem::path& origin = {});
 
 /// Makes every relative path absolute against `base_dir` (lexically normalised).
 MLSPACES_API void ResolvePaths(ExperimentConfig& config, const std::filesystem::path& base_dir);

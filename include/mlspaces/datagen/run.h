@@ -113,8 +113,9 @@ struct MLSPACES_API RunReport {
 /// stored in config.yaml (a resumed run reuses it); a sharded run needs an explicit seed.
 /// @throws Error for a bad config, scene or library, or a folder holding a run (another
 /// config's, or any without `resume`); attempt failures are journaled, not thrown.
-RunReport RunDatagen(const ExperimentConfig& config, const TaskSamplerRegistry& samplers,
-                     const RunOptions& options = {});
+MLSPACES_API RunReport RunDatagen(const ExperimentConfig& config,
+                                  const TaskSamplerRegistry& samplers,
+                                  const RunOptions& options = {});
 
 struct MLSPACES_API MergeReport {
   int64_t batch_files = 0;

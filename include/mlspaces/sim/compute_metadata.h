@@ -47,8 +47,8 @@ MLSPACES_API Json MakeComputedMetadata(const Json& source, const AssetFacts& fac
 /// `failures` and skipped. Finally writes the index with use_computed = true, so every
 /// computed file present, old or new, is referenced. @throws Error for the index-level
 /// problems above.
-ComputeMetadataReport ComputeAssetMetadata(const std::filesystem::path& dir,
-                                           const AssetIndexOptions& options,
-                                           const ComputeMetadataOptions& compute = {});
+MLSPACES_API ComputeMetadataReport ComputeAssetMetadata(const std::filesystem::path& dir,
+                                                        const AssetIndexOptions& options,
+                                                        const ComputeMetadataOptions& compute = {});
 
 }  // namespace mlspaces::sim

@@ -314,11 +314,7 @@ void FetchFile(const std::string& url, const fs::path& dest, const FetchExpect& 
                const FetchOptions& options) {
   fs::path part = dest;
   part += ".part";
-  if (dest.has_parent_path()) {
-    std::error_code ec;
-    fs::create_directories(dest.parent_path(), ec);
-    if (ec) throw Error("cannot create folder: " + ec.message(), dest.parent_path().string());
-  }
+  if (dest.has_parent_path()) CreateDirectories(dest.parent_path());
   bool retried_416 = false;
   for (int attempt = 0;; ++attempt) {
     uint64_t offset = SizeOr0(part);

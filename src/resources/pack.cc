@@ -259,8 +259,7 @@ PackReport PackLibrary(const fs::path& library_dir, const fs::path& out_dir, Pac
     throw Error(final_dir.string() + " already exists. Use --overwrite to overwrite.",
                 final_dir.string());
   }
-  fs::create_directories(parent, ec);
-  if (ec) throw Error("cannot create folder: " + ec.message(), parent.string());
+  CreateDirectories(parent);
   RemoveDeadTempFiles(parent);  // <version>.tmp.<pid>.<n> folders of packs that died
   const fs::path tmp_dir = parent / (options.version + TempSuffix());
   fs::create_directories(tmp_dir / ".staging", ec);

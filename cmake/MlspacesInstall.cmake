@@ -31,6 +31,10 @@ foreach(layer ${_mlspaces_layers})
   list(APPEND _mlspaces_targets mlspaces_${layer})
 endforeach()
 set_target_properties(mlspaces PROPERTIES EXPORT_NAME cli)
+# A wheel (pip install .) holds the Python package only: python/CMakeLists.txt installs it.
+if(SKBUILD)
+  return()
+endif()
 
 install(TARGETS ${_mlspaces_targets} mlspaces
   EXPORT mlspacesTargets

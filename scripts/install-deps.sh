@@ -36,7 +36,8 @@ install_venv() {
   local venv="$ROOT/.venv" req="$ROOT/requirements.txt"
   local want
   want="$(sha256sum "$req" | cut -d' ' -f1)"
-  if [ -x "$venv/bin/python" ] && [ "$(cat "$venv/.mlspaces-requirements" 2>/dev/null)" = "$want" ]; then
+  if [ -x "$venv/bin/python" ] && [ -d "$venv/wheelhouse" ] &&
+     [ "$(cat "$venv/.mlspaces-requirements" 2>/dev/null)" = "$want" ]; then
     echo "install-deps: venv $venv up to date"
     return
   fi
@@ -47,6 +48,10 @@ install_venv() {
   echo "install-deps: pip-installing requirements.txt into $venv"
   [ -x "$venv/bin/python" ] || python3 -m venv "$venv"
   "$venv/bin/python" -m pip install -q --disable-pip-version-check -r "$req"
+  # The Python package's pinned runtime dependencies as wheels, so the ctest python_wheel can
+  # install the built wheel into a fresh venv offline (tests/python/wheel_test.sh).
+  "$venv/bin/python" -m pip download -q --disable-pip-version-check -d "$venv/wheelhouse" \
+    $(grep -E '^(mujoco|numpy|pydantic)==' "$req")
   echo "$want" > "$venv/.mlspaces-requirements"
 }
 

@@ -140,6 +140,15 @@ YAML::Node LoadYamlFile(const fs::path& file, const std::string& what) {
   }
 }
 
+YAML::Node LoadYamlString(std::string_view text, const std::string& origin) {
+  try {
+    return YAML::Load(std::string(text));
+  } catch (const YAML::ParserException& e) {
+    throw Error("invalid YAML: " + e.msg, origin,
+                e.mark.is_null() ? std::string() : "line " + std::to_string(e.mark.line + 1));
+  }
+}
+
 // ---------------------------------------------------------------------------------------
 // YamlReader.
 

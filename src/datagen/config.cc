@@ -12,10 +12,11 @@
 namespace mlspaces::datagen {
 namespace fs = std::filesystem;
 
-ExperimentConfig LoadConfigFile(const fs::path& file, const ConfigRegistry& registry) {
-  const YAML::Node root = LoadYamlFile(file, "config file");
-  const fs::path base_dir = fs::absolute(file).parent_path();
-  const YamlReader reader(YamlContext{file.string(), base_dir});
+namespace {
+
+ExperimentConfig ReadConfig(const YAML::Node& root, const std::string& origin,
+                            const fs::path& base_dir, const ConfigRegistry& registry) {
+  const YamlReader reader(YamlContext{origin, base_dir});
   ExperimentConfig config;
   if (root.IsNull()) {
     ResolvePaths(config, base_dir);
@@ -34,6 +35,18 @@ ExperimentConfig LoadConfigFile(const fs::path& file, const ConfigRegistry& regi
   reader.ReadStruct(root, "", config, {"base"});
   ResolvePaths(config, base_dir);
   return config;
+}
+
+}  // namespace
+
+ExperimentConfig LoadConfigFile(const fs::path& file, const ConfigRegistry& registry) {
+  return ReadConfig(LoadYamlFile(file, "config file"), file.string(),
+                    fs::absolute(file).parent_path(), registry);
+}
+
+ExperimentConfig ParseConfigText(std::string_view text, const std::string& origin,
+                                 const fs::path& base_dir, const ConfigRegistry& registry) {
+  return ReadConfig(LoadYamlString(text, origin), origin, fs::absolute(base_dir), registry);
 }
 
 void ApplyOverride(ExperimentConfig& config, std::string_view assignment,

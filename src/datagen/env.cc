@@ -158,7 +158,8 @@ Env Env::Create(sim::Scene scene, const RobotSpec& robot, std::string scene_key)
   sim::ModelPtr compiled = scene.Compile();
   SetRobotGravcomp(compiled.get(), robot);
   env.model_ = std::shared_ptr<const mjModel>(compiled.release(), sim::ModelDeleter{});
-  env.data_ = sim::MakeData(env.model_.get());
+  env.data_ =
+      std::shared_ptr<mjData>(sim::MakeData(env.model_.get()).release(), sim::DataDeleter{});
   env.robot_ = robot;
   env.robot_base_body_ = robot.prefix + robot.base_body;
   env.scene_key_ = std::move(scene_key);
@@ -270,6 +271,36 @@ void Env::SetBodyPose(std::string_view name, const Pose& pose) {
                 "' cannot be moved: it is neither a mocap body nor a top-level body with a "
                 "free joint");
   }
+}
+
+void Env::ShareModelAndData(std::shared_ptr<const mjModel> model, std::shared_ptr<mjData> data) {
+  if (!model || !data) throw Error("ShareModelAndData: null model or data");
+  const mjModel* m = model_.get();
+  const mjModel* n = model.get();
+  const std::pair<const char*, std::pair<long long, long long>> sizes[] = {
+      {"nq", {m->nq, n->nq}},
+      {"nv", {m->nv, n->nv}},
+      {"nu", {m->nu, n->nu}},
+      {"na", {m->na, n->na}},
+      {"nbody", {m->nbody, n->nbody}},
+      {"njnt", {m->njnt, n->njnt}},
+      {"ngeom", {m->ngeom, n->ngeom}},
+      {"nsite", {m->nsite, n->nsite}},
+      {"ncam", {m->ncam, n->ncam}},
+      {"nmocap", {m->nmocap, n->nmocap}},
+      {"nsensordata", {m->nsensordata, n->nsensordata}},
+      {"neq", {m->neq, n->neq}},
+      {"narena", {m->narena, n->narena}},
+      {"nbuffer", {m->nbuffer, n->nbuffer}}};
+  for (const auto& [name, pair] : sizes) {
+    if (pair.first != pair.second) {
+      throw Error(std::string("ShareModelAndData: the model's ") + name + " is " +
+                  std::to_string(pair.second) + ", the Env's " + std::to_string(pair.first));
+    }
+  }
+  mj_copyData(data.get(), n, data_.get());
+  model_ = std::move(model);
+  data_ = std::move(data);
 }
 
 void Env::ForwardPosition() { mj_fwdPosition(model_.get(), data_.get()); }

@@ -169,6 +169,7 @@ class ItemRunner {
       env_.reset();
       env_.emplace(Env::Create(sim::Scene::Load(item.scene_xml),
                                RobotSpecFromConfig(config_.robot_config), scene));
+      sampler_.PrepareEnv(*env_);
       EpisodeRunnerOptions runner_options;
       runner_options.scene_name = scene;
       runner_options.video_dir = rec_options.dir;
@@ -485,11 +486,21 @@ RunReport RunDatagen(const ExperimentConfig& input, const TaskSamplerRegistry& s
     for (int w = 0; w < workers; ++w) {
       std::vector<std::pair<size_t, WorkItem>> mine;
       for (size_t k = w; k < todo.size(); k += workers) mine.push_back(todo[k]);
-      pool.push_back(Child::Start([&](int fd) {
-        for (const Child& earlier_worker : pool) ::close(earlier_worker.fd());
-        return WorkerMain(fd, self, config, registry, *sampler, report.folder, options.gl_backend,
-                          workers, earlier, mine);
-      }));
+      if (options.before_fork) options.before_fork();
+      std::optional<Child> child;
+      try {
+        child.emplace(Child::Start([&](int fd) {
+          if (options.after_fork_child) options.after_fork_child();
+          for (const Child& earlier_worker : pool) ::close(earlier_worker.fd());
+          return WorkerMain(fd, self, config, registry, *sampler, report.folder, options.gl_backend,
+                            workers, earlier, mine);
+        }));
+      } catch (...) {
+        if (options.after_fork_parent) options.after_fork_parent();
+        throw;
+      }
+      if (options.after_fork_parent) options.after_fork_parent();
+      pool.push_back(std::move(*child));
     }
     std::string first_error;
     ReadChildLines(pool, [&](size_t, std::string_view line) {

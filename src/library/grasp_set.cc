@@ -106,30 +106,52 @@ size_t CountGraspFileRows(const fs::path& npz) {
   return ReadGraspHeader(reader).shape[0];
 }
 
-GraspSet LoadGraspFile(const fs::path& npz, size_t num_grasps, uint64_t seed) {
+GraspRowChooser SeededRowChooser(size_t num_grasps, uint64_t seed) {
+  return [num_grasps, seed](size_t n) -> std::optional<std::vector<size_t>> {
+    if (n <= num_grasps) return std::nullopt;
+    return SubsampleIndices(n, num_grasps, seed);
+  };
+}
+
+GraspSet LoadGraspFile(const fs::path& npz, const GraspRowChooser& choose) {
   NpzReader reader(npz);
   const NpyHeader header = ReadGraspHeader(reader);
-  const size_t n = header.shape[0];
-  if (n <= num_grasps) return ReadGrasps(reader, header, nullptr);
-  const std::vector<size_t> rows = SubsampleIndices(n, num_grasps, seed);
-  return ReadGrasps(reader, header, &rows);
+  const std::optional<std::vector<size_t>> rows = choose(header.shape[0]);
+  return ReadGrasps(reader, header, rows ? &*rows : nullptr);
+}
+
+GraspSet LoadGraspFile(const fs::path& npz, size_t num_grasps, uint64_t seed) {
+  return LoadGraspFile(npz, SeededRowChooser(num_grasps, seed));
 }
 
 GraspSet LoadPackedGrasps(const PackedLibrary& library, const PackedGraspRef& ref,
-                          const fs::path& source, size_t num_grasps, uint64_t seed) {
+                          const fs::path& source, const GraspRowChooser& choose) {
   const size_t n = ref.count;
   GraspSet out;
   out.source = source;
   out.stored_dtype = ref.stored_dtype;
-  if (n <= num_grasps) {
+  std::optional<std::vector<size_t>> rows = choose(n);
+  if (!rows) {
     out.poses = library.ReadGrasps(ref);
     out.indices.resize(n);
     std::iota(out.indices.begin(), out.indices.end(), size_t{0});
-  } else {
-    out.indices = SubsampleIndices(n, num_grasps, seed);
-    out.poses = library.ReadGrasps(ref, &out.indices);
+    return out;
   }
+  for (size_t r : *rows) {
+    if (r >= n) {
+      throw Error("grasp row " + std::to_string(r) + " out of range (library holds " +
+                      std::to_string(n) + ")",
+                  source.string());
+    }
+  }
+  out.indices = std::move(*rows);
+  out.poses = library.ReadGrasps(ref, &out.indices);
   return out;
+}
+
+GraspSet LoadPackedGrasps(const PackedLibrary& library, const PackedGraspRef& ref,
+                          const fs::path& source, size_t num_grasps, uint64_t seed) {
+  return LoadPackedGrasps(library, ref, source, SeededRowChooser(num_grasps, seed));
 }
 
 std::vector<size_t> SubsampleIndices(size_t n, size_t k, uint64_t seed) {

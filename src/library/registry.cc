@@ -416,8 +416,8 @@ void Registry::RegisterAssetLibrary(const std::string& name, const fs::path& dir
   const fs::path root = MakeAbsolute(dir);
   const fs::path index_file = root / "assets_index.json";
   if (!IsFile(index_file)) {
-    throw Error("User library " + name + " path " + root.string() +
-                " does not contain an assets_index.json file");
+    throw Error("User library " + name + " has no assets_index.json (no such file)",
+                index_file.string());
   }
 
   // Build the new library and the global-map changes into temporaries.
@@ -507,7 +507,10 @@ std::vector<std::string> Registry::RegisterGraspLibrary(const std::string& root_
   }
   const fs::path root = MakeAbsolute(dir);
   const fs::path index_file = root / "grasps_index.json";
-  if (!IsFile(index_file)) throw Error(index_file.string() + " does not exist");
+  if (!IsFile(index_file)) {
+    throw Error("User grasp library " + root_name + " has no grasps_index.json (no such file)",
+                index_file.string());
+  }
   if (!impl.IsAssetLibrary(asset_library)) {
     throw Error("Object library " + asset_library + " not found");
   }
@@ -638,6 +641,18 @@ const std::vector<DuplicateUid>& Registry::duplicates() const {
 }
 
 size_t Registry::num_uids() const { return impl_->uids.size(); }
+
+std::vector<std::string> Registry::user_uids() const {
+  std::vector<std::string> out;
+  out.reserve(impl_->uids.size());
+  for (size_t i = 0; i < impl_->user_libraries.size(); ++i) {
+    for (const auto& [uid, entry] : impl_->user_libraries[i]->index.entries) {
+      const Impl::UidRecord* rec = impl_->FindUser(uid);
+      if (rec != nullptr && rec->library == i) out.push_back(uid);
+    }
+  }
+  return out;
+}
 
 std::optional<AssetLocation> Registry::Locate(std::string_view uid) const {
   const Impl& impl = *impl_;
@@ -783,6 +798,10 @@ bool Registry::HasValidGrasps(const GraspQuery& query, size_t num_grasps) const 
 }
 
 GraspSet Registry::LoadGrasps(const GraspQuery& query, size_t num_grasps, uint64_t seed) const {
+  return LoadGrasps(query, SeededRowChooser(num_grasps, seed));
+}
+
+GraspSet Registry::LoadGrasps(const GraspQuery& query, const GraspRowChooser& choose) const {
   std::optional<GraspFileLocation> loc = FindGraspFile(query);
   if (!loc) {
     throw Error(query.joint.empty()
@@ -792,9 +811,9 @@ GraspSet Registry::LoadGrasps(const GraspQuery& query, size_t num_grasps, uint64
   }
   if (loc->packed) {
     const PackedLibrary& lib = *impl_->grasp_libraries.find(loc->library)->second->packed;
-    return LoadPackedGrasps(lib, *loc->packed, loc->path, num_grasps, seed);
+    return LoadPackedGrasps(lib, *loc->packed, loc->path, choose);
   }
-  return LoadGraspFile(loc->path, num_grasps, seed);
+  return LoadGraspFile(loc->path, choose);
 }
 
 }  // namespace mlspaces

@@ -82,7 +82,7 @@ TEST_F(LookupCliTest, LocateUnknownUidAndBadFlags) {
   EXPECT_THAT(r.err, HasSubstr("name conflicts with a built-in object source"));
   r = Run({"locate", "red_block", "--asset-library", "x=" + dir_.string()});
   EXPECT_EQ(r.exit_code, 1);
-  EXPECT_THAT(r.err, HasSubstr("does not contain an assets_index.json file"));
+  EXPECT_THAT(r.err, HasSubstr("assets_index.json: User library"));
   r = Run({"locate"});
   EXPECT_EQ(r.exit_code, 2);
 }

@@ -89,8 +89,8 @@ TEST(RegistryTest, AssetRegistrationErrorsMatchTheOriginal) {
               "User library " + builtin + " name conflicts with a built-in object source");
   }
   EXPECT_EQ(ErrorOf([&] { registry.RegisterAssetLibrary("empty", tmp.path()); }),
-            "User library empty path " + tmp.path().string() +
-                " does not contain an assets_index.json file");
+            (tmp.path() / "assets_index.json").string() +
+                ": User library empty has no assets_index.json (no such file)");
   registry.RegisterAssetLibrary("lib", tmp.path() / "lib");
   EXPECT_EQ(ErrorOf([&] { registry.RegisterAssetLibrary("lib", tmp.path() / "lib"); }),
             "User library lib already registered");
@@ -142,7 +142,8 @@ TEST(RegistryTest, GraspRegistrationErrorsMatchTheOriginal) {
   Registry registry;
   registry.RegisterAssetLibrary("lib", tmp.path() / "lib");
   EXPECT_EQ(ErrorOf([&] { registry.RegisterGraspLibrary("g", tmp.path() / "lib", "lib"); }),
-            (tmp.path() / "lib").string() + "/grasps_index.json does not exist");
+            (tmp.path() / "lib").string() +
+                "/grasps_index.json: User grasp library g has no grasps_index.json (no such file)");
   WriteGraspLibrary(tmp.path() / "lib", {{{"droid", {{"a", 1}}}}, {}});
   EXPECT_EQ(ErrorOf([&] { registry.RegisterGraspLibrary("g", tmp.path() / "lib", "nope"); }),
             "Object library nope not found");

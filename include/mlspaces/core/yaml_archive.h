@@ -61,6 +61,9 @@ MLSPACES_API std::string QuoteYamlString(std::string_view s);
 /// Parses a YAML file. @throws Error "cannot open the <what>" or "invalid YAML: ..." with the
 /// file and "line N".
 MLSPACES_API YAML::Node LoadYamlFile(const std::filesystem::path& file, const std::string& what);
+/// Parses YAML text (JSON is YAML too); `origin` names it in errors. @throws Error
+/// "invalid YAML: ..." with `origin` and "line N".
+MLSPACES_API YAML::Node LoadYamlString(std::string_view text, const std::string& origin);
 
 // ---------------------------------------------------------------------------------------
 // Type traits and field visiting.

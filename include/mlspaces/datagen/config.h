@@ -510,6 +510,12 @@ MLSPACES_API ExperimentConfig CustomAssetsDataGenConfig();
 MLSPACES_API ExperimentConfig LoadConfigFile(const std::filesystem::path& file,
                                              const ConfigRegistry& registry);
 
+/// As LoadConfigFile, from YAML (or JSON) text: `origin` names it in errors and relative paths
+/// resolve against `base_dir` (the Python binding hands its config objects over this way).
+MLSPACES_API ExperimentConfig ParseConfigText(std::string_view text, const std::string& origin,
+                                              const std::filesystem::path& base_dir,
+                                              const ConfigRegistry& registry);
+
 /// Applies one "a.b.c=VALUE" override: VALUE is parsed as YAML (scalar, [sequence] or
 /// {mapping}) and applied to the dotted key with the loader's strictness; relative paths
 /// resolve against `base_dir`. @throws UsageError naming the key.

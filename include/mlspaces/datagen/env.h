@@ -2,7 +2,8 @@
 // compiled once per scene (sim::Scene), then reset per episode without recompiling.
 //
 // The compiled model is shared and immutable (shared_ptr<const mjModel>); each Env owns its
-// mjData. Reset() = mj_resetData + the robot's home pose (the model's custom numerics
+// mjData (or shares both with their Python owners: ShareModelAndData). Reset() = mj_resetData + the
+// robot's home pose (the model's custom numerics
 // `<prefix>home_arm` / `<prefix>home_gripper`, arm servo targets set to it, gripper open) + the
 // mocap base at the configured base pose + mj_forward.
 //
@@ -147,6 +148,15 @@ class MLSPACES_API Env {
   // ===========================================================================================
   // Access (see the file comment for lifetimes)
 
+  /// Hands the Env a model and data owned elsewhere, which it uses from now on: `model` must
+  /// equal model() in every size (a copy of it, e.g. mj_copyModel), `data` must be made for
+  /// it. The current state (mj_copyData) moves into `data`; the deleters run when the Env no
+  /// longer needs them. The Python binding gives the Env the model and data of the user's
+  /// `mujoco.MjModel` / `MjData` this way, so user code and the engine share them. Call it
+  /// before anything else holds model() or data() (TaskSampler::PrepareEnv).
+  /// @throws Error when a size differs.
+  void ShareModelAndData(std::shared_ptr<const mjModel> model, std::shared_ptr<mjData> data);
+
   /// The compiled model: never null.
   const mjModel* model() const { return model_.get(); }
   std::shared_ptr<const mjModel> shared_model() const { return model_; }
@@ -172,7 +182,7 @@ class MLSPACES_API Env {
 
   std::shared_ptr<const mjModel> model_;
   std::shared_ptr<const sim::Scene> scene_;
-  sim::DataPtr data_;
+  std::shared_ptr<mjData> data_;
   RobotSpec robot_;
   std::string robot_base_body_;
   std::string scene_key_;

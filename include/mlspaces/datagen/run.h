@@ -93,8 +93,13 @@ struct MLSPACES_API RunOptions {
   /// Receives log lines (without newline): one per attempt at debug level, one per work item
   /// at info level, warnings.
   std::function<void(LogLevel, const std::string&)> log;
-  /// Called in this process after every attempt is journaled (e.g. for custom progress).
+  /// Called in this process after every attempt is journaled (e.g. for custom progress). An
+  /// exception it throws stops the run (what was journaled stays; `resume` continues).
   std::function<void(const WorkItem&, const AttemptRecord&)> on_attempt;
+  /// Around each worker's fork (workers > 1): in this process before and after, and first
+  /// thing in the worker. The Python binding updates the interpreter's state here
+  /// (PyOS_BeforeFork / PyOS_AfterFork_*), so Python samplers run in forked workers.
+  std::function<void()> before_fork, after_fork_parent, after_fork_child;
 };
 
 struct MLSPACES_API RunReport {

@@ -82,6 +82,11 @@ class MLSPACES_API TaskSampler {
   /// Error from a hook.
   Task SampleTask(Env& env, int64_t episode);
 
+  /// Called once for each Env this sampler will sample in, right after the Env is created
+  /// and before anything else uses it (the Python binding shares the Env's model and data
+  /// with Python here). Default: nothing.
+  virtual void PrepareEnv(Env& env) { (void)env; }
+
   // ===========================================================================================
   // Access (references valid while the sampler lives)
 

@@ -8,6 +8,8 @@
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
+#include <functional>
+#include <optional>
 #include <span>
 #include <vector>
 
@@ -42,12 +44,29 @@ MLSPACES_API size_t CountGraspFileRows(const std::filesystem::path& npz);
 MLSPACES_API GraspSet LoadGraspFile(const std::filesystem::path& npz, size_t num_grasps,
                                     uint64_t seed);
 
+/// Chooses the rows a load reads, given the file's row count N: nullopt = all N in file order,
+/// else the rows in the order wanted (each < N, else the load throws Error). The Python
+/// binding draws them with Python's `random.sample`, as MolmoSpaces does.
+using GraspRowChooser = std::function<std::optional<std::vector<size_t>>(size_t n)>;
+
+/// The chooser of LoadGraspFile(npz, num_grasps, seed): all rows when N <= num_grasps, else
+/// SubsampleIndices(N, num_grasps, seed).
+MLSPACES_API GraspRowChooser SeededRowChooser(size_t num_grasps, uint64_t seed);
+
+/// As LoadGraspFile, with the rows `choose` picks. @throws Error as ReadGraspFile.
+MLSPACES_API GraspSet LoadGraspFile(const std::filesystem::path& npz,
+                                    const GraspRowChooser& choose);
+
 /// As LoadGraspFile, for a packed grasp ref of `library`: the same draws as from the NPZ the
 /// poses were packed from. `source` becomes GraspSet::source. @throws Error when the shard
 /// is not installed or is damaged.
 MLSPACES_API GraspSet LoadPackedGrasps(const PackedLibrary& library, const PackedGraspRef& ref,
                                        const std::filesystem::path& source, size_t num_grasps,
                                        uint64_t seed);
+/// As LoadPackedGrasps, with the rows `choose` picks.
+MLSPACES_API GraspSet LoadPackedGrasps(const PackedLibrary& library, const PackedGraspRef& ref,
+                                       const std::filesystem::path& source,
+                                       const GraspRowChooser& choose);
 
 /// Indices drawn for subsampling: all of [0, n) when n <= k, else k distinct indices from a
 /// partial Fisher-Yates shuffle driven by Rng(seed), in draw order.

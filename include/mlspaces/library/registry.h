@@ -156,6 +156,9 @@ class MLSPACES_API Registry {
   const std::vector<DuplicateUid>& duplicates() const;
   /// Number of UIDs across all user libraries (duplicates counted once).
   size_t num_uids() const;
+  /// The UIDs of the user libraries: library by library in registration order, each sorted,
+  /// a UID shadowed by an earlier library left out (what num_uids() counts).
+  std::vector<std::string> user_uids() const;
 
   // ===========================================================================================
   // Assets
@@ -206,6 +209,8 @@ class MLSPACES_API Registry {
   /// <uid>" (pickup) or "No joint grasp file found for <uid>/<joint>", or for a bad file
   /// (shape not (N,4,4), non-finite values, a packed shard not installed or damaged).
   GraspSet LoadGrasps(const GraspQuery& query, size_t num_grasps = 50, uint64_t seed = 0) const;
+  /// As LoadGrasps, reading the rows `choose` picks from the file's row count.
+  GraspSet LoadGrasps(const GraspQuery& query, const GraspRowChooser& choose) const;
 
  private:
   struct Impl;

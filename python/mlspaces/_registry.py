@@ -1,0 +1,278 @@
+"""The library API: registration, UID lookup, grasps and scene metadata.
+
+Every module-level function works on one process-default :class:`Registry`
+(:func:`default_registry`); build your own :class:`Registry` to keep libraries apart.
+Names, arguments and return types are MolmoSpaces' (``molmo_spaces.molmo_spaces_constants``,
+``molmo_spaces.utils.lazy_loading_utils``, ``molmo_spaces.utils.grasps``,
+``molmo_spaces.utils.scene_metadata_utils``). Where the original misbehaves, this does better
+(docs/python.md, "Differences"):
+
+- library paths may be ``str`` as well as ``Path``; they are resolved against the current
+  directory when registered (the original resolves them again at every use), and the index
+  is parsed then, so a bad index fails at registration;
+- a grasp library's robots register in sorted order, all or none;
+- every cache is cleared by a registration, so a lookup is never stale;
+- nothing is downloaded to look up a user UID: built-in data answers only when an install
+  dir is configured (``MLSPACES_ASSETS_DIR``, or the default dir when it exists);
+- ``annotation`` returns a new dict on every call (the original shares one, so a caller's edit
+  leaks into later calls);
+- grasp arrays are always float64.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import random
+import threading
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from . import _core
+from .errors import MlspacesError
+
+_log = logging.getLogger("mlspaces")
+
+#: Built-in asset sources (MolmoSpaces' DATA_TYPE_TO_SOURCE_TO_VERSION["objects"] keys).
+BUILTIN_OBJECT_SOURCES = ("objathor_metadata", "objaverse", "thor")
+#: Built-in grasp libraries of each built-in asset source.
+BUILTIN_OBJECT_TO_GRASP_LIBRARIES = {"thor": ["droid"], "objaverse": ["droid_objaverse"]}
+
+
+def _libraries_arg(grasp_libraries: Sequence[str] | None) -> list[str] | None:
+    if grasp_libraries is None:
+        return None
+    if isinstance(grasp_libraries, str):
+        return [grasp_libraries]
+    return [str(x) for x in grasp_libraries]
+
+
+class Registry:
+    """Asset and grasp libraries, and every lookup by UID.
+
+    ``assets_dir`` is the install dir of built-in and packaged data (``None``: user libraries
+    only). The dicts ``user_asset_libraries``, ``user_grasp_libraries`` and
+    ``object_library_to_grasp_libraries`` mirror MolmoSpaces' module globals of the same names
+    (upper case there); read them, do not write them.
+    """
+
+    def __init__(self, assets_dir: str | os.PathLike[str] | None = None) -> None:
+        self._r = _core.Registry(None if assets_dir is None else os.fspath(assets_dir))
+        self.assets_dir: Path | None = None if assets_dir is None else Path(assets_dir)
+        self.user_asset_libraries: dict[str, Path] = {}
+        self.user_grasp_libraries: dict[str, Path] = {}
+        self.object_library_to_grasp_libraries: dict[str, list[str]] = {
+            k: list(v) for k, v in BUILTIN_OBJECT_TO_GRASP_LIBRARIES.items()}
+        self._locate: dict[str, tuple[Any, Any, Any]] = {}
+        #: (root_name, path, object_library) of each grasp library registration, in order.
+        self.grasp_library_roots: list[tuple[str, Path, str]] = []
+
+    # -- registration ---------------------------------------------------------------------
+
+    def register_user_asset_library(self, name: str, path: str | os.PathLike[str]) -> None:
+        """Registers ``path`` (a folder holding ``assets_index.json``) as asset library
+        ``name``. Raises ``ValueError`` (:class:`MlspacesError`) for a name with ``/``, a name
+        taken or built-in, or a missing or bad index."""
+        self._r.register_asset_library(name, os.fspath(path))
+        self.user_asset_libraries[name] = Path(path).absolute()
+        self._locate.clear()
+
+    def register_user_grasp_library(self, root_name: str, path: str | os.PathLike[str],
+                                    object_library: str) -> None:
+        """Registers ``path`` (a folder holding ``grasps_index.json``) as grasp libraries
+        ``"<root_name>/<robot>"``, one per robot, in front of ``object_library``'s list."""
+        names = self._r.register_grasp_library(root_name, os.fspath(path), object_library)
+        absolute = Path(path).absolute()
+        for name in names:
+            self.user_grasp_libraries[name] = absolute
+        self.grasp_library_roots.append((root_name, absolute, object_library))
+        self.object_library_to_grasp_libraries[object_library] = self._r.grasp_libraries_of(
+            object_library)
+        self._locate.clear()
+
+    def library_config(self) -> dict[str, Any]:
+        """The registrations as the engine's ``libraries`` config section."""
+        return {
+            "assets_dir": None if self.assets_dir is None else str(self.assets_dir),
+            "asset_libraries": [{"name": n, "path": str(p)}
+                                for n, p in self.user_asset_libraries.items()],
+            "grasp_libraries": [{"name": n, "path": str(p), "asset_library": a}
+                                for n, p, a in self.grasp_library_roots],
+        }
+
+    # -- assets ---------------------------------------------------------------------------
+
+    def locate_uid_package(self, uid: str, extension: str = "xml"
+                           ) -> tuple[str, str | None, Path] | tuple[None, None, None]:
+        """``(source, package, mjcf_path)`` of a UID, or ``(None, None, None)``.
+
+        ``package`` is the archive of a packaged library, else ``None``. ``extension`` is
+        accepted for compatibility (every library holds MJCF ``.xml`` files)."""
+        try:
+            return self._locate[uid]
+        except KeyError:
+            pass
+        found = self._r.locate(uid)
+        result = (None, None, None) if found is None else found[:3]
+        self._locate[uid] = result
+        return result
+
+    def install_uid(self, uid: str, grasp_source: str = "droid_objaverse") -> Path:
+        """The MJCF path of a UID, installing its package archive first when it is not
+        installed yet. Raises ``ValueError`` for an unknown UID. ``grasp_source`` is accepted
+        for compatibility: a package install brings the archive's grasp shards along."""
+        found = self._r.locate(uid)
+        if found is None:
+            raise MlspacesError(f"{uid} not found in asset libraries {self._r.asset_libraries()}",
+                                uid=uid)
+        if not found[3]:
+            _core.install_uids([uid])
+        return found[2]
+
+    def annotation(self, uid: str) -> dict[str, Any] | None:
+        """The metadata of a UID as a new dict (NPZ arrays inserted as numpy arrays of their
+        stored dtype and shape), or ``None`` for an unknown UID."""
+        return self._r.annotation(uid)
+
+    def all_uids(self) -> list[str]:
+        """The UIDs of the user libraries (registration order, each library sorted)."""
+        return self._r.user_uids()
+
+    # -- grasps ---------------------------------------------------------------------------
+
+    def get_grasp_libraries_for_object(self, uid: str) -> list[str]:
+        """Grasp libraries serving the UID's asset library, highest priority first."""
+        return self._r.grasp_libraries_for(uid, None)
+
+    def get_pickup_grasp_path(self, uid: str, grasp_libraries: Sequence[str] | None = None
+                              ) -> Path | None:
+        found = self._r.grasp_path(uid, "", _libraries_arg(grasp_libraries))
+        return None if found is None else Path(found)
+
+    def get_joint_grasp_path(self, uid: str, joint_name: str,
+                             grasp_libraries: Sequence[str] | None = None) -> Path | None:
+        found = self._r.grasp_path(uid, joint_name, _libraries_arg(grasp_libraries))
+        return None if found is None else Path(found)
+
+    def has_pickup_grasp_path(self, uid: str, grasp_libraries: Sequence[str] | None = None
+                              ) -> bool:
+        return self._r.grasp_path(uid, "", _libraries_arg(grasp_libraries)) is not None
+
+    def has_joint_grasp_path(self, uid: str, joint_name: str,
+                             grasp_libraries: Sequence[str] | None = None) -> bool:
+        return self._r.grasp_path(uid, joint_name, _libraries_arg(grasp_libraries)) is not None
+
+    def has_valid_pickup_grasps(self, uid: str, num_grasps: int = 1,
+                                grasp_libraries: Sequence[str] | None = None) -> bool:
+        return self._r.has_valid_grasps(uid, "", num_grasps, _libraries_arg(grasp_libraries))
+
+    def has_valid_joint_grasps(self, uid: str, joint_name: str, num_grasps: int = 1,
+                               grasp_libraries: Sequence[str] | None = None) -> bool:
+        return self._r.has_valid_grasps(uid, joint_name, num_grasps,
+                                        _libraries_arg(grasp_libraries))
+
+    def load_pickup_grasps(self, uid: str, grasp_libraries: Sequence[str] | None = None,
+                           num_grasps: int = 50) -> Any:
+        """Grasps of a UID in its body frame: a fresh float64 ``(N, 4, 4)`` array. All of them
+        when the file holds at most ``num_grasps``, else ``num_grasps`` rows drawn with
+        Python's ``random.sample`` (as MolmoSpaces draws them). Raises ``ValueError`` when
+        there is no grasp file."""
+        return self._r.load_grasps(uid, "", _libraries_arg(grasp_libraries), num_grasps,
+                                   random.sample)
+
+    def load_joint_grasps(self, uid: str, joint_name: str,
+                          grasp_libraries: Sequence[str] | None = None,
+                          num_grasps: int = 50) -> Any:
+        """As :meth:`load_pickup_grasps`, for the grasps of one joint (in the frame of the
+        joint's body)."""
+        return self._r.load_grasps(uid, joint_name, _libraries_arg(grasp_libraries),
+                                   num_grasps, random.sample)
+
+
+_default: Registry | None = None
+_default_lock = threading.Lock()
+
+
+def default_registry() -> Registry:
+    """The process-default registry the module functions use. Its install dir is
+    ``MLSPACES_ASSETS_DIR`` when set, else the default install dir when it exists, else none
+    (user libraries only: nothing is downloaded for a user UID)."""
+    global _default
+    if _default is None:
+        with _default_lock:
+            if _default is None:
+                path, origin = _core.resolve_assets_dir(None)
+                use = path if origin != "default" or Path(path).is_dir() else None
+                _default = Registry(use)
+    return _default
+
+
+def register_user_asset_library(name: str, path: str | os.PathLike[str]) -> None:
+    default_registry().register_user_asset_library(name, path)
+
+
+def register_user_grasp_library(root_name: str, path: str | os.PathLike[str],
+                                object_library: str) -> None:
+    default_registry().register_user_grasp_library(root_name, path, object_library)
+
+
+def locate_uid_package(uid: str, extension: str = "xml"):
+    return default_registry().locate_uid_package(uid, extension)
+
+
+def install_uid(uid: str, grasp_source: str = "droid_objaverse") -> Path:
+    return default_registry().install_uid(uid, grasp_source)
+
+
+def get_grasp_libraries_for_object(uid: str) -> list[str]:
+    return default_registry().get_grasp_libraries_for_object(uid)
+
+
+def get_pickup_grasp_path(uid: str, grasp_libraries: Sequence[str] | None = None) -> Path | None:
+    return default_registry().get_pickup_grasp_path(uid, grasp_libraries)
+
+
+def get_joint_grasp_path(uid: str, joint_name: str,
+                         grasp_libraries: Sequence[str] | None = None) -> Path | None:
+    return default_registry().get_joint_grasp_path(uid, joint_name, grasp_libraries)
+
+
+def has_pickup_grasp_path(uid: str, grasp_libraries: Sequence[str] | None = None) -> bool:
+    return default_registry().has_pickup_grasp_path(uid, grasp_libraries)
+
+
+def has_joint_grasp_path(uid: str, joint_name: str,
+                         grasp_libraries: Sequence[str] | None = None) -> bool:
+    return default_registry().has_joint_grasp_path(uid, joint_name, grasp_libraries)
+
+
+def has_valid_pickup_grasps(uid: str, num_grasps: int = 1,
+                            grasp_libraries: Sequence[str] | None = None) -> bool:
+    return default_registry().has_valid_pickup_grasps(uid, num_grasps, grasp_libraries)
+
+
+def has_valid_joint_grasps(uid: str, joint_name: str, num_grasps: int = 1,
+                           grasp_libraries: Sequence[str] | None = None) -> bool:
+    return default_registry().has_valid_joint_grasps(uid, joint_name, num_grasps,
+                                                     grasp_libraries)
+
+
+def load_pickup_grasps(uid: str, grasp_libraries: Sequence[str] | None = None,
+                       num_grasps: int = 50):
+    return default_registry().load_pickup_grasps(uid, grasp_libraries, num_grasps)
+
+
+def load_joint_grasps(uid: str, joint_name: str, grasp_libraries: Sequence[str] | None = None,
+                      num_grasps: int = 50):
+    return default_registry().load_joint_grasps(uid, joint_name, grasp_libraries, num_grasps)
+
+
+def get_scene_metadata(mj_base_scene_path: str | os.PathLike[str]) -> dict[str, Any] | None:
+    """The scene metadata beside a scene XML (``<scene>_metadata.json``, else the file of the
+    longest ``_``-prefix of its stem) as a new dict, or ``None`` when there is none. Raises
+    ``ValueError`` for a path that is not ``*.xml`` or a bad metadata file."""
+    meta = _core.load_scene_metadata(os.fspath(mj_base_scene_path))
+    if meta is None:
+        _log.warning("no scene metadata found for %s", mj_base_scene_path)
+    return meta

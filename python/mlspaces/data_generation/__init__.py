@@ -1,0 +1,1 @@
+"""``molmo_spaces.data_generation``."""

@@ -1,0 +1,34 @@
+"""Library registration and global state (``molmo_spaces.molmo_spaces_constants``).
+
+The dicts below are the process-default registry's own: a registration shows in them at once,
+wherever they were imported. Read them; register through the functions.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+from . import _core
+from ._registry import (BUILTIN_OBJECT_SOURCES, default_registry, register_user_asset_library,
+                        register_user_grasp_library)
+
+#: The install dir of built-in data (MLSPACES_ASSETS_DIR, else the default).
+ASSETS_DIR: Path = Path(_core.resolve_assets_dir(None)[0])
+#: The download cache (MLSPACES_CACHE_DIR, else ~/.cache/molmo-spaces-resources).
+DATA_CACHE_DIR: Path = Path(os.environ.get("MLSPACES_CACHE_DIR") or
+                            Path.home() / ".cache" / "molmo-spaces-resources")
+
+USER_ASSET_LIBRARIES: dict[str, Path] = default_registry().user_asset_libraries
+USER_GRASP_LIBRARIES: dict[str, Path] = default_registry().user_grasp_libraries
+OBJECT_LIBRARY_TO_GRASP_LIBRARIES: dict[str, list[str]] = (
+    default_registry().object_library_to_grasp_libraries)
+#: Built-in sources (the versions are the installer's pins; see `mlspaces install`).
+DATA_TYPE_TO_SOURCE_TO_VERSION: dict[str, dict[str, str]] = {
+    "objects": {name: "" for name in BUILTIN_OBJECT_SOURCES},
+    "grasps": {"droid": "", "droid_objaverse": ""},
+}
+
+__all__ = ["ASSETS_DIR", "DATA_CACHE_DIR", "DATA_TYPE_TO_SOURCE_TO_VERSION",
+           "OBJECT_LIBRARY_TO_GRASP_LIBRARIES", "USER_ASSET_LIBRARIES", "USER_GRASP_LIBRARIES",
+           "register_user_asset_library", "register_user_grasp_library"]

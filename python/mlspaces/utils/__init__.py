@@ -1,0 +1,1 @@
+"""Mirrors of ``molmo_spaces.utils`` modules."""

@@ -1,0 +1,133 @@
+"""Asset metadata (``molmo_spaces.utils.object_metadata.ObjectMeta``), on the process-default
+registry. Every call returns new objects: editing a returned dict never changes a later
+answer (MolmoSpaces shares one dict per UID)."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator, Mapping
+from typing import Any
+
+import numpy as np
+
+from .._registry import default_registry
+from ..errors import MlspacesKeyError
+
+
+class _Annotations(Mapping):
+    """The read-only mapping UID -> annotation over every registered library."""
+
+    def __getitem__(self, uid: str) -> dict[str, Any]:
+        found = default_registry().annotation(uid)
+        if found is None:
+            raise MlspacesKeyError(f"{uid}: no annotation in the registered libraries", uid=uid)
+        return found
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(default_registry().all_uids())
+
+    def __len__(self) -> int:
+        return len(default_registry().all_uids())
+
+    def __contains__(self, uid: object) -> bool:
+        return isinstance(uid, str) and default_registry().annotation(uid) is not None
+
+
+def _short(annotation: dict[str, Any] | None, uid: str) -> list[str]:
+    if annotation is None:
+        return []
+    short = annotation["description_short"]  # KeyError when missing, as the original
+    return list(short.values()) if isinstance(short, dict) else list(short)
+
+
+class ObjectMeta:
+    """Static accessors of asset annotations (MolmoSpaces' names and return types)."""
+
+    @staticmethod
+    def annotation(asset_ids: str | list[str] | None = None):
+        """``None``: the whole mapping; a UID: its dict or ``None``; a list: a list of those."""
+        if asset_ids is None:
+            return _Annotations()
+        reg = default_registry()
+        if isinstance(asset_ids, str):
+            return reg.annotation(asset_ids)
+        return [reg.annotation(uid) for uid in asset_ids]
+
+    @staticmethod
+    def all_uids() -> list[str]:
+        return default_registry().all_uids()
+
+    @staticmethod
+    def short_descriptions(asset_ids: str | list[str]):
+        """The ``description_short`` values of a UID (``[]`` when unknown), or a list of
+        those for a list of UIDs."""
+        reg = default_registry()
+        if isinstance(asset_ids, str):
+            return _short(reg.annotation(asset_ids), asset_ids)
+        out = []
+        for uid in asset_ids:
+            found = reg.annotation(uid)
+            if found is None:
+                raise TypeError(f"short_descriptions: no annotation for {uid!r}")
+            out.append(_short(found, uid))
+        return out
+
+    @staticmethod
+    def get_short_description(object_uid: str) -> list[str]:
+        found = default_registry().annotation(object_uid)
+        if found is not None and found.get("description_short"):
+            return _short(found, object_uid)
+        return [object_uid.split("_")[0]] * 4
+
+    @staticmethod
+    def all_descriptions(asset_ids: str | list[str]):
+        """Short descriptions followed by ``description`` and ``description_long``."""
+        def one(uid: str) -> list[str]:
+            found = default_registry().annotation(uid)
+            if found is None:
+                raise TypeError(f"all_descriptions: no annotation for {uid!r}")
+            return _short(found, uid) + [found["description"], found["description_long"]]
+        if isinstance(asset_ids, str):
+            return one(asset_ids)
+        return [one(uid) for uid in asset_ids]
+
+    @staticmethod
+    def get_features(feature_type_str: str, asset_ids: str | list[str] | None = None
+                     ) -> np.ndarray:
+        """A feature array of each UID stacked: ``(1, *feat)`` for one UID, ``(n, *feat)`` for
+        a list, every annotated UID for ``None``. ``KeyError`` for a UID or feature missing."""
+        reg = default_registry()
+        uids = (reg.all_uids() if asset_ids is None
+                else [asset_ids] if isinstance(asset_ids, str) else list(asset_ids))
+        rows = []
+        for uid in uids:
+            found = reg.annotation(uid)
+            if found is None:
+                raise MlspacesKeyError(f"{uid}: no annotation", uid=uid)
+            if feature_type_str not in found:
+                raise MlspacesKeyError(f"{uid}: no feature {feature_type_str!r}", uid=uid,
+                                       field=feature_type_str)
+            rows.append(np.asarray(found[feature_type_str]))
+        return np.stack(rows)
+
+    @classmethod
+    def img_features(cls, asset_ids: str | list[str] | None = None) -> np.ndarray:
+        return cls.get_features("clip_img_features", asset_ids)
+
+    @classmethod
+    def description_text_features(cls, asset_ids: str | list[str] | None = None) -> np.ndarray:
+        return cls.get_features("clip_text_features", asset_ids)
+
+    @staticmethod
+    def get_target_object_uid(task: Any) -> str:
+        name = task.config.task_config.pickup_obj_name
+        return task.env.current_scene_metadata["objects"][name]["asset_id"]
+
+    @classmethod
+    def clean_object_name(cls, task: Any) -> str:
+        custom = getattr(task.config.task_config, "eval_object_name", None)
+        if custom:
+            return custom
+        return cls.get_short_description(cls.get_target_object_uid(task))[0]
+
+
+__all__ = ["ObjectMeta"]

@@ -1,0 +1,24 @@
+// The parts of the mlspaces._core module, one Bind* per binding file.
+#pragma once
+
+#include <nanobind/nanobind.h>
+
+#include "mlspaces/core/error.h"
+
+namespace mlspaces::python {
+
+namespace nb = nanobind;
+
+/// An unknown name or UID where MolmoSpaces raises KeyError: becomes
+/// mlspaces.errors.MlspacesKeyError (a ValueError and a KeyError).
+class KeyLookupError : public Error {
+ public:
+  using Error::Error;
+};
+
+void BindErrors(nb::module_& m);
+void BindLibrary(nb::module_& m);
+void BindResources(nb::module_& m);
+void BindDatagen(nb::module_& m);
+
+}  // namespace mlspaces::python

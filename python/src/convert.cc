@@ -1,0 +1,226 @@
+#include "convert.h"
+
+#include <cmath>
+#include <cstring>
+#include <memory>
+#include <string>
+#include <utility>
+
+#include <nanobind/ndarray.h>
+
+#include "mlspaces/core/error.h"
+
+namespace mlspaces::python {
+
+namespace {
+
+nb::dlpack::dtype ToDlpack(DType dtype) {
+  switch (dtype) {
+    case DType::kF2:
+      return nb::dlpack::dtype{static_cast<uint8_t>(nb::dlpack::dtype_code::Float), 16, 1};
+    case DType::kF4:
+      return nb::dtype<float>();
+    case DType::kF8:
+      return nb::dtype<double>();
+    case DType::kI4:
+      return nb::dtype<int32_t>();
+    case DType::kI8:
+      return nb::dtype<int64_t>();
+    case DType::kU1:
+      return nb::dtype<uint8_t>();
+    case DType::kB1:
+      return nb::dtype<bool>();
+  }
+  return nb::dtype<double>();
+}
+
+/// A numpy array over `bytes` (moved into the array's owner).
+nb::object OwnedArray(std::vector<uint8_t> bytes, const std::vector<size_t>& shape,
+                      nb::dlpack::dtype dtype) {
+  auto* owned = new std::vector<uint8_t>(std::move(bytes));
+  nb::capsule owner(owned, [](void* p) noexcept { delete static_cast<std::vector<uint8_t>*>(p); });
+  return nb::cast(
+      nb::ndarray<nb::numpy>(owned->data(), shape.size(), shape.data(), owner, nullptr, dtype));
+}
+
+}  // namespace
+
+nb::object JsonToPython(const Json& value) {
+  switch (value.type()) {
+    case Json::value_t::null:
+      return nb::none();
+    case Json::value_t::boolean:
+      return nb::bool_(value.get<bool>());
+    case Json::value_t::number_integer:
+      return nb::int_(value.get<int64_t>());
+    case Json::value_t::number_unsigned:
+      return nb::steal(PyLong_FromUnsignedLongLong(value.get<uint64_t>()));
+    case Json::value_t::number_float:
+      return nb::float_(value.get<double>());
+    case Json::value_t::string: {
+      const auto& s = value.get_ref<const std::string&>();
+      return nb::str(s.data(), s.size());
+    }
+    case Json::value_t::array: {
+      nb::list out;
+      for (const Json& item : value) out.append(JsonToPython(item));
+      return out;
+    }
+    case Json::value_t::object: {
+      nb::dict out;
+      for (const auto& [key, item] : value.items()) {
+        out[nb::str(key.data(), key.size())] = JsonToPython(item);
+      }
+      return out;
+    }
+    case Json::value_t::binary:
+    case Json::value_t::discarded:
+      break;
+  }
+  return nb::none();
+}
+
+Json PythonToJson(nb::handle value, const std::string& what) {
+  if (value.is_none()) return nullptr;
+  if (nb::isinstance<nb::bool_>(value)) return nb::cast<bool>(value);
+  if (nb::isinstance<nb::int_>(value)) return nb::cast<int64_t>(value);
+  if (nb::isinstance<nb::float_>(value)) {
+    const double v = nb::cast<double>(value);
+    if (!std::isfinite(v)) throw Error(what + ": non-finite number " + std::to_string(v));
+    return v;
+  }
+  if (nb::isinstance<nb::str>(value)) return nb::cast<std::string>(value);
+  if (nb::isinstance<nb::dict>(value)) {
+    Json out = Json::object();
+    for (auto [k, v] : nb::borrow<nb::dict>(value)) {
+      if (!nb::isinstance<nb::str>(k)) throw Error(what + ": dict keys must be str");
+      const std::string key = nb::cast<std::string>(k);
+      out[key] = PythonToJson(v, what + "/" + key);
+    }
+    return out;
+  }
+  if (nb::isinstance<nb::list>(value) || nb::isinstance<nb::tuple>(value)) {
+    Json out = Json::array();
+    size_t i = 0;
+    for (nb::handle item : value)
+      out.push_back(PythonToJson(item, what + "/" + std::to_string(i++)));
+    return out;
+  }
+  throw Error(what + ": cannot store a " + nb::cast<std::string>(value.type().attr("__name__")) +
+              " as JSON");
+}
+
+nb::object NpyToNumpy(const NpyArray& array) {
+  return OwnedArray(array.data, array.shape, ToDlpack(array.dtype));
+}
+
+nb::object AnnotationToPython(const Annotation& annotation) {
+  nb::object root = JsonToPython(annotation.json);
+  for (const auto& [pointer, array] : annotation.arrays) {
+    // pointer: "/a/b/c" (tokens escaped as JSON pointer tokens; LoadAnnotation built them).
+    nb::object node = root;
+    size_t start = 1;
+    while (true) {
+      const size_t slash = pointer.find('/', start);
+      std::string token =
+          pointer.substr(start, slash == std::string::npos ? std::string::npos : slash - start);
+      // Unescape ~1 and ~0.
+      for (size_t pos = 0; (pos = token.find('~', pos)) != std::string::npos; ++pos) {
+        token.replace(pos, 2, token.compare(pos, 2, "~1") == 0 ? "/" : "~");
+      }
+      nb::dict dict = nb::borrow<nb::dict>(node);
+      if (slash == std::string::npos) {
+        dict[nb::str(token.c_str())] = NpyToNumpy(array);
+        break;
+      }
+      nb::str key(token.c_str());
+      if (!dict.contains(key)) dict[key] = nb::dict();
+      node = dict[key];
+      start = slash + 1;
+    }
+  }
+  return root;
+}
+
+nb::object PosesToNumpy(std::vector<Mat4> poses) {
+  auto* owned = new std::vector<Mat4>(std::move(poses));
+  nb::capsule owner(owned, [](void* p) noexcept { delete static_cast<std::vector<Mat4>*>(p); });
+  static_assert(sizeof(Mat4) == 16 * sizeof(double));
+  const size_t shape[3] = {owned->size(), 4, 4};
+  return nb::cast(nb::ndarray<nb::numpy, double>(owned->data(), 3, shape, owner));
+}
+
+nb::object Mat4ToNumpy(const Mat4& pose) {
+  auto* owned = new Mat4(pose);
+  nb::capsule owner(owned, [](void* p) noexcept { delete static_cast<Mat4*>(p); });
+  const size_t shape[2] = {4, 4};
+  return nb::cast(nb::ndarray<nb::numpy, double>(owned->m.data(), 2, shape, owner));
+}
+
+namespace {
+
+/// numpy.ascontiguousarray(value, dtype=float64), checked to have `shape` (-1 = any).
+nb::ndarray<double, nb::c_contig, nb::device::cpu> AsFloat64(nb::handle value,
+                                                             std::initializer_list<long> shape,
+                                                             const std::string& what) {
+  if (value.is_none()) throw Error(what + ": expected an array, got None");
+  // Held for the life of the process (never released: no decref after the interpreter ends).
+  static nb::handle ascontiguous =
+      nb::object(nb::module_::import_("numpy").attr("ascontiguousarray")).release();
+  static nb::handle float64 = nb::object(nb::module_::import_("numpy").attr("float64")).release();
+  nb::object converted;
+  try {
+    converted = ascontiguous(value, float64);
+  } catch (nb::python_error& e) {
+    throw Error(what + ": not a numeric array (" + std::string(e.what()) + ")");
+  }
+  auto array = nb::cast<nb::ndarray<double, nb::c_contig, nb::device::cpu>>(converted);
+  bool ok = array.ndim() == shape.size();
+  size_t i = 0;
+  for (long want : shape) {
+    if (!ok) break;
+    if (want >= 0 && array.shape(i) != static_cast<size_t>(want)) ok = false;
+    ++i;
+  }
+  if (!ok) {
+    std::string got = "(";
+    for (size_t d = 0; d < array.ndim(); ++d) {
+      got += (d ? ", " : "") + std::to_string(array.shape(d));
+    }
+    got += array.ndim() == 1 ? ",)" : ")";
+    std::string want = "(";
+    i = 0;
+    for (long s : shape) want += (i++ ? ", " : "") + (s < 0 ? std::string("N") : std::to_string(s));
+    want += ")";
+    throw Error(what + ": expected shape " + want + ", got " + got);
+  }
+  const double* data = array.data();
+  for (size_t k = 0; k < array.size(); ++k) {
+    if (!std::isfinite(data[k]))
+      throw Error(what + ": non-finite value at flat index " + std::to_string(k));
+  }
+  return array;
+}
+
+}  // namespace
+
+Mat4 Mat4FromPython(nb::handle value, const std::string& what) {
+  auto array = AsFloat64(value, {4, 4}, what);
+  Mat4 out;
+  std::memcpy(out.m.data(), array.data(), sizeof(out.m));
+  return out;
+}
+
+std::vector<Mat4> PosesFromPython(nb::handle value, const std::string& what) {
+  auto array = AsFloat64(value, {-1, 4, 4}, what);
+  std::vector<Mat4> out(array.shape(0));
+  if (!out.empty()) std::memcpy(out.data(), array.data(), out.size() * sizeof(Mat4));
+  return out;
+}
+
+nb::object ToPathlib(const std::filesystem::path& path) {
+  static nb::handle path_type = nb::object(nb::module_::import_("pathlib").attr("Path")).release();
+  return path_type(nb::str(path.c_str()));
+}
+
+}  // namespace mlspaces::python

@@ -1,0 +1,189 @@
+// The library layer: Registry (libraries, UID lookup, annotations, grasps) and scene metadata.
+// mlspaces/_registry.py wraps it with MolmoSpaces' names, argument forms and caching.
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <nanobind/stl/filesystem.h>
+#include <nanobind/stl/optional.h>
+#include <nanobind/stl/string.h>
+#include <nanobind/stl/string_view.h>
+#include <nanobind/stl/vector.h>
+
+#include "bindings.h"
+#include "convert.h"
+#include "mlspaces/core/error.h"
+#include "mlspaces/library/grasp_set.h"
+#include "mlspaces/library/registry.h"
+#include "mlspaces/library/scene_metadata.h"
+
+namespace mlspaces::python {
+
+namespace {
+
+GraspQuery Query(std::string uid, std::string joint, std::optional<std::vector<std::string>> libs) {
+  GraspQuery q;
+  q.uid = std::move(uid);
+  q.joint = std::move(joint);
+  if (libs) q.libraries = std::move(*libs);
+  return q;
+}
+
+}  // namespace
+
+void BindLibrary(nb::module_& m) {
+  nb::class_<Registry>(
+      m, "Registry", "Asset and grasp libraries and every lookup by UID (C++ mlspaces::Registry).")
+      .def(
+          "__init__",
+          [](Registry* self, std::optional<std::filesystem::path> assets_dir) {
+            Registry::Options options;
+            options.assets_dir = std::move(assets_dir);
+            new (self) Registry(std::move(options));
+          },
+          nb::arg("assets_dir") = nb::none())
+      // Registration.
+      .def("register_asset_library", &Registry::RegisterAssetLibrary, nb::arg("name"),
+           nb::arg("path"))
+      .def("register_grasp_library", &Registry::RegisterGraspLibrary, nb::arg("root_name"),
+           nb::arg("path"), nb::arg("object_library"))
+      .def("register_packed_library", &Registry::RegisterPackedLibrary, nb::arg("name"),
+           nb::arg("path"))
+      // Libraries.
+      .def("asset_libraries", &Registry::asset_libraries)
+      .def("grasp_libraries_of", &Registry::grasp_libraries_of, nb::arg("asset_library"))
+      .def(
+          "grasp_library_dir",
+          [](const Registry& r, const std::string& name) -> std::optional<std::filesystem::path> {
+            const GraspLibraryInfo* info = r.FindGraspLibrary(name);
+            if (info == nullptr) return std::nullopt;
+            return info->dir;
+          },
+          nb::arg("name"))
+      .def("num_uids", &Registry::num_uids)
+      .def("user_uids", &Registry::user_uids)
+      .def("duplicates",
+           [](const Registry& r) {
+             nb::list out;
+             for (const DuplicateUid& d : r.duplicates()) {
+               out.append(nb::make_tuple(d.uid, d.libraries));
+             }
+             return out;
+           })
+      // Assets: (library, package or None, mjcf path, installed) or None.
+      .def(
+          "locate",
+          [](const Registry& r, std::string_view uid) -> nb::object {
+            std::optional<AssetLocation> loc = r.Locate(uid);
+            if (!loc) return nb::none();
+            nb::object package = loc->archive.empty() ? nb::none() : nb::str(loc->archive.c_str());
+            return nb::make_tuple(nb::str(loc->library.c_str()), package, ToPathlib(loc->mjcf_path),
+                                  nb::bool_(loc->installed));
+          },
+          nb::arg("uid"))
+      // Annotations: a new dict each call, or None.
+      .def(
+          "annotation",
+          [](const Registry& r, std::string_view uid) -> nb::object {
+            std::shared_ptr<const Annotation> a = r.GetAnnotation(uid);
+            if (!a) return nb::none();
+            return AnnotationToPython(*a);
+          },
+          nb::arg("uid"))
+      // Grasps.
+      .def(
+          "grasp_libraries_for",
+          [](const Registry& r, std::string_view uid,
+             std::optional<std::vector<std::string>> libs) {
+            return libs ? r.GraspLibrariesFor(uid, *libs) : r.GraspLibrariesFor(uid);
+          },
+          nb::arg("uid"), nb::arg("libraries") = nb::none())
+      .def(
+          "grasp_path",
+          [](const Registry& r, std::string uid, std::string joint,
+             std::optional<std::vector<std::string>> libs) {
+            return r.GraspPath(Query(std::move(uid), std::move(joint), std::move(libs)));
+          },
+          nb::arg("uid"), nb::arg("joint") = "", nb::arg("libraries") = nb::none())
+      .def(
+          "has_valid_grasps",
+          [](const Registry& r, std::string uid, std::string joint, int64_t num_grasps,
+             std::optional<std::vector<std::string>> libs) {
+            return r.HasValidGrasps(Query(std::move(uid), std::move(joint), std::move(libs)),
+                                    num_grasps < 0 ? 0 : static_cast<size_t>(num_grasps));
+          },
+          nb::arg("uid"), nb::arg("joint") = "", nb::arg("num_grasps") = 1,
+          nb::arg("libraries") = nb::none())
+      // load_grasps(uid, joint, libraries, num_grasps, sample): when the file holds more than
+      // num_grasps rows, sample(range(n), num_grasps) picks them (random.sample); a fresh
+      // float64 (N,4,4) array.
+      .def(
+          "load_grasps",
+          [](const Registry& r, std::string uid, std::string joint,
+             std::optional<std::vector<std::string>> libs, int64_t num_grasps, nb::object sample) {
+            const GraspQuery q = Query(std::move(uid), std::move(joint), std::move(libs));
+            const size_t k = num_grasps < 0 ? 0 : static_cast<size_t>(num_grasps);
+            GraspSet set = r.LoadGrasps(q, [&](size_t n) -> std::optional<std::vector<size_t>> {
+              if (n <= k) return std::nullopt;
+              nb::object rows =
+                  sample(nb::steal(PyObject_CallFunction(reinterpret_cast<PyObject*>(&PyRange_Type),
+                                                         "n", static_cast<Py_ssize_t>(n))),
+                         k);
+              return nb::cast<std::vector<size_t>>(rows);
+            });
+            return PosesToNumpy(std::move(set.poses));
+          },
+          nb::arg("uid"), nb::arg("joint"), nb::arg("libraries").none(), nb::arg("num_grasps"),
+          nb::arg("sample"))
+      .def(
+          "count_grasps",
+          [](const Registry& r, std::string uid, std::string joint,
+             std::optional<std::vector<std::string>> libs) -> std::optional<size_t> {
+            std::optional<GraspFileLocation> loc =
+                r.FindGraspFile(Query(std::move(uid), std::move(joint), std::move(libs)));
+            if (!loc) return std::nullopt;
+            if (loc->packed) return loc->packed->count;
+            return CountGraspFileRows(loc->path);
+          },
+          nb::arg("uid"), nb::arg("joint") = "", nb::arg("libraries") = nb::none());
+
+  // Scene metadata.
+  m.def(
+      "find_scene_metadata_file",
+      [](const std::filesystem::path& xml) { return FindSceneMetadataFile(xml); }, nb::arg("xml"));
+  m.def(
+      "load_scene_metadata",
+      [](const std::filesystem::path& xml) -> nb::object {
+        std::optional<Json> meta = LoadSceneMetadata(xml);
+        if (!meta) return nb::none();
+        return JsonToPython(*meta);
+      },
+      nb::arg("xml"));
+  // World-frame grasps: body_pose @ G_i, then (include_flipped) each @ Rz(180 deg).
+  m.def(
+      "grasps_in_world",
+      [](nb::handle body_pose, nb::handle grasps, bool include_flipped) {
+        const Mat4 pose = Mat4FromPython(body_pose, "body pose");
+        const std::vector<Mat4> g = PosesFromPython(grasps, "grasps");
+        return PosesToNumpy(GraspsInWorld(pose, g, include_flipped));
+      },
+      nb::arg("body_pose"), nb::arg("grasps"), nb::arg("include_flipped") = true);
+  m.def(
+      "flip_grasps",
+      [](nb::handle grasps) {
+        std::vector<Mat4> g = PosesFromPython(grasps, "grasps");
+        for (Mat4& p : g) {
+          for (int r = 0; r < 3; ++r) {
+            p(r, 0) = -p(r, 0);
+            p(r, 1) = -p(r, 1);
+          }
+        }
+        return PosesToNumpy(std::move(g));
+      },
+      nb::arg("grasps"));
+}
+
+}  // namespace mlspaces::python

@@ -1,0 +1,212 @@
+"""The library API on real libraries: the tutorial's, and ones written here with numpy."""
+
+from __future__ import annotations
+
+import json
+import random
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import mlspaces
+from mlspaces import MlspacesError, Registry
+
+from conftest import random_poses, write_library
+
+
+def test_tutorial_library_locate_annotation_and_grasps(tutorial_library):
+    reg = Registry()
+    reg.register_user_asset_library("custom_assets", tutorial_library)
+    reg.register_user_grasp_library("custom_grasps", tutorial_library, "custom_assets")
+
+    source, package, xml = reg.locate_uid_package("red_block")
+    assert (source, package) == ("custom_assets", None)
+    assert isinstance(xml, Path) and xml.is_absolute()
+    assert xml == (tutorial_library / "red_block" / "red_block.xml").absolute()
+    assert reg.locate_uid_package("no_such_uid") == (None, None, None)
+
+    ann = reg.annotation("red_block")
+    expected = json.loads((tutorial_library / "red_block" / "red_block_computed.json").read_text())
+    assert ann == expected
+    assert list(ann) == list(expected)  # key order as in the file
+    assert reg.annotation("no_such_uid") is None
+
+    assert reg.get_grasp_libraries_for_object("red_block") == ["custom_grasps/droid"]
+    assert reg.object_library_to_grasp_libraries["custom_assets"] == ["custom_grasps/droid"]
+    assert reg.user_grasp_libraries == {"custom_grasps/droid": tutorial_library.absolute()}
+    path = reg.get_pickup_grasp_path("red_block")
+    assert path == (tutorial_library / "red_block" / "droid" / "grasps.npz").absolute()
+    assert reg.has_pickup_grasp_path("red_block")
+    assert reg.has_valid_pickup_grasps("red_block", num_grasps=1)
+    assert not reg.has_valid_pickup_grasps("red_block", num_grasps=2)
+
+    grasps = reg.load_pickup_grasps("red_block")
+    stored = np.load(path)["transforms"]
+    assert grasps.shape == (1, 4, 4) and grasps.dtype == np.float64
+    np.testing.assert_array_equal(grasps, stored)
+    assert grasps.flags.writeable and grasps.flags.c_contiguous
+    grasps[0, 0, 0] = 99.0  # a fresh array: the next call does not see it
+    np.testing.assert_array_equal(reg.load_pickup_grasps("red_block"), stored)
+
+
+def test_annotation_is_a_new_dict_each_call_with_npz_arrays_as_stored(tmp_path):
+    lib = write_library(tmp_path / "lib", {"a": 3, "b": 2}, npz_meta=True)
+    reg = Registry()
+    reg.register_user_asset_library("mine", lib)
+    first = reg.annotation("a")
+    first["mass"] = -1
+    first["description_short"]["one_word"] = "changed"
+    second = reg.annotation("a")
+    assert second["mass"] == 0.05
+    assert second["description_short"]["one_word"] == "block"
+    feats = second["clip_img_features"]
+    assert feats.dtype == np.float32 and feats.shape == (3, 4)
+    np.testing.assert_array_equal(feats, np.arange(12, dtype=np.float32).reshape(3, 4))
+    ids = second["extra"]["ids"]
+    assert ids.dtype == np.int64 and ids.tolist() == [1, 2, 3]
+    assert reg.all_uids() == ["a", "b"]
+
+
+def test_subsampling_draws_with_python_random_as_the_original(tmp_path):
+    lib = write_library(tmp_path / "lib", {"many": 100})
+    reg = Registry()
+    reg.register_user_asset_library("mine", lib)
+    reg.register_user_grasp_library("g", lib, "mine")
+    stored = np.load(lib / "many" / "droid" / "grasps.npz")["transforms"]
+
+    random.seed(3)
+    got = reg.load_pickup_grasps("many", num_grasps=10)
+    random.seed(3)
+    rows = random.sample(range(100), 10)
+    np.testing.assert_array_equal(got, stored[rows])
+    # Not more than the file holds: all of them, in file order, no draw.
+    state = random.getstate()
+    np.testing.assert_array_equal(reg.load_pickup_grasps("many", num_grasps=100), stored)
+    assert random.getstate() == state
+
+
+def test_grasp_library_priority_newest_first_robots_sorted(tmp_path):
+    lib_a = write_library(tmp_path / "a", {"x": 2}, robots=("zeta", "alpha"))
+    lib_b = write_library(tmp_path / "b", {"x": 3}, robots=("droid",))
+    reg = Registry()
+    reg.register_user_asset_library("assets", lib_a)
+    reg.register_user_grasp_library("old", lib_a, "assets")
+    assert reg.get_grasp_libraries_for_object("x") == ["old/alpha", "old/zeta"]
+    reg.register_user_grasp_library("new", lib_b, "assets")
+    assert reg.get_grasp_libraries_for_object("x") == ["new/droid", "old/alpha", "old/zeta"]
+    assert reg.load_pickup_grasps("x").shape == (3, 4, 4)
+    # A filter keeps its own order.
+    assert reg.load_pickup_grasps("x", grasp_libraries=["old/zeta", "new/droid"]).shape == (2, 4, 4)
+    np.testing.assert_array_equal(
+        reg.load_pickup_grasps("x", grasp_libraries=("old/zeta",)),
+        np.load(lib_a / "x" / "zeta" / "grasps.npz")["transforms"])
+    assert reg.get_pickup_grasp_path("x", ["nope"]) is None
+
+
+def test_joint_grasps(tmp_path):
+    lib = write_library(tmp_path / "lib", {"cab": 2}, joints={"cab": ["door", "drawer"]})
+    reg = Registry()
+    reg.register_user_asset_library("assets", lib)
+    reg.register_user_grasp_library("g", lib, "assets")
+    assert reg.has_joint_grasp_path("cab", "door")
+    assert not reg.has_joint_grasp_path("cab", "lid")
+    assert reg.has_valid_joint_grasps("cab", "drawer", num_grasps=3)
+    got = reg.load_joint_grasps("cab", "door")
+    np.testing.assert_array_equal(
+        got, np.load(lib / "cab" / "droid" / "joint_grasps_door.npz")["transforms"])
+    with pytest.raises(ValueError, match="No joint grasp file found for cab/lid"):
+        reg.load_joint_grasps("cab", "lid")
+
+
+def test_lookups_before_a_registration_are_not_stale(tmp_path):
+    lib = write_library(tmp_path / "lib", {"late": 1})
+    reg = Registry()
+    assert reg.locate_uid_package("late") == (None, None, None)
+    assert not reg.has_pickup_grasp_path("late")
+    reg.register_user_asset_library("assets", lib)
+    assert reg.locate_uid_package("late")[0] == "assets"
+    reg.register_user_grasp_library("g", lib, "assets")
+    assert reg.has_pickup_grasp_path("late")
+
+
+def test_registration_errors_are_value_errors_naming_the_file(tmp_path):
+    lib = write_library(tmp_path / "lib", {"a": 1})
+    reg = Registry()
+    reg.register_user_asset_library("assets", str(lib))  # str paths are accepted
+    with pytest.raises(ValueError, match="already registered"):
+        reg.register_user_asset_library("assets", lib)
+    with pytest.raises(ValueError):
+        reg.register_user_asset_library("a/b", lib)
+    with pytest.raises(ValueError):
+        reg.register_user_asset_library("thor", lib)
+    with pytest.raises(MlspacesError) as err:
+        reg.register_user_asset_library("missing", tmp_path / "nowhere")
+    assert "assets_index.json" in err.value.path
+
+    bad = tmp_path / "bad"
+    bad.mkdir()
+    (bad / "assets_index.json").write_text('{"a": {"uid": "a", "object_path": 3}}')
+    with pytest.raises(MlspacesError) as err:
+        reg.register_user_asset_library("bad", bad)
+    assert err.value.path.endswith("assets_index.json")
+    assert err.value.field.startswith("/a/object_path")
+    assert "\n" not in str(err.value)
+    # Nothing changed after the failures.
+    assert list(reg.user_asset_libraries) == ["assets"]
+
+    with pytest.raises(ValueError):
+        reg.register_user_grasp_library("g", lib, "unknown_library")
+    (lib / "grasps_index.json").write_text("{not json")
+    with pytest.raises(MlspacesError) as err:
+        reg.register_user_grasp_library("g", lib, "assets")
+    assert err.value.path.endswith("grasps_index.json") and "line 1" in err.value.field
+
+
+def test_bad_grasp_files_are_errors_never_crashes(tmp_path):
+    lib = write_library(tmp_path / "lib", {"a": 2, "b": 2, "c": 2})
+    (lib / "a" / "droid" / "grasps.npz").write_bytes(b"PK\x03\x04garbage")
+    np.savez(lib / "b" / "droid" / "grasps.npz", transforms=np.zeros((2, 3, 3)))
+    bad = random_poses(2, 1)
+    bad[1, 0, 3] = np.nan
+    np.savez(lib / "c" / "droid" / "grasps.npz", transforms=bad)
+    reg = Registry()
+    reg.register_user_asset_library("assets", lib)
+    reg.register_user_grasp_library("g", lib, "assets")
+    for uid, what in (("a", None), ("b", r"\(N,4,4\)|shape"), ("c", "non-finite")):
+        with pytest.raises(MlspacesError, match=what) as err:
+            reg.load_pickup_grasps(uid)
+        assert err.value.path.endswith(f"{uid}/droid/grasps.npz")
+    with pytest.raises(ValueError, match="No grasp file found for zzz"):
+        reg.load_pickup_grasps("zzz")
+    with pytest.raises(TypeError):
+        reg.load_pickup_grasps(None)
+
+
+def test_scene_metadata(tmp_path):
+    scene = mlspaces.get_scene_metadata(Path(__file__).resolve().parents[2] / "examples" /
+                                        "custom_assets" / "scene.xml")
+    assert scene["objects"]["red_block"]["asset_id"] == "red_block"
+    assert mlspaces.get_scene_metadata(tmp_path / "nothing.xml") is None
+    with pytest.raises(ValueError, match="xml"):
+        mlspaces.get_scene_metadata(tmp_path / "scene.json")
+    # The 'ceiling' bug of the original is fixed: only the file name's suffix counts.
+    d = tmp_path / "ceiling_room"
+    d.mkdir()
+    (d / "house_metadata.json").write_text('{"objects": {}}')
+    assert mlspaces.get_scene_metadata(d / "house.xml") == {"objects": {}}
+    (d / "house_metadata.json").write_text('{"objects": [1]}')
+    with pytest.raises(MlspacesError) as err:
+        mlspaces.get_scene_metadata(d / "house.xml")
+    assert err.value.path.endswith("house_metadata.json")
+
+
+def test_flip_and_world_grasps():
+    g = random_poses(3, 5)
+    rz = np.diag([-1.0, -1.0, 1.0, 1.0])
+    np.testing.assert_allclose(mlspaces.flip_grasps(g), g @ rz, atol=0)
+    np.testing.assert_allclose(mlspaces.flip_grasps(g[0]), g[0] @ rz, atol=0)
+    with pytest.raises(ValueError, match=r"shape \(N, 4, 4\)"):
+        mlspaces.flip_grasps(np.zeros((2, 3, 4)))
+    with pytest.raises(ValueError, match="None"):
+        mlspaces.flip_grasps(None)

@@ -11,6 +11,9 @@ canonical ones.
 
 from __future__ import annotations
 
+import os as _os
+from pathlib import Path as _Path
+
 import mujoco as _mujoco  # first: the extension links the libmujoco this package ships
 
 from . import _core
@@ -24,6 +27,10 @@ if _core.mujoco_runtime_version() != _mujoco.__version__:  # pragma: no cover - 
         f"{_mujoco.__version__}: install the mujoco version mlspaces pins")
 
 __version__: str = _core.__version__
+
+# An installed wheel carries the bundled robot models beside the package.
+if (_Path(__file__).parent / "robots").is_dir():
+    _os.environ.setdefault("MLSPACES_ROBOTS_DIR", str(_Path(__file__).parent / "robots"))
 
 from ._registry import (Registry, default_registry, get_grasp_libraries_for_object,  # noqa: E402
                         get_joint_grasp_path, get_pickup_grasp_path, get_scene_metadata,

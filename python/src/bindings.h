@@ -2,6 +2,9 @@
 #pragma once
 
 #include <nanobind/nanobind.h>
+// Every binding file sees the same casters: a file that casts std::string without them would
+// instantiate nanobind::cast<std::string> differently (an ODR clash that fails at run time).
+#include <nanobind/stl/string.h>
 
 #include "mlspaces/core/error.h"
 
@@ -20,5 +23,7 @@ void BindErrors(nb::module_& m);
 void BindLibrary(nb::module_& m);
 void BindResources(nb::module_& m);
 void BindDatagen(nb::module_& m);
+void BindVideo(nb::module_& m);
+void BindEval(nb::module_& m);
 
 }  // namespace mlspaces::python

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include <nanobind/nanobind.h>
+#include <nanobind/stl/string.h>
 
 #include "mlspaces/core/json.h"
 #include "mlspaces/core/npy.h"

@@ -24,6 +24,7 @@
 #include <yaml-cpp/yaml.h>
 #include "bindings.h"
 #include "convert.h"
+#include "python_sampler.h"
 
 #include "mlspaces/core/yaml_archive.h"
 #include "mlspaces/datagen/config.h"
@@ -37,120 +38,6 @@ namespace mlspaces::python {
 namespace {
 
 namespace dg = mlspaces::datagen;
-
-/// A deleter that keeps a Python object alive and drops it (under the GIL) when the C++ side
-/// is done with the pointer it owns.
-struct PyOwner {
-  PyObject* owner;
-  template <class T>
-  void operator()(T*) const noexcept {
-    if (!Py_IsInitialized()) return;  // the interpreter is gone: nothing left to free
-    PyGILState_STATE state = PyGILState_Ensure();
-    Py_DECREF(owner);
-    PyGILState_Release(state);
-  }
-};
-
-std::optional<Pose> PoseField(nb::handle task_config, const char* name, const std::string& who) {
-  nb::object value = task_config.attr(name);
-  if (value.is_none()) return std::nullopt;
-  std::array<double, 7> v{};
-  try {
-    nb::object seq = nb::module_::import_("numpy").attr("asarray")(value, "float64");
-    auto array = nb::cast<nb::ndarray<double, nb::c_contig, nb::device::cpu>>(
-        nb::module_::import_("numpy").attr("ascontiguousarray")(seq));
-    if (array.ndim() != 1 || array.shape(0) != 7) throw std::runtime_error("shape");
-    for (size_t i = 0; i < 7; ++i) v[i] = array.data()[i];
-  } catch (const std::exception&) {
-    throw Error(who + " set task_config." + name +
-                " to something that is not 7 numbers (x, y, z, qw, qx, qy, qz)");
-  }
-  for (double x : v) {
-    if (!std::isfinite(x))
-      throw Error(who + " set task_config." + name + " with a non-finite value");
-  }
-  Pose pose;
-  pose.pos = {v[0], v[1], v[2]};
-  pose.quat = {v[3], v[4], v[5], v[6]};
-  return pose;
-}
-
-/// A TaskSampler whose hooks are the methods of a Python PickTaskSampler (mlspaces.tasks).
-/// The C++ runner calls it with the GIL released; every hook takes the GIL for its call.
-class PythonTaskSampler : public dg::TaskSampler {
- public:
-  PythonTaskSampler(dg::ExperimentConfig config, uint64_t seed, nb::object sampler)
-      : TaskSampler(std::move(config), seed), sampler_(std::move(sampler)) {}
-
-  ~PythonTaskSampler() override {
-    if (!Py_IsInitialized()) {
-      (void)sampler_.release();
-      (void)env_.release();
-      return;
-    }
-    nb::gil_scoped_acquire gil;
-    env_.reset();
-    sampler_.reset();
-  }
-
-  void PrepareEnv(dg::Env& env) override {
-    nb::gil_scoped_acquire gil;
-    nb::module_ mujoco = nb::module_::import_("mujoco");
-    // The model: a copy the Python MjModel owns (MjModel._from_model_ptr takes ownership);
-    // the data: a Python MjData made for it. The Env uses both from now on.
-    mjModel* copy = mj_copyModel(nullptr, env.model());
-    if (copy == nullptr) throw Error("cannot copy the compiled model for Python");
-    nb::object py_model =
-        mujoco.attr("MjModel").attr("_from_model_ptr")(reinterpret_cast<uintptr_t>(copy));
-    nb::object py_data = mujoco.attr("MjData")(py_model);
-    auto* data = reinterpret_cast<mjData*>(nb::cast<uintptr_t>(py_data.attr("_address")));
-    env.ShareModelAndData(std::shared_ptr<const mjModel>(copy, PyOwner{py_model.inc_ref().ptr()}),
-                          std::shared_ptr<mjData>(data, PyOwner{py_data.inc_ref().ptr()}));
-    env_ = sampler_.attr("_attach_env")(
-        py_model, py_data, JsonToPython(env.metadata()), nb::str(env.scene_key().c_str()),
-        nb::str(env.robot().prefix.c_str()), nb::str(env.robot_base_body().c_str()));
-  }
-
- protected:
-  void SampleAndPlaceRobot(dg::Env& env, Rng& rng, dg::TaskDraft& draft) override {
-    (void)env;
-    nb::gil_scoped_acquire gil;
-    const std::string who = Who();
-    // Per-episode seeds for random, np.random and the sampler's generator, from the
-    // episode's Rng: the same run seed and episode give the same draws, whatever the worker.
-    const uint64_t seed = rng.NextU64();
-    sampler_.attr("_begin_episode")(seed, nb::str(draft.pickup_obj_name->c_str()));
-    try {
-      sampler_.attr("_sample_and_place_robot")(env_);
-    } catch (nb::python_error& e) {
-      if (e.matches(nb::module_::import_("mlspaces.errors").attr("RobotPlacementError"))) {
-        throw dg::TaskRejected(who + ": " + std::string(e.what()));
-      }
-      throw;
-    }
-    nb::object task_config = sampler_.attr("config").attr("task_config");
-    nb::object name = task_config.attr("pickup_obj_name");
-    if (!name.is_none()) draft.pickup_obj_name = nb::cast<std::string>(name);
-    draft.robot_base_pose = PoseField(task_config, "robot_base_pose", who);
-    draft.pickup_obj_start_pose = PoseField(task_config, "pickup_obj_start_pose", who);
-    draft.pickup_obj_goal_pose = PoseField(task_config, "pickup_obj_goal_pose", who);
-  }
-
- private:
-  std::string Who() const {
-    nb::object name = nb::steal(PyObject_GetAttrString(
-        reinterpret_cast<PyObject*>(Py_TYPE(sampler_.ptr())), "__qualname__"));
-    const char* text = name.is_valid() ? PyUnicode_AsUTF8(name.ptr()) : nullptr;
-    if (text == nullptr) {
-      PyErr_Clear();
-      text = "PickTaskSampler";
-    }
-    return std::string(text) + "._sample_and_place_robot";
-  }
-
-  nb::object sampler_;
-  nb::object env_;
-};
 
 /// A canonical config YAML node (DumpConfig's output) as Python objects: quoted scalars are
 /// strings, plain ones null / bool / int / float / string as YAML 1.2's core schema reads them.

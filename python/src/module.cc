@@ -17,4 +17,6 @@ NB_MODULE(_core, m) {
   mlspaces::python::BindLibrary(m);
   mlspaces::python::BindResources(m);
   mlspaces::python::BindDatagen(m);
+  mlspaces::python::BindEval(m);
+  mlspaces::python::BindVideo(m);
 }

@@ -1,6 +1,7 @@
 #include "mlspaces/sim/renderer.h"
 
 #include <dlfcn.h>
+#include <unistd.h>
 
 #include <EGL/egl.h>
 #include <EGL/eglext.h>
@@ -211,9 +212,19 @@ void ReleaseEglDisplay(const EglApi& egl, EglPlatform platform) {
 // why the first Renderer fixes the process's backend.
 std::mutex g_backend_mutex;
 std::optional<GlBackend> g_process_backend;
+pid_t g_process_backend_pid = 0;  // the process that claimed it (fork check)
 
 // Throws when the process is already fixed to the other backend. Caller holds the mutex.
 void CheckProcessBackendLocked(GlBackend backend) {
+  // Mesa keeps process-wide GL state (llvmpipe's rasteriser threads among it) that a fork()ed
+  // child inherits without the threads: a context made there waits for them forever.
+  if (g_process_backend && g_process_backend_pid != ::getpid()) {
+    Fail(backend,
+         "this process was forked from one that had rendered, and GL state does not "
+         "survive fork(): render only in processes started fresh (multiprocessing "
+         "'spawn' or 'forkserver', e.g. AsyncVectorEnv(..., context='spawn')), or fork "
+         "before the first render");
+  }
   if (g_process_backend && *g_process_backend != backend) {
     Fail(backend, "this process already renders with " +
                       std::string(GlBackendName(*g_process_backend)) +
@@ -231,6 +242,7 @@ void ClaimProcessBackend(GlBackend backend) {
   std::lock_guard lock(g_backend_mutex);
   CheckProcessBackendLocked(backend);  // another thread may have claimed it meanwhile
   g_process_backend = backend;
+  g_process_backend_pid = ::getpid();
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -94,6 +94,8 @@ class MLSPACES_API TaskSampler {
   const std::string& name() const { return name_; }
   const ExperimentConfig& config() const { return config_; }
   uint64_t run_seed() const { return run_seed_; }
+  /// Changes the run seed later episodes derive from (an evaluation env reseeded by reset).
+  void set_run_seed(uint64_t seed) { run_seed_ = seed; }
 
  protected:
   // ===========================================================================================

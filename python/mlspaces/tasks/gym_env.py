@@ -1,0 +1,191 @@
+"""The evaluation env (``molmo_spaces.tasks.gym_env``): a ``gymnasium.Env`` made from a datagen
+config, registered as ``MolmoSpaces/<ConfigName>-v<version>`` (needs the ``[gym]`` extra).
+
+One env is one scene with its robot; a step is one policy step of the datagen rollout (action
+noise, controller, ``policy_dt / sim_dt`` physics steps). Spaces are declared (MolmoSpaces'
+env declares none):
+
+- action: ``{"arm": Box(7) joint targets in radians (within the joint limits), "gripper":
+  Box(1) ctrl 0 (open) .. 255 (closed)}`` -- the dataset's ``commanded_action`` layout;
+- observation: the dataset's layout, ``{"agent": {"qpos": {"arm", "gripper"}, "qvel": {...}},
+  "extra": {"tcp_pose", "robot_base_pose", "obj_start", "obj_end"}, "sensor_data": {<camera>:
+  Box(H, W, 3) uint8}}`` (one dict, not MolmoSpaces' one-element list).
+
+``reset(seed=s)`` samples episode 0 of a datagen run with seed ``s``; later resets without a
+seed take the run's next episodes, so a seeded env is deterministic, and a recorded episode's
+actions replayed after ``reset(seed=run_seed, options={"episode": k})`` reproduce it. ``info``
+holds ``success``, ``lift``, ``task`` (names and poses of the sampled task) and ``episode``.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from typing import Any
+
+import numpy as np
+
+try:
+    import gymnasium as gym
+    from gymnasium import spaces
+except ImportError as e:  # pragma: no cover - depends on the install
+    raise ImportError("mlspaces.tasks.gym_env needs gymnasium: pip install 'mlspaces[gym]'") from e
+
+from .. import _core
+from ..configs import to_native
+from ..datagen.config_registry import get_config_class, list_available_configs
+from ..errors import MlspacesError
+
+_NAMESPACE = "MolmoSpaces"
+_OPTIONS = {"house_index", "episode", "force_advance_scene"}
+
+
+def env_id_for_config(config_name: str, version: int = 0) -> str:
+    return f"{_NAMESPACE}/{config_name}-v{version}"
+
+
+def register_configs(version: int = 0) -> list[str]:
+    """Registers every registered config with gymnasium (idempotent); returns the new ids."""
+    added = []
+    for name in list_available_configs():
+        env_id = env_id_for_config(name, version)
+        if env_id in gym.registry:
+            continue
+        gym.register(id=env_id, entry_point="mlspaces.tasks.gym_env:GymEnv",
+                     kwargs={"config_name": name}, max_episode_steps=None,
+                     disable_env_checker=True, order_enforce=False)
+        added.append(env_id)
+    return added
+
+
+def _box(shape: tuple[int, ...], low: float = -np.inf, high: float = np.inf) -> spaces.Box:
+    return spaces.Box(low=low, high=high, shape=shape, dtype=np.float64)
+
+
+class GymEnv(gym.Env):
+    """A datagen config as a gymnasium env (see the module docstring)."""
+
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 15}
+
+    def __init__(self, config_name: str | None = None, exp_config: Any = None, *,
+                 config_overrides: dict[str, Any] | None = None, task_sampler: Any = None,
+                 render_mode: str | None = None, render_camera: str | None = None,
+                 **sample_task_kwargs: Any) -> None:
+        if (config_name is None) == (exp_config is None):
+            raise MlspacesError("GymEnv: give exactly one of config_name and exp_config")
+        if task_sampler is not None:
+            raise MlspacesError("GymEnv: task_sampler is not supported; the env makes its "
+                                "sampler from the config's task_sampler_class")
+        unknown = set(sample_task_kwargs) - _OPTIONS
+        if unknown:
+            raise MlspacesError(f"GymEnv: unknown keyword arguments {sorted(unknown)}")
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise MlspacesError(f"GymEnv: render_mode must be None or 'rgb_array', got "
+                                f"{render_mode!r}")
+        cfg = get_config_class(config_name)() if exp_config is None else exp_config
+        for key, value in (config_overrides or {}).items():
+            if not hasattr(cfg, key):
+                raise MlspacesError(f"GymEnv: config_overrides key {key!r} is not a field of "
+                                    f"{type(cfg).__qualname__}")
+            setattr(cfg, key, value)
+        self.config = cfg
+        self.render_mode = render_mode
+        self.render_camera = render_camera
+        self._defaults = dict(sample_task_kwargs)
+        cls = cfg.task_sampler_config.task_sampler_class
+        self.task_sampler = cls(cfg) if isinstance(cls, type) else None
+        self._env = _core.EvalEnv(json.dumps(to_native(cfg)), f"<config {type(cfg).__qualname__}>",
+                                  os.getcwd(), self.task_sampler,
+                                  render=True, gl=os.environ.get("MLSPACES_GL") or "osmesa")
+        self._cameras = [c.name for c in cfg.camera_config.cameras]
+        if render_camera is not None and render_camera not in self._cameras:
+            raise MlspacesError(f"GymEnv: render_camera {render_camera!r} is not one of "
+                                f"{self._cameras}")
+        w, h = (int(x) for x in cfg.camera_config.img_resolution)
+        lower, upper = self._arm_limits()
+        n_arm, n_grip = self._env.num_arm, self._env.num_gripper
+        self.action_space = spaces.Dict({
+            "arm": spaces.Box(low=lower, high=upper, shape=(n_arm,), dtype=np.float64),
+            "gripper": spaces.Box(low=0.0, high=255.0, shape=(1,), dtype=np.float64),
+        })
+        self.observation_space = spaces.Dict({
+            "agent": spaces.Dict({
+                "qpos": spaces.Dict({"arm": _box((n_arm,)), "gripper": _box((n_grip,))}),
+                "qvel": spaces.Dict({"arm": _box((n_arm,)), "gripper": _box((n_grip,))}),
+            }),
+            "extra": spaces.Dict({k: _box((7,)) for k in
+                                  ("tcp_pose", "robot_base_pose", "obj_start", "obj_end")}),
+            "sensor_data": spaces.Dict({
+                c: spaces.Box(0, 255, shape=(h, w, 3), dtype=np.uint8) for c in self._cameras}),
+        })
+        self._run_seed: int | None = None
+        self._episode = -1
+        self.task: dict[str, Any] | None = None
+
+    def _arm_limits(self) -> tuple[np.ndarray, np.ndarray]:
+        """The arm's joint ranges, from the model of the first scene (loaded here)."""
+        self._env.load_house(int(self._defaults.get("house_index", 0)))
+        return self._env.arm_limits
+
+    # -- gymnasium API --------------------------------------------------------------------
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
+        super().reset(seed=seed)
+        options = {**self._defaults, **(options or {})}
+        unknown = set(options) - _OPTIONS
+        if unknown:
+            raise MlspacesError(f"reset: unknown options {sorted(unknown)}")
+        if seed is not None:
+            self._run_seed = int(seed)
+            self._episode = -1
+        elif self._run_seed is None:
+            self._run_seed = int(self.np_random.integers(0, 2**63))
+        self._episode = int(options.get("episode", self._episode + 1))
+        house = int(options.get("house_index", 0))
+        self._env.reset(self._run_seed, house, self._episode)
+        self.task = self._env.task()
+        return self._observation(), self._info()
+
+    def step(self, action: dict[str, Any]):
+        if self.task is None:
+            raise RuntimeError("step before reset")
+        if not isinstance(action, dict) or "arm" not in action or "gripper" not in action:
+            raise MlspacesError("step: the action must be a dict with 'arm' (7 joint targets) "
+                                "and 'gripper' (ctrl 0..255)")
+        gripper = np.asarray(action["gripper"], dtype=np.float64).reshape(-1)
+        if gripper.shape != (1,):
+            raise MlspacesError(f"step: 'gripper' must hold 1 value, got {gripper.shape[0]}")
+        result = self._env.step(action["arm"], float(gripper[0]))
+        terminated = bool(result["success"] and self.config.end_on_success)
+        info = self._info()
+        info["lift"] = result["lift"]
+        return (self._observation(), float(result["reward"]), terminated,
+                bool(result["truncated"]), info)
+
+    def render(self) -> np.ndarray | None:
+        if self.render_mode is None:
+            return None
+        if self.task is None:
+            raise RuntimeError("render before reset")
+        if not self._cameras:
+            raise MlspacesError("render: the config has no cameras")
+        camera = self.render_camera or self._cameras[0]
+        return self._env.render(self._cameras.index(camera))
+
+    def close(self) -> None:
+        self.task = None
+
+    # -- helpers --------------------------------------------------------------------------
+
+    def _observation(self) -> dict[str, Any]:
+        obs = self._env.observation()
+        obs["sensor_data"] = {c: self._env.render(i) for i, c in enumerate(self._cameras)}
+        return obs
+
+    def _info(self) -> dict[str, Any]:
+        task = self._env.task()
+        return {"success": bool(task["success"]), "task": task, "episode": self._episode,
+                "run_seed": self._run_seed}
+
+
+__all__ = ["GymEnv", "env_id_for_config", "register_configs"]

@@ -1,0 +1,201 @@
+// The evaluation env (datagen::EvalEnv) for mlspaces.tasks.gym_env: reset, step, observations
+// in the dataset's layout, camera frames.
+#include <cstdint>
+#include <cstring>
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <nanobind/ndarray.h>
+#include <nanobind/stl/filesystem.h>
+#include <nanobind/stl/string.h>
+#include <nanobind/stl/vector.h>
+
+#include "bindings.h"
+#include "convert.h"
+#include "mlspaces/core/transform.h"
+#include "mlspaces/datagen/config.h"
+#include "mlspaces/datagen/eval_env.h"
+#include "python_sampler.h"
+
+namespace mlspaces::python {
+
+namespace {
+
+namespace dg = mlspaces::datagen;
+
+/// A fresh float64 vector array.
+nb::object Vector(const std::vector<double>& values) {
+  auto* owned = new std::vector<double>(values);
+  nb::capsule owner(owned, [](void* p) noexcept { delete static_cast<std::vector<double>*>(p); });
+  const size_t shape[1] = {owned->size()};
+  return nb::cast(nb::ndarray<nb::numpy, double>(owned->data(), 1, shape, owner));
+}
+
+nb::object PoseVector(const Pose& pose) {
+  return Vector({pose.pos[0], pose.pos[1], pose.pos[2], pose.quat[0], pose.quat[1], pose.quat[2],
+                 pose.quat[3]});
+}
+
+std::vector<double> ArmFrom(nb::handle value, size_t n) {
+  if (value.is_none())
+    throw Error("action 'arm': expected " + std::to_string(n) + " numbers, got None");
+  static nb::handle asarray =
+      nb::object(nb::module_::import_("numpy").attr("ascontiguousarray")).release();
+  nb::object converted;
+  try {
+    converted = nb::handle(asarray)(value, "float64");
+  } catch (nb::python_error& e) {
+    throw Error("action 'arm': not numeric (" + std::string(e.what()) + ")");
+  }
+  auto array = nb::cast<nb::ndarray<double, nb::c_contig, nb::device::cpu>>(converted);
+  if (array.size() != n || array.ndim() > 1) {
+    throw Error("action 'arm': expected " + std::to_string(n) + " values, got shape with " +
+                std::to_string(array.size()) + " values");
+  }
+  return std::vector<double>(array.data(), array.data() + n);
+}
+
+class PyEvalEnv {
+ public:
+  PyEvalEnv(const std::string& text, const std::string& origin,
+            const std::filesystem::path& base_dir, nb::object sampler, bool render,
+            const std::string& gl) {
+    const dg::ConfigRegistry configs = dg::ConfigRegistry::WithBuiltins();
+    dg::ExperimentConfig config = dg::ParseConfigText(text, origin, base_dir, configs);
+    dg::Validate(config, origin);
+    std::unique_ptr<dg::TaskSampler> s;
+    if (sampler.is_none()) {
+      s = dg::TaskSamplerRegistry::WithBuiltins().Create(config, 0);
+    } else {
+      auto py = std::make_unique<PythonTaskSampler>(config, 0, sampler);
+      python_ = py.get();
+      s = std::move(py);
+    }
+    dg::EvalEnvOptions options;
+    options.render = render;
+    options.gl_backend = sim::ParseGlBackend(gl);
+    env_ = std::make_unique<dg::EvalEnv>(std::move(config), std::move(s), options);
+  }
+
+  void Reset(uint64_t seed, int64_t house, int64_t episode) {
+    nb::gil_scoped_release no_gil;
+    env_->Reset(seed, house, episode);
+  }
+
+  nb::dict Step(nb::handle arm, double gripper) {
+    const std::vector<double> q = ArmFrom(arm, env_->robot().num_arm());
+    dg::EvalStep step;
+    {
+      nb::gil_scoped_release no_gil;
+      step = env_->Step(q, gripper);
+    }
+    nb::dict out;
+    out["success"] = step.verdict.success;
+    out["reward"] = step.verdict.reward;
+    out["lift"] = step.verdict.lift;
+    out["truncated"] = step.truncated;
+    return out;
+  }
+
+  /// The observation in the dataset's layout (docs/dataset.md): agent joint state per move
+  /// group and the extra poses (tcp_pose in the robot base frame).
+  nb::dict Observation() const {
+    const dg::RobotView& robot = env_->robot();
+    const mjData* d = env_->env().data();
+    nb::dict qpos, qvel;
+    qpos["arm"] = Vector(robot.ArmQpos(d));
+    qpos["gripper"] = Vector(robot.GripperQpos(d));
+    qvel["arm"] = Vector(robot.ArmQvel(d));
+    qvel["gripper"] = Vector(robot.GripperQvel(d));
+    nb::dict agent;
+    agent["qpos"] = qpos;
+    agent["qvel"] = qvel;
+    const Mat4 base = robot.BasePose(d);
+    const dg::Task& task = env_->task();
+    nb::dict extra;
+    extra["tcp_pose"] = PoseVector(ToPose(InverseRigid(base) * robot.TcpPose(d)));
+    extra["robot_base_pose"] = PoseVector(env_->env().GetRobotBasePose());
+    extra["obj_start"] = PoseVector(task.pickup_obj_start_pose);
+    extra["obj_end"] = PoseVector(task.pickup_obj_goal_pose);
+    nb::dict out;
+    out["agent"] = agent;
+    out["extra"] = extra;
+    return out;
+  }
+
+  nb::object Render(size_t index) {
+    const size_t bytes = static_cast<size_t>(env_->image_width()) * env_->image_height() * 3;
+    auto* owned = new std::vector<uint8_t>(bytes);
+    nb::capsule owner(owned,
+                      [](void* p) noexcept { delete static_cast<std::vector<uint8_t>*>(p); });
+    {
+      nb::gil_scoped_release no_gil;
+      env_->Render(index, owned->data());
+    }
+    const size_t shape[3] = {static_cast<size_t>(env_->image_height()),
+                             static_cast<size_t>(env_->image_width()), 3};
+    return nb::cast(nb::ndarray<nb::numpy, uint8_t>(owned->data(), 3, shape, owner));
+  }
+
+  nb::dict Task() const {
+    const dg::Task& t = env_->task();
+    nb::dict out;
+    out["pickup_obj_name"] = t.pickup_obj_name;
+    out["robot_base_pose"] = PoseVector(t.robot_base_pose);
+    out["pickup_obj_start_pose"] = PoseVector(t.pickup_obj_start_pose);
+    out["pickup_obj_goal_pose"] = PoseVector(t.pickup_obj_goal_pose);
+    out["episode"] = t.episode;
+    out["seed"] = t.seed;
+    out["success"] = env_->verdict().success;
+    out["steps"] = env_->steps();
+    return out;
+  }
+
+  dg::EvalEnv& env() { return *env_; }
+  nb::object python_env() const { return python_ ? python_->python_env() : nb::none(); }
+
+ private:
+  std::unique_ptr<dg::EvalEnv> env_;
+  PythonTaskSampler* python_ = nullptr;
+};
+
+}  // namespace
+
+void BindEval(nb::module_& m) {
+  nb::class_<PyEvalEnv>(m, "EvalEnv", "The datagen scene driven one policy step at a time.")
+      .def(nb::init<const std::string&, const std::string&, const std::filesystem::path&,
+                    nb::object, bool, const std::string&>(),
+           nb::arg("text"), nb::arg("origin"), nb::arg("base_dir"), nb::arg("sampler").none(),
+           nb::arg("render") = true, nb::arg("gl") = "osmesa")
+      .def(
+          "load_house",
+          [](PyEvalEnv& e, int64_t house) {
+            nb::gil_scoped_release no_gil;
+            e.env().LoadHouse(house);
+          },
+          nb::arg("house"))
+      .def("reset", &PyEvalEnv::Reset, nb::arg("seed"), nb::arg("house"), nb::arg("episode"))
+      .def("step", &PyEvalEnv::Step, nb::arg("arm").none(), nb::arg("gripper"))
+      .def("observation", &PyEvalEnv::Observation)
+      .def("render", &PyEvalEnv::Render, nb::arg("camera"))
+      .def("task", &PyEvalEnv::Task)
+      .def_prop_ro("camera_names", [](PyEvalEnv& e) { return e.env().camera_names(); })
+      .def_prop_ro("image_size",
+                   [](PyEvalEnv& e) {
+                     return nb::make_tuple(e.env().image_height(), e.env().image_width());
+                   })
+      .def_prop_ro("num_arm", [](PyEvalEnv& e) { return e.env().robot().num_arm(); })
+      .def_prop_ro("num_gripper", [](PyEvalEnv& e) { return e.env().robot().num_gripper(); })
+      .def_prop_ro("arm_limits",
+                   [](PyEvalEnv& e) {
+                     return nb::make_tuple(Vector(e.env().robot().arm_lower()),
+                                           Vector(e.env().robot().arm_upper()));
+                   })
+      .def_prop_ro("started", [](PyEvalEnv& e) { return e.env().started(); })
+      .def_prop_ro("task_horizon", [](PyEvalEnv& e) { return e.env().config().task_horizon; })
+      .def_prop_ro("python_env", &PyEvalEnv::python_env);
+}
+
+}  // namespace mlspaces::python

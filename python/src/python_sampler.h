@@ -1,0 +1,39 @@
+// PythonTaskSampler: a datagen TaskSampler whose hooks are the methods of a Python
+// PickTaskSampler (python/mlspaces/tasks/pick_task_sampler.py), used by the runner
+// (datagen.cc) and the evaluation env (eval.cc).
+#pragma once
+
+#include <cstdint>
+
+#include "bindings.h"
+#include "mlspaces/datagen/config.h"
+#include "mlspaces/datagen/env.h"
+#include "mlspaces/datagen/task_sampler.h"
+
+namespace mlspaces::python {
+
+/// The engine calls it with the GIL released; every hook takes the GIL for its call.
+/// PrepareEnv shares the Env's model and data with Python: the model becomes a
+/// mujoco.MjModel (MjModel._from_model_ptr of a copy), the data a mujoco.MjData made for it,
+/// and the Env uses both from then on (Env::ShareModelAndData), so what the Python hook writes
+/// is what the engine simulates. The Python sampler's `env` is a CPUMujocoEnv over them.
+class PythonTaskSampler : public datagen::TaskSampler {
+ public:
+  PythonTaskSampler(datagen::ExperimentConfig config, uint64_t seed, nb::object sampler);
+  ~PythonTaskSampler() override;
+
+  void PrepareEnv(datagen::Env& env) override;
+  /// The Python CPUMujocoEnv of the last PrepareEnv (None before).
+  nb::object python_env() const { return env_; }
+
+ protected:
+  void SampleAndPlaceRobot(datagen::Env& env, Rng& rng, datagen::TaskDraft& draft) override;
+
+ private:
+  std::string Who() const;
+
+  nb::object sampler_;
+  nb::object env_;
+};
+
+}  // namespace mlspaces::python

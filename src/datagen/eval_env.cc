@@ -1,0 +1,154 @@
+#include "mlspaces/datagen/eval_env.h"
+
+#include <cmath>
+#include <string>
+#include <utility>
+
+#include <mujoco/mujoco.h>
+
+#include "mlspaces/core/error.h"
+#include "mlspaces/datagen/action_noise.h"
+#include "mlspaces/sim/scene.h"
+
+namespace mlspaces::datagen {
+
+EvalEnv::EvalEnv(ExperimentConfig config, std::unique_ptr<TaskSampler> sampler,
+                 EvalEnvOptions options)
+    : config_(std::move(config)), sampler_(std::move(sampler)), options_(options) {
+  if (!sampler_) throw Error("EvalEnv: no task sampler");
+  const double ratio = config_.policy_dt_ms / config_.sim_dt_ms;
+  substeps_ = static_cast<int>(std::lround(ratio));
+  if (substeps_ < 1 || std::abs(ratio - substeps_) > 1e-9) {
+    throw Error("policy_dt_ms must be a whole multiple of sim_dt_ms", "", "policy_dt_ms");
+  }
+}
+
+EvalEnv::~EvalEnv() = default;
+
+const Env& EvalEnv::env() const {
+  if (!env_) throw Error("the evaluation env has no scene yet: call reset first");
+  return *env_;
+}
+
+const RobotView& EvalEnv::robot() const {
+  if (!robot_) throw Error("the evaluation env has no scene yet: call reset first");
+  return *robot_;
+}
+
+void EvalEnv::LoadHouse(int64_t house) {
+  const auto& scenes = config_.task_sampler_config.scene_xml_paths;
+  if (house < 0 || house >= static_cast<int64_t>(scenes.size())) {
+    throw Error("house index " + std::to_string(house) + " out of range: the config has " +
+                    std::to_string(scenes.size()) + " scene(s)",
+                "", "task_sampler_config.scene_xml_paths");
+  }
+  if (house != house_ || !env_) {
+    renderer_.reset();
+    cameras_.reset();
+    robot_.reset();
+    env_.reset();
+    house_ = -1;
+    const std::filesystem::path& xml = scenes[static_cast<size_t>(house)];
+    env_ = std::make_unique<Env>(Env::Create(sim::Scene::Load(xml),
+                                             RobotSpecFromConfig(config_.robot_config),
+                                             "house_" + std::to_string(house)));
+    sampler_->PrepareEnv(*env_);
+    if (std::abs(env_->model()->opt.timestep * 1000.0 - config_.sim_dt_ms) > 1e-9) {
+      throw Error("the scene's timestep is " +
+                      std::to_string(env_->model()->opt.timestep * 1000.0) +
+                      " ms but sim_dt_ms is " + std::to_string(config_.sim_dt_ms),
+                  xml.string(), "sim_dt_ms");
+    }
+    robot_ = std::make_unique<RobotView>(env_->model(), env_->robot());
+    if (options_.render && !config_.camera_config.cameras.empty()) {
+      // The GL context comes with the first Render (a process that only builds the env, e.g.
+      // the parent of forked vector-env workers, makes none).
+      cameras_ = std::make_unique<CameraSystem>(env_->model(), config_.camera_config);
+    }
+    house_ = house;
+    task_ = Task{};
+    task_.episode = -1;
+  }
+}
+
+void EvalEnv::Reset(uint64_t seed, int64_t house, int64_t episode) {
+  LoadHouse(house);
+  sampler_->set_run_seed(seed);
+  steps_ = 0;
+  task_ = sampler_->SampleTask(*env_, episode);
+  object_ = env_->BodyId(task_.pickup_obj_name);
+  // The same noise stream as the datagen rollout of this episode (episode_runner.cc).
+  noise_rng_ = Rng(DeriveSeed(task_.seed, {0x6e6f697365ULL}));  // "noise"
+  verdict_ =
+      EvaluatePickSuccess(env_->model(), env_->data(), object_, task_.pickup_obj_start_pose.pos[2],
+                          env_->robot().prefix, config_.task_config.succ_pos_threshold);
+}
+
+EvalStep EvalEnv::Step(std::span<const double> arm, double gripper) {
+  if (!started()) throw Error("step before reset: call reset first");
+  const RobotView& robot = *robot_;
+  if (arm.size() != robot.num_arm()) {
+    throw Error("the arm action has " + std::to_string(arm.size()) + " values, the robot " +
+                    std::to_string(robot.num_arm()) + " joints",
+                "", "arm");
+  }
+  if (!std::isfinite(gripper)) throw Error("the gripper action is not finite", "", "gripper");
+  const mjModel* m = env_->model();
+  mjData* d = env_->data();
+  const std::vector<double> q_now = robot.ArmQpos(d);
+  std::vector<double> q_cmd(arm.begin(), arm.end());
+  for (size_t i = 0; i < q_cmd.size(); ++i) {
+    if (!std::isfinite(q_cmd[i])) {
+      throw Error("arm action value " + std::to_string(i) + " is not finite", "", "arm");
+    }
+    if (config_.robot_config.command_mode.arm == ArmCommandMode::kJointRelPosition) {
+      q_cmd[i] += q_now[i];
+    }
+  }
+  const std::vector<double> jac = robot.ArmJacobian(d);
+  const std::vector<double> target =
+      NoisyArmTarget(q_cmd, q_now, jac, robot.arm_lower(), robot.arm_upper(),
+                     config_.robot_config.action_noise_config, noise_rng_);
+  robot.SetArmTargets(d, target);
+  robot.SetGripperCtrl(d, gripper);
+  robot.Step(d, substeps_);
+  mj_fwdPosition(m, d);
+  ++steps_;
+  verdict_ = EvaluatePickSuccess(m, d, object_, task_.pickup_obj_start_pose.pos[2],
+                                 env_->robot().prefix, config_.task_config.succ_pos_threshold);
+  EvalStep out;
+  out.verdict = verdict_;
+  out.truncated = steps_ >= config_.task_horizon;
+  return out;
+}
+
+std::vector<std::string> EvalEnv::camera_names() const {
+  std::vector<std::string> out;
+  if (cameras_) {
+    for (size_t i = 0; i < cameras_->size(); ++i) out.push_back(cameras_->name(i));
+  }
+  return out;
+}
+
+void EvalEnv::Render(size_t index, unsigned char* rgb) {
+  if (!cameras_) {
+    throw Error(env_ ? "rendering is off (no cameras configured, or render=false)"
+                     : "render before reset: call reset first");
+  }
+  if (!renderer_) {
+    sim::RenderOptions render;
+    render.width = cameras_->width();
+    render.height = cameras_->height();
+    render.backend = options_.gl_backend;
+    renderer_ = std::make_unique<sim::Renderer>(env_->model(), render);
+    renderer_->scene().flags[mjRND_SHADOW] = config_.camera_config.shadows ? 1 : 0;
+    renderer_->scene().flags[mjRND_REFLECTION] = config_.camera_config.reflections ? 1 : 0;
+  }
+  if (index >= cameras_->size()) {
+    throw Error("camera index " + std::to_string(index) + " out of range (" +
+                std::to_string(cameras_->size()) + " cameras)");
+  }
+  renderer_->Render(env_->data(), cameras_->View(index, env_->data()), rgb, nullptr);
+}
+
+}  // namespace mlspaces::datagen

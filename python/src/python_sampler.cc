@@ -91,24 +91,77 @@ void PythonTaskSampler::PrepareEnv(dg::Env& env) {
   env_ = sampler_.attr("_attach_env")(
       py_model, py_data, JsonToPython(env.metadata()), nb::str(env.scene_key().c_str()),
       nb::str(env.robot().prefix.c_str()), nb::str(env.robot_base_body().c_str()));
+  if (Overrides("init_scene")) sampler_.attr("init_scene")(env_);
+}
+
+bool PythonTaskSampler::Overrides(const char* hook) const {
+  nb::object base =
+      nb::module_::import_("mlspaces.tasks.pick_task_sampler").attr("PickTaskSampler");
+  nb::object mine = nb::getattr(sampler_.type(), hook, nb::none());
+  return !mine.is(nb::getattr(base, hook, nb::none()));
+}
+
+nb::object PythonTaskSampler::CallHook(const char* hook, const nb::tuple& args,
+                                       bool value_error_rejects) {
+  try {
+    nb::object fn = sampler_.attr(hook);
+    PyObject* result = PyObject_CallObject(fn.ptr(), args.ptr());
+    if (result == nullptr) throw nb::python_error();
+    return nb::steal(result);
+  } catch (nb::python_error& e) {
+    if (e.matches(nb::module_::import_("mlspaces.errors").attr("RobotPlacementError")) ||
+        (value_error_rejects && e.matches(PyExc_ValueError))) {
+      throw dg::TaskRejected(Who(hook) + ": " + std::string(e.what()));
+    }
+    throw;
+  }
+}
+
+void PythonTaskSampler::RandomizeScene(dg::Env& env, Rng& rng) {
+  {
+    nb::gil_scoped_acquire gil;
+    if (Overrides("randomize_scene")) {
+      // The Python RNGs are seeded for this hook too; PickTaskSampler.randomize_scene (what a
+      // subclass's super() call reaches) runs the engine's default through _engine_randomize.
+      sampler_.attr("_begin_episode")(rng.NextU64(), nb::none());
+      sampler_.attr("_engine_randomize") = nb::cpp_function([this, &env, &rng] {
+        nb::gil_scoped_release no_gil;
+        TaskSampler::RandomizeScene(env, rng);
+      });
+      nb::object robot_view = env_.attr("current_robot").attr("robot_view");
+      try {
+        CallHook("randomize_scene", nb::make_tuple(env_, robot_view));
+      } catch (...) {
+        sampler_.attr("_engine_randomize") = nb::none();
+        throw;
+      }
+      sampler_.attr("_engine_randomize") = nb::none();
+      return;
+    }
+  }
+  TaskSampler::RandomizeScene(env, rng);
+}
+
+std::string PythonTaskSampler::SelectPickupObject(dg::Env& env, Rng& rng) {
+  std::string name = TaskSampler::SelectPickupObject(env, rng);
+  nb::gil_scoped_acquire gil;
+  if (name.empty() || !Overrides("_on_candidate_selected")) return name;
+  nb::object ok =
+      CallHook("_on_candidate_selected", nb::make_tuple(env_, name, env.BodyId(name), -1), true);
+  if (!nb::cast<bool>(ok))
+    throw dg::TaskRejected(Who("_on_candidate_selected") + " declined " + name);
+  return name;
 }
 
 void PythonTaskSampler::SampleAndPlaceRobot(dg::Env& env, Rng& rng, dg::TaskDraft& draft) {
   (void)env;
   nb::gil_scoped_acquire gil;
-  const std::string who = Who();
+  const std::string who = Who("_sample_and_place_robot");
   // Per-episode seeds for random, np.random and the sampler's generator, from the
   // episode's Rng: the same run seed and episode give the same draws, whatever the worker.
   const uint64_t seed = rng.NextU64();
   sampler_.attr("_begin_episode")(seed, nb::str(draft.pickup_obj_name->c_str()));
-  try {
-    sampler_.attr("_sample_and_place_robot")(env_);
-  } catch (nb::python_error& e) {
-    if (e.matches(nb::module_::import_("mlspaces.errors").attr("RobotPlacementError"))) {
-      throw dg::TaskRejected(who + ": " + std::string(e.what()));
-    }
-    throw;
-  }
+  CallHook("_sample_and_place_robot", nb::make_tuple(env_));
   nb::object task_config = sampler_.attr("config").attr("task_config");
   nb::object name = task_config.attr("pickup_obj_name");
   if (!name.is_none()) draft.pickup_obj_name = nb::cast<std::string>(name);
@@ -117,7 +170,7 @@ void PythonTaskSampler::SampleAndPlaceRobot(dg::Env& env, Rng& rng, dg::TaskDraf
   draft.pickup_obj_goal_pose = PoseField(task_config, "pickup_obj_goal_pose", who);
 }
 
-std::string PythonTaskSampler::Who() const {
+std::string PythonTaskSampler::Who(const char* hook) const {
   nb::object name = nb::steal(
       PyObject_GetAttrString(reinterpret_cast<PyObject*>(Py_TYPE(sampler_.ptr())), "__qualname__"));
   const char* text = name.is_valid() ? PyUnicode_AsUTF8(name.ptr()) : nullptr;
@@ -125,7 +178,7 @@ std::string PythonTaskSampler::Who() const {
     PyErr_Clear();
     text = "PickTaskSampler";
   }
-  return std::string(text) + "._sample_and_place_robot";
+  return std::string(text) + "." + hook;
 }
 
 }  // namespace mlspaces::python

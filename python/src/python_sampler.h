@@ -27,10 +27,19 @@ class PythonTaskSampler : public datagen::TaskSampler {
   nb::object python_env() const { return env_; }
 
  protected:
+  void RandomizeScene(datagen::Env& env, Rng& rng) override;
+  std::string SelectPickupObject(datagen::Env& env, Rng& rng) override;
   void SampleAndPlaceRobot(datagen::Env& env, Rng& rng, datagen::TaskDraft& draft) override;
 
  private:
-  std::string Who() const;
+  /// "<class qualname>.<hook>" for messages.
+  std::string Who(const char* hook) const;
+  /// Whether the Python class overrides PickTaskSampler's `hook` (else the engine's default
+  /// runs without entering Python).
+  bool Overrides(const char* hook) const;
+  /// Calls `hook` with `args`, turning RobotPlacementError (and, for
+  /// _on_candidate_selected, ValueError) into TaskRejected.
+  nb::object CallHook(const char* hook, const nb::tuple& args, bool value_error_rejects = false);
 
   nb::object sampler_;
   nb::object env_;

@@ -166,10 +166,13 @@ def test_python_sampler_same_seed_same_bytes_and_engine_sees_its_writes(librarie
                                calls1[0], atol=1e-12)
 
 
-def test_workers_give_the_same_bytes(libraries, project):
+def test_workers_and_shards_give_the_same_bytes(libraries, project):
     run_config(FastConfig(), output_dir=project / "one", workers=1, progress=False)
     run_config(FastConfig(), output_dir=project / "two", workers=2, progress=False)
     assert _tree_digest(project / "one") == _tree_digest(project / "two")
+    for shard in ("0/2", "1/2"):
+        run_config(FastConfig(), output_dir=project / "sharded", shard=shard, progress=False)
+    assert _tree_digest(project / "one") == _tree_digest(project / "sharded")
 
 
 def test_ctrl_c_stops_cleanly_and_the_run_resumes_to_the_same_bytes(libraries, project):
@@ -242,3 +245,46 @@ def test_config_objects_are_pydantic_with_the_original_defaults():
     assert mlspaces._core.resolve_config_yaml(json.dumps(native), "py", ".", False) == \
         mlspaces._core.resolve_config_yaml(mlspaces._core.default_config_yaml(), "cpp", ".",
                                            False)
+
+
+class HookSampler(RecordingSampler):
+    """Overrides the other hooks: randomize_scene (calling super()), _on_candidate_selected
+    (declining the first candidate) and init_scene."""
+
+    seen: list = []
+
+    def init_scene(self, env):
+        type(self).seen.append(("init", env.current_model_path))
+
+    def randomize_scene(self, env, robot_view):
+        super().randomize_scene(env, robot_view)  # the engine's reset and arm noise
+        model, data = env.current_model, env.current_data
+        adr = model.jnt_qposadr[model.joint("robot_0/fr3_joint1").id]
+        data.qpos[adr] = 0.25  # seen by the engine: recorded as the first arm joint
+        type(self).seen.append(("randomize", float(np.random.uniform())))
+
+    def _on_candidate_selected(self, env, reference_obj_name, reference_obj_id,
+                               supporting_geom_id):
+        type(self).seen.append(("candidate", reference_obj_name))
+        return sum(1 for s in type(self).seen if s[0] == "candidate") > 1
+
+
+def test_other_hooks_run_with_super_and_rejections(libraries, project):
+    cfg = FastConfig()
+    cfg.task_sampler_config.task_sampler_class = HookSampler
+    cfg.task_sampler_config.samples_per_house = 1
+    HookSampler.seen = []
+    report = run_config(cfg, output_dir=project / "hooks", progress=False)
+    kinds = [s[0] for s in HookSampler.seen]
+    assert kinds[0] == "init" and HookSampler.seen[0][1] == "house_0"
+    assert kinds.count("candidate") == 2 and kinds.count("randomize") == 2
+    journal = [json.loads(line)["outcome"] for line in
+               (project / "hooks" / "journal.jsonl").read_text().splitlines()]
+    assert journal[0] == "sampler_reject" and report["episodes_kept"] == 1
+    with h5py.File(project / "hooks" / "house_0" / "trajectories_batch_1_of_1.h5", "r") as f:
+        q0 = json.loads(bytes(f["traj_0"]["obs/agent/qpos"][0]).rstrip(b"\0"))["arm"][0]
+    assert abs(q0 - 0.25) < 1e-6
+    first = HookSampler.seen
+    HookSampler.seen = []
+    run_config(cfg, output_dir=project / "hooks2", progress=False)
+    assert HookSampler.seen == first  # the hook's np.random draws are seeded per episode

@@ -42,6 +42,7 @@ class BaseMujocoTaskSampler:
         self.config = config
         self._task_config_preset = config.task_config.model_copy(deep=True)
         self.env: CPUMujocoEnv | None = None
+        self._engine_randomize = None
         seed = getattr(config, "seed", None)
         self.rng = np.random.default_rng(seed)
         if seed is not None:
@@ -65,11 +66,32 @@ class BaseMujocoTaskSampler:
         self.env = CPUMujocoEnv(model, data, scene_metadata, model_path, namespace, base_body)
         return self.env
 
-    def _begin_episode(self, seed: int, pickup_obj_name: str) -> None:
+    def _begin_episode(self, seed: int, pickup_obj_name: str | None) -> None:
         self.seed_task_sampling(seed)
         task_config = self._task_config_preset.model_copy(deep=True)
-        task_config.pickup_obj_name = pickup_obj_name
+        if pickup_obj_name is not None:
+            task_config.pickup_obj_name = pickup_obj_name
         self.config.task_config = task_config
+
+    # -- hooks a subclass may override (the engine calls the default ones without Python) -
+
+    def init_scene(self, env: CPUMujocoEnv) -> None:
+        """Called once when a scene is loaded, after ``self.env`` is set."""
+
+    def randomize_scene(self, env: CPUMujocoEnv, robot_view: Any) -> None:
+        """The engine's per-episode reset: ``mj_resetData``, the robot's home pose with the
+        configured joint noise, the objects at their compiled poses. An override that calls
+        ``super().randomize_scene(env, robot_view)`` runs it, then adds its own changes."""
+        engine = getattr(self, "_engine_randomize", None)
+        if engine is None:
+            raise RuntimeError("randomize_scene runs inside the engine's episode loop only")
+        engine()
+
+    def _on_candidate_selected(self, env: CPUMujocoEnv, reference_obj_name: str,
+                               reference_obj_id: int, supporting_geom_id: int) -> bool:
+        """Whether to use the chosen pickup object; False (or a ValueError) skips the
+        episode (journaled as a sampler rejection)."""
+        return True
 
 
 class PickTaskSampler(BaseMujocoTaskSampler):

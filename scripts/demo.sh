@@ -4,7 +4,7 @@
 # validate them, look the red block's asset, metadata and grasps up, publish the library as a
 # package and install the red block from it (file:// remote), then generate pick
 # demonstrations with camera videos from the tutorial's datagen config, validate the dataset
-# and load it with h5py.
+# and load it with h5py; then run the tutorial's datagen.py with `python -m mlspaces.datagen`.
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 "$ROOT/scripts/install-deps.sh"
@@ -49,7 +49,12 @@ for k in sorted(f):
     print(k, "steps", t["success"].shape[0], "success", bool(t["success"][-1]),
           "lift %.3f m" % t["rewards"][-1], "videos", videos)
 PY
+# The same tutorial step as MolmoSpaces users run it: datagen.py (the seed tutorial's code,
+# imports renamed to mlspaces) through the Python package the build made (build/python).
+PYTHONPATH="$ROOT/build/python" "$PY" -m mlspaces.datagen datagen:CustomAssetsDataGenConfig \
+  --output python_output --seed 0 -q
+"$ML" validate-dataset python_output
 set +x
 echo
-echo "Pick demonstrations: $OUT/experiment_output"
+echo "Pick demonstrations: $OUT/experiment_output (CLI) and $OUT/python_output (datagen.py)"
 echo "  house_0/trajectories_batch_1_of_1.h5 (h5py), house_0/episode_*.mp4, journal.jsonl, summary.txt"

@@ -38,6 +38,7 @@ from ._registry import (Registry, default_registry, get_grasp_libraries_for_obje
                         has_valid_pickup_grasps, install_uid, load_joint_grasps,
                         load_pickup_grasps, locate_uid_package, register_user_asset_library,
                         register_user_grasp_library)
+from .reader import read_dataset  # noqa: E402
 from .utils.grasps import flip_grasps  # noqa: E402
 from .utils.object_metadata import ObjectMeta  # noqa: E402
 from .utils.pose import pos_quat_to_pose_mat, pose_mat_to_7d, pose_mat_to_pos_quat  # noqa: E402
@@ -49,5 +50,6 @@ __all__ = [
     "get_scene_metadata", "has_joint_grasp_path", "has_pickup_grasp_path",
     "has_valid_joint_grasps", "has_valid_pickup_grasps", "install_uid", "load_joint_grasps",
     "load_pickup_grasps", "locate_uid_package", "pos_quat_to_pose_mat", "pose_mat_to_7d",
-    "pose_mat_to_pos_quat", "register_user_asset_library", "register_user_grasp_library",
+    "pose_mat_to_pos_quat", "read_dataset", "register_user_asset_library",
+    "register_user_grasp_library",
 ]

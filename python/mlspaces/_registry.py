@@ -40,6 +40,28 @@ BUILTIN_OBJECT_SOURCES = ("objathor_metadata", "objaverse", "thor")
 BUILTIN_OBJECT_TO_GRASP_LIBRARIES = {"thor": ["droid"], "objaverse": ["droid_objaverse"]}
 
 
+def _getrandbits():
+    """The getrandbits the engine draws grasp rows with: the global `random`'s, which
+    random.sample uses (the engine reproduces random.sample's algorithm of CPython 3.10-3.14
+    exactly; tests/test_library.py checks it against random.sample)."""
+    return random.getrandbits
+
+
+_MISSING = object()
+_copy_tree = _core.copy_tree
+
+
+def _freeze_arrays(tree: Any) -> None:
+    if isinstance(tree, dict):
+        for value in tree.values():
+            _freeze_arrays(value)
+    elif isinstance(tree, list):
+        for value in tree:
+            _freeze_arrays(value)
+    elif hasattr(tree, "flags"):
+        tree.flags.writeable = False
+
+
 def _libraries_arg(grasp_libraries: Sequence[str] | None) -> list[str] | None:
     if grasp_libraries is None:
         return None
@@ -65,6 +87,7 @@ class Registry:
         self.object_library_to_grasp_libraries: dict[str, list[str]] = {
             k: list(v) for k, v in BUILTIN_OBJECT_TO_GRASP_LIBRARIES.items()}
         self._locate: dict[str, tuple[Any, Any, Any]] = {}
+        self._annotations: dict[str, Any] = {}
         #: (root_name, path, object_library) of each grasp library registration, in order.
         self.grasp_library_roots: list[tuple[str, Path, str]] = []
 
@@ -77,6 +100,7 @@ class Registry:
         self._r.register_asset_library(name, os.fspath(path))
         self.user_asset_libraries[name] = Path(path).absolute()
         self._locate.clear()
+        self._annotations.clear()
 
     def register_user_grasp_library(self, root_name: str, path: str | os.PathLike[str],
                                     object_library: str) -> None:
@@ -132,8 +156,14 @@ class Registry:
 
     def annotation(self, uid: str) -> dict[str, Any] | None:
         """The metadata of a UID as a new dict (NPZ arrays inserted as numpy arrays of their
-        stored dtype and shape), or ``None`` for an unknown UID."""
-        return self._r.annotation(uid)
+        stored dtype and shape, shared between calls and read-only), or ``None`` for an
+        unknown UID."""
+        template = self._annotations.get(uid, _MISSING)
+        if template is _MISSING:
+            template = self._r.annotation(uid)
+            _freeze_arrays(template)
+            self._annotations[uid] = template
+        return None if template is None else _copy_tree(template)
 
     def all_uids(self) -> list[str]:
         """The UIDs of the user libraries (registration order, each library sorted)."""
@@ -179,7 +209,7 @@ class Registry:
         Python's ``random.sample`` (as MolmoSpaces draws them). Raises ``ValueError`` when
         there is no grasp file."""
         return self._r.load_grasps(uid, "", _libraries_arg(grasp_libraries), num_grasps,
-                                   random.sample)
+                                   _getrandbits())
 
     def load_joint_grasps(self, uid: str, joint_name: str,
                           grasp_libraries: Sequence[str] | None = None,
@@ -187,7 +217,7 @@ class Registry:
         """As :meth:`load_pickup_grasps`, for the grasps of one joint (in the frame of the
         joint's body)."""
         return self._r.load_grasps(uid, joint_name, _libraries_arg(grasp_libraries),
-                                   num_grasps, random.sample)
+                                   num_grasps, _getrandbits())
 
 
 _default: Registry | None = None

@@ -1,9 +1,12 @@
 // The library layer: Registry (libraries, UID lookup, annotations, grasps) and scene metadata.
 // mlspaces/_registry.py wraps it with MolmoSpaces' names, argument forms and caching.
+#include <bit>
+#include <cmath>
 #include <cstdint>
 #include <filesystem>
 #include <optional>
 #include <string>
+#include <unordered_set>
 #include <utility>
 #include <vector>
 
@@ -30,6 +33,94 @@ GraspQuery Query(std::string uid, std::string joint, std::optional<std::vector<s
   q.joint = std::move(joint);
   if (libs) q.libraries = std::move(*libs);
   return q;
+}
+
+/// random.sample(range(n), k) as CPython 3.10-3.14 computes it (Lib/random.py: the pool
+/// branch for small populations, the set branch otherwise; _randbelow_with_getrandbits),
+/// drawing from `getrandbits` (random.getrandbits of the user's `random`), so the rows and the
+/// generator's state afterwards are the same as Python's. The Python side checks the version.
+std::vector<size_t> PythonRandomSample(size_t n, size_t k, const nb::object& getrandbits) {
+  if (k > n) throw Error("sample larger than population or is negative");
+  auto randbelow = [&](size_t m) -> size_t {
+    const int bits = std::bit_width(m);
+    nb::object bits_obj = nb::int_(bits);
+    while (true) {
+      nb::object value = getrandbits(bits_obj);
+      const size_t r = nb::cast<size_t>(value);
+      if (r < m) return r;
+    }
+  };
+  std::vector<size_t> out(k);
+  size_t setsize = 21;
+  if (k > 5) {
+    setsize += static_cast<size_t>(
+        std::pow(4.0, std::ceil(std::log(static_cast<double>(k * 3)) / std::log(4.0))));
+  }
+  if (n <= setsize) {
+    std::vector<size_t> pool(n);
+    for (size_t i = 0; i < n; ++i) pool[i] = i;
+    for (size_t i = 0; i < k; ++i) {
+      const size_t j = randbelow(n - i);
+      out[i] = pool[j];
+      pool[j] = pool[n - i - 1];
+    }
+  } else {
+    std::unordered_set<size_t> selected;
+    selected.reserve(2 * k);
+    for (size_t i = 0; i < k; ++i) {
+      size_t j = randbelow(n);
+      while (selected.count(j) != 0) j = randbelow(n);
+      selected.insert(j);
+      out[i] = j;
+    }
+  }
+  return out;
+}
+
+/// A new tree of dicts and lists over the same leaves (str, numbers, arrays): what
+/// Registry.annotation returns from its cached template, so every call gets its own dicts.
+PyObject* CopyTree(PyObject* node) {
+  if (PyDict_CheckExact(node)) {
+    // PyDict_Copy clones the table in one go; then only the nested containers are replaced.
+    PyObject* out = PyDict_Copy(node);
+    if (out == nullptr) return nullptr;
+    PyObject *key = nullptr, *value = nullptr;
+    Py_ssize_t pos = 0;
+    while (PyDict_Next(node, &pos, &key, &value)) {
+      if (!PyDict_CheckExact(value) && !PyList_CheckExact(value)) continue;
+      PyObject* copy = CopyTree(value);
+      if (copy == nullptr || PyDict_SetItem(out, key, copy) != 0) {
+        Py_XDECREF(copy);
+        Py_DECREF(out);
+        return nullptr;
+      }
+      Py_DECREF(copy);
+    }
+    return out;
+  }
+  if (PyList_CheckExact(node)) {
+    const Py_ssize_t n = PyList_GET_SIZE(node);
+    PyObject* out = PyList_New(n);
+    if (out == nullptr) return nullptr;
+    for (Py_ssize_t i = 0; i < n; ++i) {
+      PyObject* item = PyList_GET_ITEM(node, i);
+      PyObject* copy = nullptr;
+      if (PyDict_CheckExact(item) || PyList_CheckExact(item)) {
+        copy = CopyTree(item);
+        if (copy == nullptr) {
+          Py_DECREF(out);
+          return nullptr;
+        }
+      } else {
+        Py_INCREF(item);
+        copy = item;
+      }
+      PyList_SET_ITEM(out, i, copy);
+    }
+    return out;
+  }
+  Py_INCREF(node);
+  return node;
 }
 
 }  // namespace
@@ -117,27 +208,31 @@ void BindLibrary(nb::module_& m) {
           },
           nb::arg("uid"), nb::arg("joint") = "", nb::arg("num_grasps") = 1,
           nb::arg("libraries") = nb::none())
-      // load_grasps(uid, joint, libraries, num_grasps, sample): when the file holds more than
-      // num_grasps rows, sample(range(n), num_grasps) picks them (random.sample); a fresh
-      // float64 (N,4,4) array.
+      // load_grasps(uid, joint, libraries, num_grasps, getrandbits): when the file holds
+      // more than num_grasps rows, they are drawn as CPython's random.sample(range(n), k) draws
+      // them, from `getrandbits` (random.getrandbits: the same Mersenne Twister stream, so the
+      // same rows as MolmoSpaces for the same seed); a fresh float64 (N,4,4) array.
       .def(
           "load_grasps",
           [](const Registry& r, std::string uid, std::string joint,
-             std::optional<std::vector<std::string>> libs, int64_t num_grasps, nb::object sample) {
+             std::optional<std::vector<std::string>> libs, int64_t num_grasps,
+             nb::object getrandbits) {
             const GraspQuery q = Query(std::move(uid), std::move(joint), std::move(libs));
             const size_t k = num_grasps < 0 ? 0 : static_cast<size_t>(num_grasps);
             GraspSet set = r.LoadGrasps(q, [&](size_t n) -> std::optional<std::vector<size_t>> {
               if (n <= k) return std::nullopt;
-              nb::object rows =
-                  sample(nb::steal(PyObject_CallFunction(reinterpret_cast<PyObject*>(&PyRange_Type),
-                                                         "n", static_cast<Py_ssize_t>(n))),
-                         k);
-              return nb::cast<std::vector<size_t>>(rows);
+              return PythonRandomSample(n, k, getrandbits);
             });
             return PosesToNumpy(std::move(set.poses));
           },
           nb::arg("uid"), nb::arg("joint"), nb::arg("libraries").none(), nb::arg("num_grasps"),
-          nb::arg("sample"))
+          nb::arg("getrandbits"))
+      .def_static(
+          "_random_sample",
+          [](size_t n, size_t k, nb::object getrandbits) {
+            return PythonRandomSample(n, k, getrandbits);
+          },
+          nb::arg("n"), nb::arg("k"), nb::arg("getrandbits"))
       .def(
           "count_grasps",
           [](const Registry& r, std::string uid, std::string joint,
@@ -149,6 +244,15 @@ void BindLibrary(nb::module_& m) {
             return CountGraspFileRows(loc->path);
           },
           nb::arg("uid"), nb::arg("joint") = "", nb::arg("libraries") = nb::none());
+
+  m.def(
+      "copy_tree",
+      [](nb::handle tree) {
+        PyObject* out = CopyTree(tree.ptr());
+        if (out == nullptr) throw nb::python_error();
+        return nb::steal(out);
+      },
+      nb::arg("tree"));
 
   // Scene metadata.
   m.def(

@@ -86,6 +86,34 @@ def test_subsampling_draws_with_python_random_as_the_original(tmp_path):
     assert random.getstate() == state
 
 
+def test_engine_sampling_is_pythons_random_sample_draw_for_draw():
+    """The engine draws grasp rows as CPython's random.sample (both of its branches) from
+    random.getrandbits: the same rows and the same generator state afterwards."""
+    from mlspaces import _core
+    for n, k in ((2, 1), (10, 3), (21, 6), (30, 6), (100, 10), (1000, 50), (1000, 999),
+                 (5000, 1), (7, 7)):
+        for seed in (0, 1, 12345):
+            random.seed(seed)
+            want = random.sample(range(n), k)
+            after = random.getrandbits(64)
+            random.seed(seed)
+            got = _core.Registry._random_sample(n, k, random.getrandbits)
+            assert got == want, (n, k, seed)
+            assert random.getrandbits(64) == after
+
+
+def test_a_rewritten_grasp_file_is_read_again(tmp_path):
+    lib = write_library(tmp_path / "lib", {"a": 3})
+    reg = Registry()
+    reg.register_user_asset_library("mine", lib)
+    reg.register_user_grasp_library("g", lib, "mine")
+    first = reg.load_pickup_grasps("a")
+    np.testing.assert_array_equal(first, reg.load_pickup_grasps("a"))  # cached decode
+    new = random_poses(5, 99)
+    np.savez(lib / "a" / "droid" / "grasps.npz", transforms=new)
+    np.testing.assert_array_equal(reg.load_pickup_grasps("a"), new)
+
+
 def test_grasp_library_priority_newest_first_robots_sorted(tmp_path):
     lib_a = write_library(tmp_path / "a", {"x": 2}, robots=("zeta", "alpha"))
     lib_b = write_library(tmp_path / "b", {"x": 3}, robots=("droid",))

@@ -22,6 +22,7 @@
 #include <utility>
 
 #include "annotation_internal.h"
+#include "grasp_cache.h"
 #include "mlspaces/core/error.h"
 #include "mlspaces/core/files.h"
 #include "mlspaces/library/grasp_index.h"
@@ -82,6 +83,8 @@ std::string QuotedList(const std::vector<std::string>& names) {
 // ---------------------------------------------------------------------------------------------
 
 struct Registry::Impl {
+  /// Decoded grasp files (LoadGrasps), reused while a file is unchanged.
+  GraspFileCache grasp_cache;
   /// One user asset library and its uid -> entry map.
   struct UserAssetLibrary {
     UserAssetLibrary() = default;
@@ -813,7 +816,29 @@ GraspSet Registry::LoadGrasps(const GraspQuery& query, const GraspRowChooser& ch
     const PackedLibrary& lib = *impl_->grasp_libraries.find(loc->library)->second->packed;
     return LoadPackedGrasps(lib, *loc->packed, loc->path, choose);
   }
-  return LoadGraspFile(loc->path, choose);
+  // A decoded file is cached while it is unchanged (grasp_cache.h); the rows are copied out.
+  const std::shared_ptr<const GraspSet> all = impl_->grasp_cache.Get(loc->path);
+  const size_t n = all->poses.size();
+  std::optional<std::vector<size_t>> rows = choose(n);
+  GraspSet out;
+  out.source = all->source;
+  out.stored_dtype = all->stored_dtype;
+  if (!rows) {
+    out.poses = all->poses;
+    out.indices = all->indices;
+    return out;
+  }
+  out.poses.reserve(rows->size());
+  for (size_t r : *rows) {
+    if (r >= n) {
+      throw Error(
+          "grasp row " + std::to_string(r) + " out of range (file has " + std::to_string(n) + ")",
+          loc->path.string(), "transforms.npy");
+    }
+    out.poses.push_back(all->poses[r]);
+  }
+  out.indices = std::move(*rows);
+  return out;
 }
 
 }  // namespace mlspaces

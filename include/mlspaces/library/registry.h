@@ -203,7 +203,9 @@ class MLSPACES_API Registry {
   /// A grasp file exists and holds at least `num_grasps` grasps (reads the NPZ header only).
   /// False when there is no file. @throws Error for a corrupt file.
   bool HasValidGrasps(const GraspQuery& query, size_t num_grasps = 1) const;
-  /// Loads grasps. If the file has N <= num_grasps rows, all of them in file order; else
+  /// Loads grasps. A decoded NPZ is kept (up to 256 MB of poses, least recently used out) and
+  /// reused while the file is unchanged (one stat per call: device, inode, size, mtime,
+  /// ctime). If the file has N <= num_grasps rows, all of them in file order; else
   /// num_grasps distinct rows drawn with Rng(seed) by a partial Fisher-Yates shuffle, in
   /// draw order (SubsampleIndices; docs/formats.md). @throws Error "No grasp file found for
   /// <uid>" (pickup) or "No joint grasp file found for <uid>/<joint>", or for a bad file

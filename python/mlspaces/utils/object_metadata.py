@@ -9,6 +9,7 @@ from typing import Any
 
 import numpy as np
 
+from .. import _registry
 from .._registry import default_registry
 from ..errors import MlspacesKeyError
 
@@ -45,9 +46,11 @@ class ObjectMeta:
     @staticmethod
     def annotation(asset_ids: str | list[str] | None = None):
         """``None``: the whole mapping; a UID: its dict or ``None``; a list: a list of those."""
+        reg = _registry._default or default_registry()
+        if type(asset_ids) is str:  # the hot path: one UID
+            return reg.annotation(asset_ids)
         if asset_ids is None:
             return _Annotations()
-        reg = default_registry()
         if isinstance(asset_ids, str):
             return reg.annotation(asset_ids)
         return [reg.annotation(uid) for uid in asset_ids]

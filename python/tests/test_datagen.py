@@ -257,9 +257,13 @@ class HookSampler(RecordingSampler):
         type(self).seen.append(("init", env.current_model_path))
 
     def randomize_scene(self, env, robot_view):
-        super().randomize_scene(env, robot_view)  # the engine's reset and arm noise
         model, data = env.current_model, env.current_data
         adr = model.jnt_qposadr[model.joint("robot_0/fr3_joint1").id]
+        data.qpos[adr] = 99.0
+        super().randomize_scene(env, robot_view)  # the engine's reset and arm noise
+        # What the engine wrote in C++ is what Python reads: the reset replaced the 99.
+        assert abs(data.qpos[adr]) < 3.0
+        type(self).kept = (model, data)
         data.qpos[adr] = 0.25  # seen by the engine: recorded as the first arm joint
         type(self).seen.append(("randomize", float(np.random.uniform())))
 
@@ -284,6 +288,10 @@ def test_other_hooks_run_with_super_and_rejections(libraries, project):
     with h5py.File(project / "hooks" / "house_0" / "trajectories_batch_1_of_1.h5", "r") as f:
         q0 = json.loads(bytes(f["traj_0"]["obs/agent/qpos"][0]).rstrip(b"\0"))["arm"][0]
     assert abs(q0 - 0.25) < 1e-6
+    # The model and data a hook held stay valid after the run (Python owns them).
+    model, data = HookSampler.kept
+    mujoco.mj_forward(model, data)
+    assert data.qpos.shape == (model.nq,) and np.isfinite(data.xpos).all()
     first = HookSampler.seen
     HookSampler.seen = []
     run_config(cfg, output_dir=project / "hooks2", progress=False)

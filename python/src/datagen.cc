@@ -184,7 +184,7 @@ void BindDatagen(nb::module_& m) {
         out["batch_files"] = files;
         return out;
       },
-      nb::arg("text"), nb::arg("origin"), nb::arg("base_dir"), nb::arg("sampler"),
+      nb::arg("text"), nb::arg("origin"), nb::arg("base_dir"), nb::arg("sampler").none(),
       nb::arg("resume") = false, nb::arg("shard") = "", nb::arg("workers") = 0,
       nb::arg("progress") = true, nb::arg("log_level") = "info", nb::arg("gl") = "osmesa");
 }

@@ -3,6 +3,7 @@
 #include <bit>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <filesystem>
 #include <optional>
 #include <string>
@@ -41,12 +42,29 @@ GraspQuery Query(std::string uid, std::string joint, std::optional<std::vector<s
 /// generator's state afterwards are the same as Python's. The Python side checks the version.
 std::vector<size_t> PythonRandomSample(size_t n, size_t k, const nb::object& getrandbits) {
   if (k > n) throw Error("sample larger than population or is negative");
+  if (n > (size_t{1} << 32)) throw Error("more than 2^32 grasps in one file");
+  // Random words in batches: getrandbits(32 * m) is m successive 32-bit outputs of the
+  // generator, the first in the lowest bits, and getrandbits(b <= 32) is one output shifted
+  // right by 32 - b; so a batch gives exactly the draws of m calls. A batch asks for as many
+  // words as picks are still missing (each needs at least one draw), so it never takes more
+  // from the generator than random.sample would.
+  std::vector<uint32_t> words;
+  size_t next = 0;
+  auto refill = [&](size_t m) {
+    nb::object value = getrandbits(nb::int_(32 * m));
+    nb::object bytes = value.attr("to_bytes")(4 * m, "little");
+    const char* data = PyBytes_AsString(bytes.ptr());
+    if (data == nullptr) throw nb::python_error();
+    words.resize(m);
+    std::memcpy(words.data(), data, 4 * m);
+    next = 0;
+  };
+  size_t picked = 0;
   auto randbelow = [&](size_t m) -> size_t {
     const int bits = std::bit_width(m);
-    nb::object bits_obj = nb::int_(bits);
     while (true) {
-      nb::object value = getrandbits(bits_obj);
-      const size_t r = nb::cast<size_t>(value);
+      if (next == words.size()) refill(k - picked);
+      const size_t r = words[next++] >> (32 - bits);
       if (r < m) return r;
     }
   };
@@ -59,19 +77,19 @@ std::vector<size_t> PythonRandomSample(size_t n, size_t k, const nb::object& get
   if (n <= setsize) {
     std::vector<size_t> pool(n);
     for (size_t i = 0; i < n; ++i) pool[i] = i;
-    for (size_t i = 0; i < k; ++i) {
-      const size_t j = randbelow(n - i);
-      out[i] = pool[j];
-      pool[j] = pool[n - i - 1];
+    for (; picked < k; ++picked) {
+      const size_t j = randbelow(n - picked);
+      out[picked] = pool[j];
+      pool[j] = pool[n - picked - 1];
     }
   } else {
     std::unordered_set<size_t> selected;
     selected.reserve(2 * k);
-    for (size_t i = 0; i < k; ++i) {
+    for (; picked < k; ++picked) {
       size_t j = randbelow(n);
       while (selected.count(j) != 0) j = randbelow(n);
       selected.insert(j);
-      out[i] = j;
+      out[picked] = j;
     }
   }
   return out;

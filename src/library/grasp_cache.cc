@@ -15,6 +15,17 @@ std::shared_ptr<const GraspSet> GraspFileCache::Get(const std::filesystem::path&
   if (::stat(path.c_str(), &st) != 0) {
     throw Error(std::string("cannot read the grasp file: ") + std::strerror(errno), path.string());
   }
+  return Load(path, st);
+}
+
+std::shared_ptr<const GraspSet> GraspFileCache::TryGet(const std::filesystem::path& path) {
+  struct stat st {};
+  if (::stat(path.c_str(), &st) != 0 || !S_ISREG(st.st_mode)) return nullptr;
+  return Load(path, st);
+}
+
+std::shared_ptr<const GraspSet> GraspFileCache::Load(const std::filesystem::path& path,
+                                                     const struct stat& st) {
   const Stamp stamp{st.st_dev, st.st_ino, st.st_size,
                     st.st_mtim.tv_sec * 1000000000LL + st.st_mtim.tv_nsec,
                     st.st_ctim.tv_sec * 1000000000LL + st.st_ctim.tv_nsec};

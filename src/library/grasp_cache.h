@@ -5,6 +5,7 @@
 // least recently used first out. Thread-safe.
 #pragma once
 
+#include <sys/stat.h>
 #include <sys/types.h>
 
 #include <cstddef>
@@ -26,6 +27,8 @@ class GraspFileCache {
   /// Every grasp of the NPZ at `path` (ReadGraspFile), from the cache when the file is
   /// unchanged. @throws Error as ReadGraspFile, or when the file cannot be stat'ed.
   std::shared_ptr<const GraspSet> Get(const std::filesystem::path& path);
+  /// As Get, but nullptr when there is no regular file at `path` (one stat either way).
+  std::shared_ptr<const GraspSet> TryGet(const std::filesystem::path& path);
 
  private:
   struct Stamp {
@@ -35,6 +38,8 @@ class GraspFileCache {
     long long mtime_ns = 0, ctime_ns = 0;
     bool operator==(const Stamp&) const = default;
   };
+  std::shared_ptr<const GraspSet> Load(const std::filesystem::path& path, const struct stat& st);
+
   struct Entry {
     Stamp stamp;
     std::shared_ptr<const GraspSet> grasps;

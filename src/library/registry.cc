@@ -753,19 +753,24 @@ std::vector<std::string> Registry::GraspLibrariesFor(std::string_view uid,
   return impl_->Walk(uid, filter);
 }
 
-std::optional<GraspFileLocation> Registry::FindGraspFile(const GraspQuery& query) const {
-  const Impl& impl = *impl_;
+namespace {
+
+/// FindGraspFile's walk; `usable` says whether a candidate NPZ is there (IsFile, or a load
+/// through the grasp-file cache, which needs one stat for both).
+template <class Impl, class Usable>
+std::optional<GraspFileLocation> FindGraspFileIn(const Impl& impl, const GraspQuery& query,
+                                                 const Usable& usable) {
   const std::string_view uid = query.uid;
   const GraspLibraryFilter filter = query.libraries;
   if (query.joint.empty()) {
     for (const std::string& name : impl.Walk(uid, filter)) {
-      const Impl::GraspLibrary& lib = *impl.grasp_libraries.find(name)->second;
+      const auto& lib = *impl.grasp_libraries.find(name)->second;
       if (lib.packed != nullptr) {
         if (auto loc = impl.PackedCandidate(lib, uid, "")) return loc;
         continue;
       }
       std::optional<fs::path> candidate = impl.PickupCandidate(lib, uid);
-      if (candidate && IsFile(*candidate)) return GraspFileLocation{name, *candidate, {}};
+      if (candidate && usable(*candidate)) return GraspFileLocation{name, *candidate, {}};
     }
     return std::nullopt;
   }
@@ -776,15 +781,21 @@ std::optional<GraspFileLocation> Registry::FindGraspFile(const GraspQuery& query
     walk = {filter[0]};  // UID in no asset library (iTHOR articulated objects): ask directly
   }
   for (const std::string& name : walk) {
-    const Impl::GraspLibrary& lib = *impl.grasp_libraries.find(name)->second;
+    const auto& lib = *impl.grasp_libraries.find(name)->second;
     if (lib.packed != nullptr) {
       if (auto loc = impl.PackedCandidate(lib, uid, query.joint)) return loc;
       continue;
     }
     std::optional<fs::path> candidate = impl.JointCandidate(lib, uid, query.joint);
-    if (candidate && IsFile(*candidate)) return GraspFileLocation{name, *candidate, {}};
+    if (candidate && usable(*candidate)) return GraspFileLocation{name, *candidate, {}};
   }
   return std::nullopt;
+}
+
+}  // namespace
+
+std::optional<GraspFileLocation> Registry::FindGraspFile(const GraspQuery& query) const {
+  return FindGraspFileIn(*impl_, query, [](const fs::path& p) { return IsFile(p); });
 }
 
 std::optional<fs::path> Registry::GraspPath(const GraspQuery& query) const {
@@ -805,7 +816,13 @@ GraspSet Registry::LoadGrasps(const GraspQuery& query, size_t num_grasps, uint64
 }
 
 GraspSet Registry::LoadGrasps(const GraspQuery& query, const GraspRowChooser& choose) const {
-  std::optional<GraspFileLocation> loc = FindGraspFile(query);
+  // One stat per NPZ candidate: the cache's (a missing file is not usable, a present one is
+  // decoded or reused while unchanged).
+  std::shared_ptr<const GraspSet> all;
+  std::optional<GraspFileLocation> loc = FindGraspFileIn(*impl_, query, [&](const fs::path& p) {
+    all = impl_->grasp_cache.TryGet(p);
+    return all != nullptr;
+  });
   if (!loc) {
     throw Error(query.joint.empty()
                     ? "No grasp file found for " + query.uid
@@ -816,8 +833,7 @@ GraspSet Registry::LoadGrasps(const GraspQuery& query, const GraspRowChooser& ch
     const PackedLibrary& lib = *impl_->grasp_libraries.find(loc->library)->second->packed;
     return LoadPackedGrasps(lib, *loc->packed, loc->path, choose);
   }
-  // A decoded file is cached while it is unchanged (grasp_cache.h); the rows are copied out.
-  const std::shared_ptr<const GraspSet> all = impl_->grasp_cache.Get(loc->path);
+  // The decoded file (grasp_cache.h); the rows are copied out.
   const size_t n = all->poses.size();
   std::optional<std::vector<size_t>> rows = choose(n);
   GraspSet out;

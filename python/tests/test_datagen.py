@@ -296,3 +296,13 @@ def test_other_hooks_run_with_super_and_rejections(libraries, project):
     HookSampler.seen = []
     run_config(cfg, output_dir=project / "hooks2", progress=False)
     assert HookSampler.seen == first  # the hook's np.random draws are seeded per episode
+
+
+def test_an_engine_sampler_by_name_runs_from_python(libraries, project):
+    cfg = FastConfig()
+    cfg.task_sampler_config.task_sampler_class = "block_pickup"
+    report = run_config(cfg, output_dir=project / "builtin", progress=False)
+    assert report["episodes_kept"] == 3
+    with pytest.raises(ValueError, match="task_sampler_class"):
+        cfg.task_sampler_config.task_sampler_class = "no_such_sampler"
+        run_config(cfg, output_dir=project / "unknown", progress=False)

@@ -51,8 +51,9 @@ std::vector<size_t> PythonRandomSample(size_t n, size_t k, const nb::object& get
   std::vector<uint32_t> words;
   size_t next = 0;
   auto refill = [&](size_t m) {
+    static nb::handle little = nb::str("little").release();
     nb::object value = getrandbits(nb::int_(32 * m));
-    nb::object bytes = value.attr("to_bytes")(4 * m, "little");
+    nb::object bytes = value.attr("to_bytes")(4 * m, little);
     const char* data = PyBytes_AsString(bytes.ptr());
     if (data == nullptr) throw nb::python_error();
     words.resize(m);
@@ -83,12 +84,19 @@ std::vector<size_t> PythonRandomSample(size_t n, size_t k, const nb::object& get
       pool[j] = pool[n - picked - 1];
     }
   } else {
+    // CPython keeps the picks in a set; membership is all that matters, so a bitmap does
+    // for populations up to 2^24 (a grasp file), a hash set beyond.
+    std::vector<bool> bitmap(n <= (size_t{1} << 24) ? n : 0);
     std::unordered_set<size_t> selected;
-    selected.reserve(2 * k);
+    auto taken = [&](size_t j) { return bitmap.empty() ? selected.count(j) != 0 : bitmap[j]; };
     for (; picked < k; ++picked) {
       size_t j = randbelow(n);
-      while (selected.count(j) != 0) j = randbelow(n);
-      selected.insert(j);
+      while (taken(j)) j = randbelow(n);
+      if (bitmap.empty()) {
+        selected.insert(j);
+      } else {
+        bitmap[j] = true;
+      }
       out[picked] = j;
     }
   }

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import json
 import os
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -83,3 +85,28 @@ def write_library(root: Path, uids: dict[str, int], robots=("droid",), npz_meta:
     (root / "grasps_index.json").write_text(json.dumps(
         {"articulated_grasp_paths": joint_paths, "grasp_paths": grasp_paths}, indent=4))
     return root
+
+
+def run_datagen_module(project: Path, spec: str, *args: str) -> subprocess.CompletedProcess:
+    """`python -m mlspaces.datagen SPEC --output run --seed 0 -q ARGS` in `project`, without
+    a configured install dir of built-in data."""
+    env = dict(os.environ)
+    env.pop("MLSPACES_ASSETS_DIR", None)
+    return subprocess.run(
+        [sys.executable, "-m", "mlspaces.datagen", spec, "--output", "run", "--seed", "0", "-q",
+         *args], cwd=project, env=env, capture_output=True, text=True)
+
+
+def jitter_robot_base(env, task_config, noise: float = 0.05) -> None:
+    """A sampler hook's first half: the robot base moved by U(-noise, noise) in x and y
+    (np.random), kinematics refreshed, robot_base_pose set."""
+    import mujoco
+    import numpy as np
+
+    from mlspaces.utils.pose import pose_mat_to_7d
+    base = env.current_robot.robot_view.base
+    pose = base.pose
+    pose[:2, 3] += np.random.uniform(-noise, noise, size=2)
+    base.pose = pose
+    mujoco.mj_fwdPosition(env.current_model, env.current_data)
+    task_config.robot_base_pose = pose_mat_to_7d(base.pose).tolist()

@@ -26,7 +26,7 @@ from mlspaces.env import CPUMujocoEnv, create_mlspaces_body
 from mlspaces.tasks import PickTaskSampler, RobotPlacementError
 from mlspaces.utils.pose import pose_mat_to_7d
 
-from conftest import EXAMPLE_DIR
+from conftest import EXAMPLE_DIR, jitter_robot_base, run_datagen_module
 
 CLI = os.environ.get("MLSPACES_CLI_PATH")
 
@@ -55,12 +55,7 @@ def project(tmp_path, monkeypatch) -> Path:
 
 
 def test_tutorial_datagen_py_runs_as_written(project):
-    env = dict(os.environ)
-    env.pop("MLSPACES_ASSETS_DIR", None)
-    out = subprocess.run(
-        [sys.executable, "-m", "mlspaces.datagen", "datagen:CustomAssetsDataGenConfig",
-         "--output", "run", "--seed", "0", "-q"],
-        cwd=project, env=env, capture_output=True, text=True)
+    out = run_datagen_module(project, "datagen:CustomAssetsDataGenConfig")
     assert out.returncode == 0, out.stderr
     assert "Success count: 2, Total count: 2" in out.stdout
     h5 = project / "run" / "house_0" / "trajectories_batch_1_of_1.h5"
@@ -76,7 +71,7 @@ def test_tutorial_datagen_py_runs_as_written(project):
     # The mirrored entry point runs the same way.
     again = subprocess.run(
         [sys.executable, "-m", "mlspaces.data_generation.main", "--help"], cwd=project,
-        env=env, capture_output=True, text=True)
+        capture_output=True, text=True)
     assert again.returncode == 0 and "CONFIG" in again.stdout
 
 
@@ -99,12 +94,7 @@ class RecordingSampler(PickTaskSampler):
         assert isinstance(env.current_model, mujoco.MjModel)
         assert isinstance(env.current_data, mujoco.MjData)
         task_cfg = self.config.task_config
-        base = env.current_robot.robot_view.base
-        pose = base.pose
-        pose[:2, 3] += np.random.uniform(-0.05, 0.05, size=2)
-        base.pose = pose
-        mujoco.mj_fwdPosition(env.current_model, env.current_data)
-        task_cfg.robot_base_pose = pose_mat_to_7d(base.pose).tolist()
+        jitter_robot_base(env, task_cfg)
         body = env.current_model.body(task_cfg.pickup_obj_name)
         adr = env.current_model.jnt_qposadr[env.current_model.body_jntadr[body.id]]
         env.current_data.qpos[adr] += random.uniform(-0.02, 0.02)

@@ -26,21 +26,15 @@ from mlspaces.tasks import PickTaskSampler
 from mlspaces.tasks.gym_env import GymEnv, env_id_for_config, register_configs
 from mlspaces.utils.pose import pose_mat_to_7d
 
-from conftest import EXAMPLE_DIR
+from conftest import EXAMPLE_DIR, jitter_robot_base
 
 
 class TinySampler(PickTaskSampler):
     """The tutorial's hook (np.random draws, writes through the body views)."""
 
     def _sample_and_place_robot(self, env) -> None:
-        import mujoco
         task_cfg = self.config.task_config
-        base = env.current_robot.robot_view.base
-        pose = base.pose
-        pose[:2, 3] += np.random.uniform(-0.05, 0.05, size=2)
-        base.pose = pose
-        mujoco.mj_fwdPosition(env.current_model, env.current_data)
-        task_cfg.robot_base_pose = pose_mat_to_7d(base.pose).tolist()
+        jitter_robot_base(env, task_cfg)
         obj = create_mlspaces_body(env.current_data, task_cfg.pickup_obj_name)
         start = pose_mat_to_7d(obj.pose)
         task_cfg.pickup_obj_start_pose = start.tolist()

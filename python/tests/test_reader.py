@@ -20,7 +20,7 @@ from mlspaces import _core
 from mlspaces.errors import MlspacesError
 from mlspaces.reader import CameraFrames, Dataset, Episode, read_dataset
 
-from conftest import EXAMPLE_DIR
+from conftest import EXAMPLE_DIR, run_datagen_module
 
 WIDTH, HEIGHT = 96, 64  # multiples of 16: the videos hold exactly this size
 CAMERAS = ["exo_camera_1", "wrist_camera"]
@@ -49,12 +49,7 @@ def run_folder(tmp_path_factory) -> Path:
     project = tmp_path_factory.mktemp("reader") / "custom_assets"
     shutil.copytree(EXAMPLE_DIR, project, ignore=shutil.ignore_patterns("experiment_output"))
     (project / "small_reader_config.py").write_text(SMALL_CONFIG)
-    env = dict(os.environ)
-    env.pop("MLSPACES_ASSETS_DIR", None)
-    out = subprocess.run(
-        [sys.executable, "-m", "mlspaces.datagen", "small_reader_config:SmallReaderConfig",
-         "--output", "run", "--seed", "0", "-q"],
-        cwd=project, env=env, capture_output=True, text=True)
+    out = run_datagen_module(project, "small_reader_config:SmallReaderConfig")
     assert out.returncode == 0, out.stderr
     assert "Success count: 2, Total count: 2" in out.stdout
     return project / "run"

@@ -238,3 +238,56 @@ def test_flip_and_world_grasps():
         mlspaces.flip_grasps(np.zeros((2, 3, 4)))
     with pytest.raises(ValueError, match="None"):
         mlspaces.flip_grasps(None)
+
+
+def test_world_frame_pickup_and_joint_grasps(tmp_path):
+    """get_pickup_grasps / get_joint_grasps on a real MuJoCo model and data: the object's
+    pose (or the joint body's, from the current kinematics) times the stored grasps, then the
+    flipped twins."""
+    import types
+
+    import mujoco
+
+    from mlspaces.env import create_mlspaces_body
+    from mlspaces.utils.grasps import get_joint_grasps, get_pickup_grasps
+
+    lib = write_library(tmp_path / "lib", {"wcab": 2}, joints={"wcab": ["door"]})
+    mlspaces.register_user_asset_library("world_frame_lib", lib)
+    mlspaces.register_user_grasp_library("world_frame_grasps", lib, "world_frame_lib")
+    model = mujoco.MjModel.from_xml_string("""
+<mujoco><worldbody>
+  <body name="cab" pos="0.4 0.1 0.3" euler="0 0 30"><freejoint/>
+    <geom type="box" size="0.1 0.1 0.1"/>
+    <body name="door_body" pos="0.1 0 0"><joint name="cab_door" type="hinge" axis="0 0 1"/>
+      <geom type="box" size="0.01 0.1 0.1"/></body>
+  </body></worldbody></mujoco>""")
+    data = mujoco.MjData(model)
+    data.qpos[7] = 0.3  # open the door a little
+    mujoco.mj_forward(model, data)
+    env = types.SimpleNamespace(
+        current_model=model, current_data=data,
+        current_scene_metadata={"objects": {"cab": {
+            "asset_id": "wcab", "name_map": {"joints": {"cab_door": "door"}}}}})
+    body = create_mlspaces_body(data, "cab")
+    obj = types.SimpleNamespace(name="cab", pose=body.pose, joint_names=["cab_door"])
+    stored = np.load(lib / "wcab" / "droid" / "grasps.npz")["transforms"]
+    world = get_pickup_grasps(env, obj)
+    rz = np.diag([-1.0, -1.0, 1.0, 1.0])
+    np.testing.assert_allclose(world, np.concatenate([body.pose @ stored,
+                                                      body.pose @ stored @ rz]), atol=1e-12)
+    assert get_pickup_grasps(env, obj, include_flipped=False).shape == (2, 4, 4)
+
+    joint_stored = np.load(lib / "wcab" / "droid" / "joint_grasps_door.npz")["transforms"]
+    grasps, door_pose = get_joint_grasps(env, obj, 0, include_flipped=False)
+    want = np.eye(4)
+    want[:3, :3] = data.body("door_body").xmat.reshape(3, 3)
+    want[:3, 3] = data.body("door_body").xpos
+    np.testing.assert_allclose(door_pose, want, atol=1e-12)
+    np.testing.assert_allclose(grasps, want @ joint_stored, atol=1e-12)
+
+    env.current_scene_metadata = None
+    with pytest.raises(ValueError, match="No scene metadata"):
+        get_pickup_grasps(env, obj)
+    env.current_scene_metadata = {"objects": {}}
+    with pytest.raises(ValueError, match="not found in scene metadata"):
+        get_pickup_grasps(env, obj)

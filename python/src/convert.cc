@@ -34,15 +34,6 @@ nb::dlpack::dtype ToDlpack(DType dtype) {
   return nb::dtype<double>();
 }
 
-/// A numpy array over `bytes` (moved into the array's owner).
-nb::object OwnedArray(std::vector<uint8_t> bytes, const std::vector<size_t>& shape,
-                      nb::dlpack::dtype dtype) {
-  auto* owned = new std::vector<uint8_t>(std::move(bytes));
-  nb::capsule owner(owned, [](void* p) noexcept { delete static_cast<std::vector<uint8_t>*>(p); });
-  return nb::cast(
-      nb::ndarray<nb::numpy>(owned->data(), shape.size(), shape.data(), owner, nullptr, dtype));
-}
-
 }  // namespace
 
 nb::object JsonToPython(const Json& value) {
@@ -80,38 +71,12 @@ nb::object JsonToPython(const Json& value) {
   return nb::none();
 }
 
-Json PythonToJson(nb::handle value, const std::string& what) {
-  if (value.is_none()) return nullptr;
-  if (nb::isinstance<nb::bool_>(value)) return nb::cast<bool>(value);
-  if (nb::isinstance<nb::int_>(value)) return nb::cast<int64_t>(value);
-  if (nb::isinstance<nb::float_>(value)) {
-    const double v = nb::cast<double>(value);
-    if (!std::isfinite(v)) throw Error(what + ": non-finite number " + std::to_string(v));
-    return v;
-  }
-  if (nb::isinstance<nb::str>(value)) return nb::cast<std::string>(value);
-  if (nb::isinstance<nb::dict>(value)) {
-    Json out = Json::object();
-    for (auto [k, v] : nb::borrow<nb::dict>(value)) {
-      if (!nb::isinstance<nb::str>(k)) throw Error(what + ": dict keys must be str");
-      const std::string key = nb::cast<std::string>(k);
-      out[key] = PythonToJson(v, what + "/" + key);
-    }
-    return out;
-  }
-  if (nb::isinstance<nb::list>(value) || nb::isinstance<nb::tuple>(value)) {
-    Json out = Json::array();
-    size_t i = 0;
-    for (nb::handle item : value)
-      out.push_back(PythonToJson(item, what + "/" + std::to_string(i++)));
-    return out;
-  }
-  throw Error(what + ": cannot store a " + nb::cast<std::string>(value.type().attr("__name__")) +
-              " as JSON");
-}
-
 nb::object NpyToNumpy(const NpyArray& array) {
-  return OwnedArray(array.data, array.shape, ToDlpack(array.dtype));
+  // Any dtype: the byte buffer with the array's dtype (an owned copy of the annotation's).
+  auto* owned = new std::vector<uint8_t>(array.data);
+  nb::capsule owner(owned, [](void* p) noexcept { delete static_cast<std::vector<uint8_t>*>(p); });
+  return nb::cast(nb::ndarray<nb::numpy>(owned->data(), array.shape.size(), array.shape.data(),
+                                         owner, nullptr, ToDlpack(array.dtype)));
 }
 
 nb::object AnnotationToPython(const Annotation& annotation) {
@@ -143,18 +108,9 @@ nb::object AnnotationToPython(const Annotation& annotation) {
 }
 
 nb::object PosesToNumpy(std::vector<Mat4> poses) {
-  auto* owned = new std::vector<Mat4>(std::move(poses));
-  nb::capsule owner(owned, [](void* p) noexcept { delete static_cast<std::vector<Mat4>*>(p); });
   static_assert(sizeof(Mat4) == 16 * sizeof(double));
-  const size_t shape[3] = {owned->size(), 4, 4};
-  return nb::cast(nb::ndarray<nb::numpy, double>(owned->data(), 3, shape, owner));
-}
-
-nb::object Mat4ToNumpy(const Mat4& pose) {
-  auto* owned = new Mat4(pose);
-  nb::capsule owner(owned, [](void* p) noexcept { delete static_cast<Mat4*>(p); });
-  const size_t shape[2] = {4, 4};
-  return nb::cast(nb::ndarray<nb::numpy, double>(owned->m.data(), 2, shape, owner));
+  const size_t n = poses.size();
+  return OwnedNumpy<double>(std::move(poses), {n, 4, 4});
 }
 
 namespace {
@@ -191,7 +147,7 @@ nb::ndarray<double, nb::c_contig, nb::device::cpu> AsFloat64(nb::handle value,
     std::string want = "(";
     i = 0;
     for (long s : shape) want += (i++ ? ", " : "") + (s < 0 ? std::string("N") : std::to_string(s));
-    want += ")";
+    want += shape.size() == 1 ? ",)" : ")";
     throw Error(what + ": expected shape " + want + ", got " + got);
   }
   const double* data = array.data();
@@ -209,6 +165,11 @@ Mat4 Mat4FromPython(nb::handle value, const std::string& what) {
   Mat4 out;
   std::memcpy(out.m.data(), array.data(), sizeof(out.m));
   return out;
+}
+
+std::vector<double> DoublesFromPython(nb::handle value, size_t n, const std::string& what) {
+  auto array = AsFloat64(value, {static_cast<long>(n)}, what);
+  return std::vector<double>(array.data(), array.data() + n);
 }
 
 std::vector<Mat4> PosesFromPython(nb::handle value, const std::string& what) {

@@ -26,35 +26,15 @@ namespace {
 namespace dg = mlspaces::datagen;
 
 /// A fresh float64 vector array.
-nb::object Vector(const std::vector<double>& values) {
-  auto* owned = new std::vector<double>(values);
-  nb::capsule owner(owned, [](void* p) noexcept { delete static_cast<std::vector<double>*>(p); });
-  const size_t shape[1] = {owned->size()};
-  return nb::cast(nb::ndarray<nb::numpy, double>(owned->data(), 1, shape, owner));
+nb::object Vector(std::vector<double> values) {
+  const size_t n = values.size();
+  return OwnedNumpy<double>(std::move(values), {n});
 }
 
+/// [x, y, z, qw, qx, qy, qz] as a fresh array.
 nb::object PoseVector(const Pose& pose) {
-  return Vector({pose.pos[0], pose.pos[1], pose.pos[2], pose.quat[0], pose.quat[1], pose.quat[2],
-                 pose.quat[3]});
-}
-
-std::vector<double> ArmFrom(nb::handle value, size_t n) {
-  if (value.is_none())
-    throw Error("action 'arm': expected " + std::to_string(n) + " numbers, got None");
-  static nb::handle asarray =
-      nb::object(nb::module_::import_("numpy").attr("ascontiguousarray")).release();
-  nb::object converted;
-  try {
-    converted = nb::handle(asarray)(value, "float64");
-  } catch (nb::python_error& e) {
-    throw Error("action 'arm': not numeric (" + std::string(e.what()) + ")");
-  }
-  auto array = nb::cast<nb::ndarray<double, nb::c_contig, nb::device::cpu>>(converted);
-  if (array.size() != n || array.ndim() > 1) {
-    throw Error("action 'arm': expected " + std::to_string(n) + " values, got shape with " +
-                std::to_string(array.size()) + " values");
-  }
-  return std::vector<double>(array.data(), array.data() + n);
+  const Array7 a = ToArray7(pose);
+  return Vector(std::vector<double>(a.begin(), a.end()));
 }
 
 class PyEvalEnv {
@@ -85,7 +65,7 @@ class PyEvalEnv {
   }
 
   nb::dict Step(nb::handle arm, double gripper) {
-    const std::vector<double> q = ArmFrom(arm, env_->robot().num_arm());
+    const std::vector<double> q = DoublesFromPython(arm, env_->robot().num_arm(), "action 'arm'");
     dg::EvalStep step;
     {
       nb::gil_scoped_release no_gil;
@@ -126,17 +106,14 @@ class PyEvalEnv {
   }
 
   nb::object Render(size_t index) {
-    const size_t bytes = static_cast<size_t>(env_->image_width()) * env_->image_height() * 3;
-    auto* owned = new std::vector<uint8_t>(bytes);
-    nb::capsule owner(owned,
-                      [](void* p) noexcept { delete static_cast<std::vector<uint8_t>*>(p); });
+    const size_t height = static_cast<size_t>(env_->image_height());
+    const size_t width = static_cast<size_t>(env_->image_width());
+    std::vector<uint8_t> rgb(height * width * 3);
     {
       nb::gil_scoped_release no_gil;
-      env_->Render(index, owned->data());
+      env_->Render(index, rgb.data());
     }
-    const size_t shape[3] = {static_cast<size_t>(env_->image_height()),
-                             static_cast<size_t>(env_->image_width()), 3};
-    return nb::cast(nb::ndarray<nb::numpy, uint8_t>(owned->data(), 3, shape, owner));
+    return OwnedNumpy<uint8_t>(std::move(rgb), {height, width, 3});
   }
 
   nb::dict Task() const {

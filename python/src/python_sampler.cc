@@ -35,34 +35,25 @@ struct PyOwner {
   }
 };
 
+/// A 7-vector field of the task config set by a hook; nullopt when the hook left it None.
 std::optional<Pose> PoseField(nb::handle task_config, const char* name, const std::string& who) {
   nb::object value = task_config.attr(name);
   if (value.is_none()) return std::nullopt;
-  std::array<double, 7> v{};
-  try {
-    nb::object seq = nb::module_::import_("numpy").attr("asarray")(value, "float64");
-    auto array = nb::cast<nb::ndarray<double, nb::c_contig, nb::device::cpu>>(
-        nb::module_::import_("numpy").attr("ascontiguousarray")(seq));
-    if (array.ndim() != 1 || array.shape(0) != 7) throw std::runtime_error("shape");
-    for (size_t i = 0; i < 7; ++i) v[i] = array.data()[i];
-  } catch (const std::exception&) {
-    throw Error(who + " set task_config." + name +
-                " to something that is not 7 numbers (x, y, z, qw, qx, qy, qz)");
-  }
-  for (double x : v) {
-    if (!std::isfinite(x))
-      throw Error(who + " set task_config." + name + " with a non-finite value");
-  }
-  Pose pose;
-  pose.pos = {v[0], v[1], v[2]};
-  pose.quat = {v[3], v[4], v[5], v[6]};
-  return pose;
+  const std::vector<double> v = DoublesFromPython(
+      value, 7, who + " set task_config." + std::string(name) + " (x, y, z, qw, qx, qy, qz)");
+  Array7 a;
+  std::copy(v.begin(), v.end(), a.begin());
+  return FromArray7(a);
 }
 
 }  // namespace
 
 PythonTaskSampler::PythonTaskSampler(dg::ExperimentConfig config, uint64_t seed, nb::object sampler)
-    : TaskSampler(std::move(config), seed), sampler_(std::move(sampler)) {}
+    : TaskSampler(std::move(config), seed),
+      sampler_(std::move(sampler)),
+      overrides_init_scene_(Overrides(sampler_, "init_scene")),
+      overrides_randomize_scene_(Overrides(sampler_, "randomize_scene")),
+      overrides_on_candidate_selected_(Overrides(sampler_, "_on_candidate_selected")) {}
 
 PythonTaskSampler::~PythonTaskSampler() {
   if (!Py_IsInitialized()) {
@@ -91,13 +82,13 @@ void PythonTaskSampler::PrepareEnv(dg::Env& env) {
   env_ = sampler_.attr("_attach_env")(
       py_model, py_data, JsonToPython(env.metadata()), nb::str(env.scene_key().c_str()),
       nb::str(env.robot().prefix.c_str()), nb::str(env.robot_base_body().c_str()));
-  if (Overrides("init_scene")) sampler_.attr("init_scene")(env_);
+  if (overrides_init_scene_) sampler_.attr("init_scene")(env_);
 }
 
-bool PythonTaskSampler::Overrides(const char* hook) const {
+bool PythonTaskSampler::Overrides(nb::handle sampler, const char* hook) {
   nb::object base =
       nb::module_::import_("mlspaces.tasks.pick_task_sampler").attr("PickTaskSampler");
-  nb::object mine = nb::getattr(sampler_.type(), hook, nb::none());
+  nb::object mine = nb::getattr(sampler.type(), hook, nb::none());
   return !mine.is(nb::getattr(base, hook, nb::none()));
 }
 
@@ -120,7 +111,7 @@ nb::object PythonTaskSampler::CallHook(const char* hook, const nb::tuple& args,
 void PythonTaskSampler::RandomizeScene(dg::Env& env, Rng& rng) {
   {
     nb::gil_scoped_acquire gil;
-    if (Overrides("randomize_scene")) {
+    if (overrides_randomize_scene_) {
       // The Python RNGs are seeded for this hook too; PickTaskSampler.randomize_scene (what a
       // subclass's super() call reaches) runs the engine's default through _engine_randomize.
       sampler_.attr("_begin_episode")(rng.NextU64(), nb::none());
@@ -145,7 +136,7 @@ void PythonTaskSampler::RandomizeScene(dg::Env& env, Rng& rng) {
 std::string PythonTaskSampler::SelectPickupObject(dg::Env& env, Rng& rng) {
   std::string name = TaskSampler::SelectPickupObject(env, rng);
   nb::gil_scoped_acquire gil;
-  if (name.empty() || !Overrides("_on_candidate_selected")) return name;
+  if (name.empty() || !overrides_on_candidate_selected_) return name;
   nb::object ok =
       CallHook("_on_candidate_selected", nb::make_tuple(env_, name, env.BodyId(name), -1), true);
   if (!nb::cast<bool>(ok))

@@ -35,14 +35,17 @@ class PythonTaskSampler : public datagen::TaskSampler {
   /// "<class qualname>.<hook>" for messages.
   std::string Who(const char* hook) const;
   /// Whether the Python class overrides PickTaskSampler's `hook` (else the engine's default
-  /// runs without entering Python).
-  bool Overrides(const char* hook) const;
+  /// runs without entering Python). Looked up once, at construction.
+  static bool Overrides(nb::handle sampler, const char* hook);
   /// Calls `hook` with `args`, turning RobotPlacementError (and, for
   /// _on_candidate_selected, ValueError) into TaskRejected.
   nb::object CallHook(const char* hook, const nb::tuple& args, bool value_error_rejects = false);
 
   nb::object sampler_;
   nb::object env_;
+  bool overrides_init_scene_ = false;
+  bool overrides_randomize_scene_ = false;
+  bool overrides_on_candidate_selected_ = false;
 };
 
 }  // namespace mlspaces::python

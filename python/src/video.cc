@@ -14,6 +14,7 @@
 #include <nanobind/stl/string.h>
 
 #include "bindings.h"
+#include "convert.h"
 #include "mlspaces/core/error.h"
 #include "mlspaces/datagen/video.h"
 
@@ -54,16 +55,12 @@ DecodedVideo Decode(const std::filesystem::path& path) {
   return out;
 }
 
-using FramesArray = nb::ndarray<nb::numpy, uint8_t, nb::shape<-1, -1, -1, 3>, nb::c_contig>;
-
 /// The frames as a fresh uint8 (T,H,W,3) numpy array owning the bytes (the vector is moved
 /// into the array's owner, not copied).
-FramesArray FramesToNumpy(DecodedVideo video) {
-  const size_t shape[4] = {static_cast<size_t>(video.frames), static_cast<size_t>(video.height),
-                           static_cast<size_t>(video.width), 3};
-  auto* owned = new std::vector<uint8_t>(std::move(video.rgb));
-  nb::capsule owner(owned, [](void* p) noexcept { delete static_cast<std::vector<uint8_t>*>(p); });
-  return FramesArray(owned->data(), 4, shape, owner);
+nb::object FramesToNumpy(DecodedVideo video) {
+  return OwnedNumpy<uint8_t>(std::move(video.rgb),
+                             {static_cast<size_t>(video.frames), static_cast<size_t>(video.height),
+                              static_cast<size_t>(video.width), 3});
 }
 
 }  // namespace

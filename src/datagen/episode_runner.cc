@@ -11,7 +11,7 @@
 #include "mlspaces/core/progress.h"
 #include "mlspaces/core/se3.h"
 #include "mlspaces/core/version.h"
-#include "mlspaces/datagen/action_noise.h"
+#include "mlspaces/datagen/policy_step.h"
 #include "mlspaces/datagen/success.h"
 #include "mlspaces/library/scene_metadata.h"
 #include "mlspaces/sim/mj_pose.h"
@@ -98,17 +98,8 @@ EpisodeRunner::EpisodeRunner(Env& env, TaskSampler& sampler, const Registry& reg
       robot_(env.model(), env.robot()),
       planner_(env, robot_, config.policy_config, config.policy_dt_ms / 1000.0),
       impl_(std::make_unique<Impl>()) {
-  const double ratio = config.policy_dt_ms / config.sim_dt_ms;
-  substeps_ = static_cast<int>(std::lround(ratio));
-  if (substeps_ < 1 || std::abs(ratio - substeps_) > 1e-9) {
-    throw Error("policy_dt_ms must be a whole multiple of sim_dt_ms", "", "policy_dt_ms");
-  }
-  if (std::abs(env.model()->opt.timestep * 1000.0 - config.sim_dt_ms) > 1e-9) {
-    // The scene's own timestep rules the physics; say so instead of silently differing.
-    throw Error("the scene's timestep is " + std::to_string(env.model()->opt.timestep * 1000.0) +
-                    " ms but sim_dt_ms is " + std::to_string(config.sim_dt_ms),
-                env.scene_key(), "sim_dt_ms");
-  }
+  substeps_ = PolicySubsteps(config);
+  CheckSimTimestep(env.model(), config, env.scene_key());
   impl_->scratch = sim::MakeData(env.model());
   const TaskConfig& task = config.task_config;
   if (options_.record && !options_.video_dir.empty() && task.enable_rendering && task.use_sensors &&
@@ -394,7 +385,7 @@ void EpisodeRunner::Rollout(Episode& e) {
   const mjModel* m = env_.model();
   mjData* d = env_.data();
   AttemptRecord& attempt = e.attempt;
-  Rng noise_rng(DeriveSeed(attempt.seed, {0x6e6f697365ULL}));  // "noise"
+  Rng noise_rng = EpisodeNoiseRng(attempt.seed);
 
   // Cameras: one frame per observation; an exception drops the episode's videos.
   struct AbortVideos {
@@ -417,19 +408,13 @@ void EpisodeRunner::Rollout(Episode& e) {
     auto tp = Clock::now();
     const PlannerAction action = planner_.Act(d);
     // The controller: noisy arm targets (un-noised ones are recorded), gripper ctrl.
-    const std::vector<double> q_now = robot_.ArmQpos(d);
-    const std::vector<double> jac = robot_.ArmJacobian(d);
-    const std::vector<double> target = NoisyArmTarget(action.arm, q_now, jac, robot_.arm_lower(),
-                                                      robot_.arm_upper(), noise, noise_rng);
+    const std::vector<double> target =
+        ControllerArmTargets(robot_, d, action.arm, noise, noise_rng);
     t_policy += Since(tp);
     auto ts = Clock::now();
-    robot_.SetArmTargets(d, target);
-    robot_.SetGripperCtrl(d, action.gripper);
-    if (options_.on_step) options_.on_step(m, d, e.step);
-    robot_.Step(d, substeps_);
-    // Positions, contacts and Jacobians of the new state (what the success check, the
-    // recorder and the next action read); the next mj_step1 recomputes the rest.
-    mj_fwdPosition(m, d);
+    StepPhysics(robot_, m, d, target, action.gripper, substeps_, [&] {
+      if (options_.on_step) options_.on_step(m, d, e.step);
+    });
     t_physics += Since(ts);
     e.result.physics_steps += substeps_;
     ++e.step;

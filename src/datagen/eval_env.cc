@@ -7,7 +7,7 @@
 #include <mujoco/mujoco.h>
 
 #include "mlspaces/core/error.h"
-#include "mlspaces/datagen/action_noise.h"
+#include "mlspaces/datagen/policy_step.h"
 #include "mlspaces/sim/scene.h"
 
 namespace mlspaces::datagen {
@@ -16,11 +16,7 @@ EvalEnv::EvalEnv(ExperimentConfig config, std::unique_ptr<TaskSampler> sampler,
                  EvalEnvOptions options)
     : config_(std::move(config)), sampler_(std::move(sampler)), options_(options) {
   if (!sampler_) throw Error("EvalEnv: no task sampler");
-  const double ratio = config_.policy_dt_ms / config_.sim_dt_ms;
-  substeps_ = static_cast<int>(std::lround(ratio));
-  if (substeps_ < 1 || std::abs(ratio - substeps_) > 1e-9) {
-    throw Error("policy_dt_ms must be a whole multiple of sim_dt_ms", "", "policy_dt_ms");
-  }
+  substeps_ = PolicySubsteps(config_);
 }
 
 EvalEnv::~EvalEnv() = default;
@@ -53,12 +49,7 @@ void EvalEnv::LoadHouse(int64_t house) {
                                              RobotSpecFromConfig(config_.robot_config),
                                              "house_" + std::to_string(house)));
     sampler_->PrepareEnv(*env_);
-    if (std::abs(env_->model()->opt.timestep * 1000.0 - config_.sim_dt_ms) > 1e-9) {
-      throw Error("the scene's timestep is " +
-                      std::to_string(env_->model()->opt.timestep * 1000.0) +
-                      " ms but sim_dt_ms is " + std::to_string(config_.sim_dt_ms),
-                  xml.string(), "sim_dt_ms");
-    }
+    CheckSimTimestep(env_->model(), config_, xml.string());
     robot_ = std::make_unique<RobotView>(env_->model(), env_->robot());
     if (options_.render && !config_.camera_config.cameras.empty()) {
       // The GL context comes with the first Render (a process that only builds the env, e.g.
@@ -77,8 +68,8 @@ void EvalEnv::Reset(uint64_t seed, int64_t house, int64_t episode) {
   steps_ = 0;
   task_ = sampler_->SampleTask(*env_, episode);
   object_ = env_->BodyId(task_.pickup_obj_name);
-  // The same noise stream as the datagen rollout of this episode (episode_runner.cc).
-  noise_rng_ = Rng(DeriveSeed(task_.seed, {0x6e6f697365ULL}));  // "noise"
+  // The same noise stream as the datagen rollout of this episode.
+  noise_rng_ = EpisodeNoiseRng(task_.seed);
   verdict_ =
       EvaluatePickSuccess(env_->model(), env_->data(), object_, task_.pickup_obj_start_pose.pos[2],
                           env_->robot().prefix, config_.task_config.succ_pos_threshold);
@@ -105,14 +96,9 @@ EvalStep EvalEnv::Step(std::span<const double> arm, double gripper) {
       q_cmd[i] += q_now[i];
     }
   }
-  const std::vector<double> jac = robot.ArmJacobian(d);
   const std::vector<double> target =
-      NoisyArmTarget(q_cmd, q_now, jac, robot.arm_lower(), robot.arm_upper(),
-                     config_.robot_config.action_noise_config, noise_rng_);
-  robot.SetArmTargets(d, target);
-  robot.SetGripperCtrl(d, gripper);
-  robot.Step(d, substeps_);
-  mj_fwdPosition(m, d);
+      ControllerArmTargets(robot, d, q_cmd, config_.robot_config.action_noise_config, noise_rng_);
+  StepPhysics(robot, m, d, target, gripper, substeps_);
   ++steps_;
   verdict_ = EvaluatePickSuccess(m, d, object_, task_.pickup_obj_start_pose.pos[2],
                                  env_->robot().prefix, config_.task_config.succ_pos_threshold);

@@ -106,6 +106,26 @@ size_t CountGraspFileRows(const fs::path& npz) {
   return ReadGraspHeader(reader).shape[0];
 }
 
+GraspSet SelectGraspRows(const GraspSet& all, const GraspRowChooser& choose) {
+  const size_t n = all.poses.size();
+  std::optional<std::vector<size_t>> rows = choose(n);
+  if (!rows) return all;
+  GraspSet out;
+  out.source = all.source;
+  out.stored_dtype = all.stored_dtype;
+  out.poses.reserve(rows->size());
+  for (size_t r : *rows) {
+    if (r >= n) {
+      throw Error(
+          "grasp row " + std::to_string(r) + " out of range (file has " + std::to_string(n) + ")",
+          all.source.string(), std::string(kTransformsMember));
+    }
+    out.poses.push_back(all.poses[r]);
+  }
+  out.indices = std::move(*rows);
+  return out;
+}
+
 GraspRowChooser SeededRowChooser(size_t num_grasps, uint64_t seed) {
   return [num_grasps, seed](size_t n) -> std::optional<std::vector<size_t>> {
     if (n <= num_grasps) return std::nullopt;

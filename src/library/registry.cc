@@ -834,27 +834,7 @@ GraspSet Registry::LoadGrasps(const GraspQuery& query, const GraspRowChooser& ch
     return LoadPackedGrasps(lib, *loc->packed, loc->path, choose);
   }
   // The decoded file (grasp_cache.h); the rows are copied out.
-  const size_t n = all->poses.size();
-  std::optional<std::vector<size_t>> rows = choose(n);
-  GraspSet out;
-  out.source = all->source;
-  out.stored_dtype = all->stored_dtype;
-  if (!rows) {
-    out.poses = all->poses;
-    out.indices = all->indices;
-    return out;
-  }
-  out.poses.reserve(rows->size());
-  for (size_t r : *rows) {
-    if (r >= n) {
-      throw Error(
-          "grasp row " + std::to_string(r) + " out of range (file has " + std::to_string(n) + ")",
-          loc->path.string(), "transforms.npy");
-    }
-    out.poses.push_back(all->poses[r]);
-  }
-  out.indices = std::move(*rows);
-  return out;
+  return SelectGraspRows(*all, choose);
 }
 
 }  // namespace mlspaces

@@ -49,6 +49,10 @@ MLSPACES_API GraspSet LoadGraspFile(const std::filesystem::path& npz, size_t num
 /// binding draws them with Python's `random.sample`, as MolmoSpaces does.
 using GraspRowChooser = std::function<std::optional<std::vector<size_t>>(size_t n)>;
 
+/// The rows `choose` picks from a whole grasp set (ReadGraspFile's), copied in pick order;
+/// all of them when it picks nullopt. @throws Error naming the source for a row out of range.
+MLSPACES_API GraspSet SelectGraspRows(const GraspSet& all, const GraspRowChooser& choose);
+
 /// The chooser of LoadGraspFile(npz, num_grasps, seed): all rows when N <= num_grasps, else
 /// SubsampleIndices(N, num_grasps, seed).
 MLSPACES_API GraspRowChooser SeededRowChooser(size_t num_grasps, uint64_t seed);

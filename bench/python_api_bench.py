@@ -32,7 +32,7 @@ One run prints, as medians over several rounds of the per-call (or per-run) mean
        episodes kept per hour of an N-episode run, and without startup (from the difference
        between N- and 2-episode runs).
 3. With --splits: each layer of the three mlspaces calls timed on its own, estimates of the
-   per-call work of the proposed fixes, and a check of the random.sample port prototype.
+   per-call work of alternatives, and a check of the C++ random.sample port.
 
 Targets: locate and warm annotation < 1 us per call, load 50 grasps < 15 us; the Python sampler
 adds < 2 % to a physics-only episode; `python -m mlspaces.datagen` within 5 % of the CLI's
@@ -329,53 +329,6 @@ def lookup_worker(pkg: str, library: Path, rounds: int, round_s: float,
 # Layer splits of the mlspaces calls (--splits).
 
 
-def sample_range_from_words(n: int, k: int, getrandbits) -> list[int]:
-    """``random.sample(range(n), k)`` of CPython (Random.sample with
-    _randbelow_with_getrandbits), drawing the generator's 32-bit words with
-    ``getrandbits(32 * m)`` in batches of exactly as many words as are certainly still needed
-    (each _randbelow try consumes one word for n < 2**32; every remaining pick needs at least
-    one try), so the result and the generator's state afterwards are the original's. A
-    prototype of the proposed C++ port (the --splits check compares it with random.sample)."""
-    if not 0 <= k <= n:
-        raise ValueError("Sample larger than population or is negative")
-    from math import ceil, log
-    buf, left = 0, 0
-    result = [0] * k
-    setsize = 21
-    if k > 5:
-        setsize += 4 ** ceil(log(k * 3, 4))
-    if n <= setsize:
-        pool = list(range(n))
-        for i in range(k):
-            m = n - i
-            shift = 32 - m.bit_length()
-            while True:
-                if left == 0:
-                    buf, left = getrandbits(32 * (k - i)), k - i
-                r = (buf & 0xFFFFFFFF) >> shift
-                buf >>= 32
-                left -= 1
-                if r < m:
-                    break
-            result[i] = pool[r]
-            pool[r] = pool[n - i - 1]
-    else:
-        selected = set()
-        shift = 32 - n.bit_length()
-        for i in range(k):
-            while True:
-                if left == 0:
-                    buf, left = getrandbits(32 * (k - i)), k - i
-                r = (buf & 0xFFFFFFFF) >> shift
-                buf >>= 32
-                left -= 1
-                if r < n and r not in selected:
-                    break
-            selected.add(r)
-            result[i] = r
-    return result
-
-
 def splits_worker(library: Path, rounds: int, round_s: float) -> dict:
     """Per-layer costs of the three mlspaces calls: each layer timed on its own."""
     import random
@@ -499,8 +452,6 @@ def splits_worker(library: Path, rounds: int, round_s: float) -> dict:
             via_mmap),
         "estimate: open+fstat+pread(whole file)+close (no mmap)": same(via_pread),
         "estimate: random.getrandbits(32*50) (one batch of 50 words)": same(grb, 1600),
-        "prototype: sample_range_from_words(1000, 50) in Python (exact)": same(
-            sample_range_from_words, 1000, 50, grb),
         "estimate: dict.copy() of a cached annotation + its 2 nested dicts": same(copy3),
     })
     out = {k: _time(v, rounds, round_s) for k, v in steps.items()}
@@ -511,9 +462,10 @@ def splits_worker(library: Path, rounds: int, round_s: float) -> dict:
             random.seed(seed)
             a, a2 = random.sample(range(n), k), random.random()
             random.seed(seed)
-            b, b2 = sample_range_from_words(n, k, random.getrandbits), random.random()
+            b = mlspaces._core.Registry._random_sample(n, k, random.getrandbits)
+            b2 = random.random()
             bad += (a != b) or (a2 != b2)
-    out["_prototype_mismatches"] = bad
+    out["_port_mismatches"] = bad
     return out
 
 
@@ -914,10 +866,10 @@ def main() -> int:
             if args.splits:
                 sp = run_worker(sys.executable, ["--worker", "splits"] + worker_args)
                 say("Layer splits of the mlspaces calls (each layer timed alone), us per call")
-                bad = sp.pop("_prototype_mismatches")
+                bad = sp.pop("_port_mismatches")
                 for k, v in sp.items():
                     say(f"  {k:<78} {fmt_us(v['median_us'])}")
-                say(f"  prototype vs random.sample (same picks, same generator state after; "
+                say(f"  the C++ port vs random.sample (same picks, same generator state after; "
                     f"1,600 seeded cases): {'exact' if bad == 0 else f'{bad} MISMATCHES'}")
                 say()
 

@@ -12,6 +12,7 @@
 #include <mujoco/mujoco.h>
 #include <nanobind/ndarray.h>
 #include <nanobind/stl/string.h>
+#include <nanobind/stl/vector.h>
 
 #include "convert.h"
 #include "mlspaces/core/error.h"
@@ -49,11 +50,12 @@ std::optional<Pose> PoseField(nb::handle task_config, const char* name, const st
 }  // namespace
 
 PythonTaskSampler::PythonTaskSampler(dg::ExperimentConfig config, uint64_t seed, nb::object sampler)
-    : TaskSampler(std::move(config), seed),
+    : BlockPickupTaskSampler(std::move(config), seed),
       sampler_(std::move(sampler)),
       overrides_init_scene_(Overrides(sampler_, "init_scene")),
       overrides_randomize_scene_(Overrides(sampler_, "randomize_scene")),
-      overrides_on_candidate_selected_(Overrides(sampler_, "_on_candidate_selected")) {}
+      overrides_on_candidate_selected_(Overrides(sampler_, "_on_candidate_selected")),
+      overrides_place_(Overrides(sampler_, "_sample_and_place_robot")) {}
 
 PythonTaskSampler::~PythonTaskSampler() {
   if (!Py_IsInitialized()) {
@@ -108,6 +110,19 @@ nb::object PythonTaskSampler::CallHook(const char* hook, const nb::tuple& args,
   }
 }
 
+nb::object PythonTaskSampler::CallHookWithEngine(const char* hook, const nb::tuple& args,
+                                                 const char* engine_attr, nb::object engine) {
+  sampler_.attr(engine_attr) = std::move(engine);
+  try {
+    nb::object result = CallHook(hook, args);
+    sampler_.attr(engine_attr) = nb::none();
+    return result;
+  } catch (...) {
+    sampler_.attr(engine_attr) = nb::none();
+    throw;
+  }
+}
+
 void PythonTaskSampler::RandomizeScene(dg::Env& env, Rng& rng) {
   {
     nb::gil_scoped_acquire gil;
@@ -115,22 +130,16 @@ void PythonTaskSampler::RandomizeScene(dg::Env& env, Rng& rng) {
       // The Python RNGs are seeded for this hook too; PickTaskSampler.randomize_scene (what a
       // subclass's super() call reaches) runs the engine's default through _engine_randomize.
       sampler_.attr("_begin_episode")(rng.NextU64(), nb::none());
-      sampler_.attr("_engine_randomize") = nb::cpp_function([this, &env, &rng] {
-        nb::gil_scoped_release no_gil;
-        TaskSampler::RandomizeScene(env, rng);
-      });
       nb::object robot_view = env_.attr("current_robot").attr("robot_view");
-      try {
-        CallHook("randomize_scene", nb::make_tuple(env_, robot_view));
-      } catch (...) {
-        sampler_.attr("_engine_randomize") = nb::none();
-        throw;
-      }
-      sampler_.attr("_engine_randomize") = nb::none();
+      CallHookWithEngine("randomize_scene", nb::make_tuple(env_, robot_view), "_engine_randomize",
+                         nb::cpp_function([this, &env, &rng] {
+                           nb::gil_scoped_release no_gil;
+                           BlockPickupTaskSampler::RandomizeScene(env, rng);
+                         }));
       return;
     }
   }
-  TaskSampler::RandomizeScene(env, rng);
+  BlockPickupTaskSampler::RandomizeScene(env, rng);
 }
 
 std::string PythonTaskSampler::SelectPickupObject(dg::Env& env, Rng& rng) {
@@ -145,14 +154,34 @@ std::string PythonTaskSampler::SelectPickupObject(dg::Env& env, Rng& rng) {
 }
 
 void PythonTaskSampler::SampleAndPlaceRobot(dg::Env& env, Rng& rng, dg::TaskDraft& draft) {
-  (void)env;
+  // Not overridden: the engine's block_pickup placement, without entering Python (the same
+  // draws as task_sampler_class: block_pickup).
+  if (!overrides_place_) {
+    BlockPickupTaskSampler::SampleAndPlaceRobot(env, rng, draft);
+    return;
+  }
   nb::gil_scoped_acquire gil;
   const std::string who = Who("_sample_and_place_robot");
   // Per-episode seeds for random, np.random and the sampler's generator, from the
   // episode's Rng: the same run seed and episode give the same draws, whatever the worker.
   const uint64_t seed = rng.NextU64();
   sampler_.attr("_begin_episode")(seed, nb::str(draft.pickup_obj_name->c_str()));
-  CallHook("_sample_and_place_robot", nb::make_tuple(env_));
+  // PickTaskSampler._sample_and_place_robot (a super() call) runs the engine's placement
+  // through _engine_place, which returns the three poses it set.
+  CallHookWithEngine("_sample_and_place_robot", nb::make_tuple(env_), "_engine_place",
+                     nb::cpp_function([this, &env, &rng, &draft] {
+                       {
+                         nb::gil_scoped_release no_gil;
+                         BlockPickupTaskSampler::SampleAndPlaceRobot(env, rng, draft);
+                       }
+                       auto seven = [](const Pose& p) {
+                         const Array7 a = ToArray7(p);
+                         return std::vector<double>(a.begin(), a.end());
+                       };
+                       return nb::make_tuple(seven(*draft.robot_base_pose),
+                                             seven(*draft.pickup_obj_start_pose),
+                                             seven(*draft.pickup_obj_goal_pose));
+                     }));
   nb::object task_config = sampler_.attr("config").attr("task_config");
   nb::object name = task_config.attr("pickup_obj_name");
   if (!name.is_none()) draft.pickup_obj_name = nb::cast<std::string>(name);

@@ -12,12 +12,13 @@
 
 namespace mlspaces::python {
 
-/// The engine calls it with the GIL released; every hook takes the GIL for its call.
+/// The engine calls it with the GIL released; every hook takes the GIL for its call. A hook the
+/// Python class does not override is the engine's own (the built-in block_pickup sampler's).
 /// PrepareEnv shares the Env's model and data with Python: the model becomes a
 /// mujoco.MjModel (MjModel._from_model_ptr of a copy), the data a mujoco.MjData made for it,
 /// and the Env uses both from then on (Env::ShareModelAndData), so what the Python hook writes
 /// is what the engine simulates. The Python sampler's `env` is a CPUMujocoEnv over them.
-class PythonTaskSampler : public datagen::TaskSampler {
+class PythonTaskSampler : public datagen::BlockPickupTaskSampler {
  public:
   PythonTaskSampler(datagen::ExperimentConfig config, uint64_t seed, nb::object sampler);
   ~PythonTaskSampler() override;
@@ -40,12 +41,17 @@ class PythonTaskSampler : public datagen::TaskSampler {
   /// Calls `hook` with `args`, turning RobotPlacementError (and, for
   /// _on_candidate_selected, ValueError) into TaskRejected.
   nb::object CallHook(const char* hook, const nb::tuple& args, bool value_error_rejects = false);
+  /// CallHook with `engine` (the engine's default of the hook, which the Python base class's
+  /// method calls) set as the sampler's attribute `engine_attr` for the call's duration.
+  nb::object CallHookWithEngine(const char* hook, const nb::tuple& args, const char* engine_attr,
+                                nb::object engine);
 
   nb::object sampler_;
   nb::object env_;
   bool overrides_init_scene_ = false;
   bool overrides_randomize_scene_ = false;
   bool overrides_on_candidate_selected_ = false;
+  bool overrides_place_ = false;
 };
 
 }  // namespace mlspaces::python

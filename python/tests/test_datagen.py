@@ -296,3 +296,46 @@ def test_an_engine_sampler_by_name_runs_from_python(libraries, project):
     with pytest.raises(ValueError, match="task_sampler_class"):
         cfg.task_sampler_config.task_sampler_class = "no_such_sampler"
         run_config(cfg, output_dir=project / "unknown", progress=False)
+
+
+class DefaultPlacement(PickTaskSampler):
+    """Overrides no placement: the engine's block_pickup runs."""
+
+
+class NudgedPlacement(PickTaskSampler):
+    """super() places as block_pickup does; the override then raises the goal."""
+
+    def _sample_and_place_robot(self, env):
+        super()._sample_and_place_robot(env)
+        assert len(self.config.task_config.pickup_obj_start_pose) == 7
+        self.config.task_config.pickup_obj_goal_pose[2] += 0.01
+
+
+def _trajectories(folder: Path) -> list:
+    out = []
+    for h5 in sorted(folder.rglob("*.h5")):
+        with h5py.File(h5, "r") as f:
+            for traj in sorted(f):
+                out.append((np.asarray(f[traj]["obs/agent/qpos"][()]),
+                            np.asarray(f[traj]["actions/commanded_action"][()])))
+    return out
+
+
+def test_a_sampler_without_placement_runs_the_engines_block_pickup(libraries, project):
+    cfg = FastConfig()
+    cfg.task_sampler_config.task_sampler_class = "block_pickup"
+    run_config(cfg, output_dir=project / "builtin", progress=False)
+    cfg.task_sampler_config.task_sampler_class = DefaultPlacement
+    run_config(cfg, output_dir=project / "default", progress=False)
+    ours, theirs = _trajectories(project / "default"), _trajectories(project / "builtin")
+    assert len(ours) == len(theirs) == 3
+    for (q1, a1), (q2, a2) in zip(ours, theirs):
+        np.testing.assert_array_equal(q1, q2)
+        np.testing.assert_array_equal(a1, a2)
+    cfg.task_sampler_config.task_sampler_class = NudgedPlacement
+    report = run_config(cfg, output_dir=project / "nudged", progress=False)
+    assert report["episodes_kept"] == 3
+    with h5py.File(project / "nudged" / "house_0" / "trajectories_batch_1_of_2.h5", "r") as f:
+        scene = json.loads(f["traj_0"]["obs_scene"][()])["frozen_config"]
+    start, goal = scene["pickup_obj_start_pose"], scene["pickup_obj_goal_pose"]
+    assert abs(goal[2] - start[2] - 0.05 - 0.01) < 1e-9

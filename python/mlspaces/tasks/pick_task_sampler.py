@@ -19,19 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from ..env.data_views import create_mlspaces_body
 from ..env.env import CPUMujocoEnv
-from ..utils.pose import pose_mat_to_7d
-
-
-def _planar(rng: np.random.Generator, noise: dict[str, float]) -> np.ndarray:
-    x = rng.uniform(-noise["x"], noise["x"])
-    y = rng.uniform(-noise["y"], noise["y"])
-    yaw = np.deg2rad(rng.uniform(-noise["yaw_deg"], noise["yaw_deg"]))
-    out = np.eye(4)
-    out[:2, 3] = (x, y)
-    out[:2, :2] = [[np.cos(yaw), -np.sin(yaw)], [np.sin(yaw), np.cos(yaw)]]
-    return out
 
 
 class BaseMujocoTaskSampler:
@@ -43,6 +31,7 @@ class BaseMujocoTaskSampler:
         self._task_config_preset = config.task_config.model_copy(deep=True)
         self.env: CPUMujocoEnv | None = None
         self._engine_randomize = None
+        self._engine_place = None
         seed = getattr(config, "seed", None)
         self.rng = np.random.default_rng(seed)
         if seed is not None:
@@ -95,25 +84,22 @@ class BaseMujocoTaskSampler:
 
 
 class PickTaskSampler(BaseMujocoTaskSampler):
-    """The pick task sampler. Its default ``_sample_and_place_robot`` moves the robot base and
-    the object by ``task_sampler_config.robot_base_noise`` / ``object_noise`` (uniform x, y,
-    yaw, drawn from ``self.rng``) and sets the goal ``goal_offset_z`` above the start."""
+    """The pick task sampler. Its default ``_sample_and_place_robot`` is the engine's
+    ``block_pickup`` placement: the robot base and then the object move by
+    ``task_sampler_config.robot_base_noise`` / ``object_noise`` (uniform x, y, yaw from the
+    episode's engine generator), the goal ``goal_offset_z`` above the start, and the three poses
+    are set in ``self.config.task_config``. A subclass that does not override the hook runs it
+    in C++ without entering Python (the same episodes as ``task_sampler_class="block_pickup"``);
+    an override may call ``super()._sample_and_place_robot(env)`` and then adjust."""
 
     def _sample_and_place_robot(self, env: CPUMujocoEnv) -> None:
-        import mujoco
-        cfg = self.config.task_sampler_config
+        engine = getattr(self, "_engine_place", None)
+        if engine is None:
+            raise RuntimeError("_sample_and_place_robot runs inside the engine's episode loop "
+                               "only")
         task_cfg = self.config.task_config
-        base = env.current_robot.robot_view.base
-        base.pose = base.pose @ _planar(self.rng, cfg.robot_base_noise)
-        mujoco.mj_fwdPosition(env.current_model, env.current_data)
-        task_cfg.robot_base_pose = pose_mat_to_7d(base.pose).tolist()
-        obj = create_mlspaces_body(env.current_data, task_cfg.pickup_obj_name)
-        obj.pose = obj.pose @ _planar(self.rng, cfg.object_noise)
-        mujoco.mj_fwdPosition(env.current_model, env.current_data)
-        start = pose_mat_to_7d(obj.pose)
-        task_cfg.pickup_obj_start_pose = start.tolist()
-        start[2] += cfg.goal_offset_z
-        task_cfg.pickup_obj_goal_pose = start.tolist()
+        (task_cfg.robot_base_pose, task_cfg.pickup_obj_start_pose,
+         task_cfg.pickup_obj_goal_pose) = engine()
 
 
 __all__ = ["BaseMujocoTaskSampler", "PickTaskSampler"]

@@ -23,6 +23,8 @@ PACKAGES=(
   libosmesa6-dev libegl-dev libavcodec-dev libavformat-dev libswscale-dev libavutil-dev
   # resources: packages (.tar.zst via libarchive + zstd), UID index hash, SHA-256, downloads
   libarchive-dev libzstd-dev libxxhash-dev libssl-dev libcurl4-openssl-dev
+  # built-in data: the original's objathor metadata store (LMDB of zstd pickles)
+  liblmdb-dev
   # fuzzing (scripts/fuzz.sh): clang 14 and its runtimes, libFuzzer among them
   clang libclang-rt-14-dev
 )

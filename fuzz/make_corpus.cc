@@ -5,6 +5,8 @@
 // OUT_DIR/msgpack/*.bin    nlohmann::to_msgpack of sample JSON (and of the example metadata)
 // OUT_DIR/uid_index/*.bin  packed stores from PackedStoreWriter, framed as uid_index_fuzz reads
 //                          them (4-byte index length, index, metadata store)
+// OUT_DIR/tries/*.json.gz  gzip JSON tries of MolmoSpaces-format sources (compacted keys,
+//                          nesting, several gzip members), as tries_fuzz reads them
 // scripts/fuzz.sh adds the test fixtures' own .npy/.npz files beside these.
 #include <cstdint>
 #include <cstdio>
@@ -13,6 +15,8 @@
 #include <iterator>
 #include <string>
 #include <vector>
+
+#include <zlib.h>
 
 #include "mlspaces/core/error.h"
 #include "mlspaces/core/json.h"
@@ -164,6 +168,37 @@ void WriteStoreSeeds(const fs::path& dir, const fs::path& work) {
   fs::remove_all(work);
 }
 
+/// gzip (one member) of `text`.
+std::string Gzip(const std::string& text) {
+  z_stream zs{};
+  if (deflateInit2(&zs, 6, Z_DEFLATED, 15 + 16, 8, Z_DEFAULT_STRATEGY) != Z_OK) {
+    throw Error("zlib: deflateInit2 failed");
+  }
+  std::string out(deflateBound(&zs, text.size()) + 64, '\0');
+  zs.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(text.data()));
+  zs.avail_in = static_cast<uInt>(text.size());
+  zs.next_out = reinterpret_cast<Bytef*>(out.data());
+  zs.avail_out = static_cast<uInt>(out.size());
+  const int rc = deflate(&zs, Z_FINISH);
+  deflateEnd(&zs);
+  if (rc != Z_STREAM_END) throw Error("zlib: deflate failed");
+  out.resize(zs.total_out);
+  return out;
+}
+
+void WriteTriesSeeds(const fs::path& dir) {
+  Write(dir / "empty.json.gz", Gzip("{}"));
+  Write(dir / "objects.json.gz",
+        Gzip(R"({"objaverse_0a1b.tar.zst": {"0a1b": {"0a1b.xml": {}, "assets": )"
+             R"({"0a1b_mesh_0.obj": {}, "0a1b_mesh_1.obj": {}}}}, )"
+             R"("objaverse_ffee.tar.zst": {"ffee/ffee.xml": {}, "ffee/assets/m.obj": {}}})"));
+  Write(dir / "scenes.json.gz",
+        Gzip(R"({"ithor_FloorPlan1.tar.zst": {"FloorPlan1_physics.xml": {}, )"
+             R"("FloorPlan1_physics_metadata.json": {}}, "ithor_base.tar.zst": )"
+             R"({"common": {"textures": {"wood.png": {}}}}, "ithor_FloorPlan2_3.tar.zst": {}})"));
+  Write(dir / "two_members.json.gz", Gzip(R"({"a.tar.zst": )") + Gzip(R"({"x/y": {}}})"));
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -178,6 +213,7 @@ int main(int argc, char** argv) {
     WriteNpzSeeds(out / "npz");
     WriteMsgpackSeeds(out / "msgpack", examples);
     WriteStoreSeeds(out / "uid_index", out / "work");
+    WriteTriesSeeds(out / "tries");
   } catch (const std::exception& e) {
     std::fprintf(stderr, "make_corpus: %s\n", e.what());
     return 1;

@@ -54,6 +54,37 @@ PY
 PYTHONPATH="$ROOT/build/python" "$PY" -m mlspaces.datagen datagen:CustomAssetsDataGenConfig \
   --output python_output --seed 0 -q
 "$ML" validate-dataset python_output
+# MolmoSpaces' own data (built-in remotes, objathor metadata, CLIP search, licences). The
+# public bucket is not reachable from here, so the test generator writes a small remote in the
+# same format (objects, grasps, scenes, robots, benchmarks, objathor metadata with CLIP
+# features) and it is installed over file:// as from the real one: a scene archive, then the
+# objects and grasps it references; then lookups, the objathor annotation, a "more like this"
+# CLIP search, a word search and licences, from the CLI and from Python.
+"$PY" "$ROOT/tests/fixtures/make_molmo_remote.py" builtin --objaverse 20 > /dev/null
+export MLSPACES_CACHE_DIR="$OUT/builtin/cache" MLSPACES_ASSETS_DIR="$OUT/builtin/assets"
+export MLSPACES_REMOTE_URL="file://$OUT/builtin/remote" MLSPACES_PINNED_ASSETS_FILE="$OUT/builtin/pins.json"
+"$ML" install --scene 1 -q
+"$ML" verify
+MUG="$("$PY" -c "import json; print(json.load(open('builtin/fixture.json'))['scenes']['ithor']['FloorPlan1']['references'][3]['path'].split('/')[0])")"
+"$ML" locate "$MUG"
+"$ML" meta "$MUG" | head -12
+"$ML" search --uid "$MUG" --top-k 5
+"$ML" search --text "bowl" --top-k 3
+"$ML" license "$MUG" Bowl_1 --json | head -c 400; echo
+"$ML" grasps Fridge_1 --joint door_hinge --num 1
+PYTHONPATH="$ROOT/build/python" "$PY" - "$MUG" <<'PY'
+import sys
+from mlspaces.utils.object_metadata import ObjectMeta
+from mlspaces.utils.object_retriever import ObjectRetriever
+from mlspaces.utils.license_utils import resolve_license
+uid = sys.argv[1]
+print(uid, ObjectMeta.short_descriptions(uid), ObjectMeta.img_features([uid]).shape)
+query = ObjectMeta.description_text_features([uid])[0]
+uids, sims = ObjectRetriever(max_results=3).query(query)
+print("more like this:", list(zip(uids, [round(float(s), 3) for s in sims])))
+print("licence:", resolve_license("objects", "objaverse", uid)["license"])
+PY
+unset MLSPACES_CACHE_DIR MLSPACES_ASSETS_DIR MLSPACES_REMOTE_URL MLSPACES_PINNED_ASSETS_FILE
 set +x
 echo
 echo "Pick demonstrations: $OUT/experiment_output (CLI) and $OUT/python_output (datagen.py)"

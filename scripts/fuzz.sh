@@ -9,7 +9,7 @@ set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 SECONDS_EACH="${1:-60}"
 BUILD="${MLSPACES_FUZZ_BUILD_DIR:-$ROOT/build-fuzz}"
-TARGETS=(npy npz msgpack uid_index)
+TARGETS=(npy npz msgpack uid_index tries pickle)
 
 if ! command -v clang++ >/dev/null; then
   echo "fuzz: clang++ not found (apt-get install clang libclang-rt-14-dev)" >&2
@@ -30,6 +30,15 @@ while IFS= read -r -d '' f; do
   esac
   cp "$f" "$SEEDS/$dest/fixture_$(echo "$f" | sha256sum | cut -c1-12)_$(basename "$f")"
 done < <(find "$ROOT/tests" "$ROOT/examples" \( -name '*.npy' -o -name '*.npz' \) -print0)
+
+# Pickle seeds: what the project's Python writes (every value kind, protocols 2-5, hostile).
+mkdir -p "$SEEDS/pickle"
+if "$ROOT/.venv/bin/python" "$ROOT/tests/core/testdata/make_pickles.py" "$SEEDS/pickle_py" \
+    >/dev/null 2>&1; then
+  cp "$SEEDS"/pickle_py/*.pkl "$SEEDS/pickle/"
+else
+  printf '\x80\x04N.' > "$SEEDS/pickle/none.pkl"  # no project venv: one minimal seed
+fi
 
 status=0
 for t in "${TARGETS[@]}"; do

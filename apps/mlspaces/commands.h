@@ -29,11 +29,17 @@ struct LibraryFlags {
   std::vector<std::string> asset_flags;
   std::vector<std::string> grasp_flags;
   std::string yaml_file;
+  /// Convert the assets dir's objathor metadata first when its store is missing
+  /// (EnsureObjathorStore; `meta`, `search`).
+  bool objathor = false;
 
   void AddTo(CLI::App& app);
   /// Builds the registry (YAML libraries first, then flags in order). Prints one warning
   /// line per UID found in two libraries. @throws Error / UsageError.
   Registry Build() const;
+  /// The assets dir these flags select: the YAML's assets_dir, else MLSPACES_ASSETS_DIR, else
+  /// the default (ResolveAssetsDir; may not exist). @throws Error / UsageError for a bad YAML.
+  std::filesystem::path AssetsDir() const;
 };
 
 // Each Add* registers one subcommand on `app` and sets `action` when it is chosen.
@@ -48,6 +54,10 @@ void AddPack(CLI::App& app, Action& action);
 void AddInstall(CLI::App& app, Action& action);
 /// `index-builtin`: UID indexes for MolmoSpaces-format sources (index_builtin.cc).
 void AddIndexBuiltin(CLI::App& app, Action& action);
+/// `license`: licences of assets, scenes, grasps and robots (license.cc).
+void AddLicense(CLI::App& app, Action& action);
+/// `search`: CLIP and word search over the asset libraries (search.cc).
+void AddSearch(CLI::App& app, Action& action);
 
 #ifdef MLSPACES_HAVE_DATAGEN
 /// The flags that choose and adjust a datagen config, shared by `config` and `datagen`:

@@ -1,5 +1,5 @@
 // mlspaces datagen CONFIG [--set KEY=VALUE]... [--seed S] [--episodes N] [--output DIR]
-//   [--resume] [--workers N] [--shard I/N] [-q]: generates pick demonstrations
+//   [--resume] [--workers N] [--shard I/N] [--license-policy P] [-q]: generates pick demonstrations
 // (datagen/run.h) and prints the run's summary.
 // mlspaces merge OUTPUT RUN_DIR... [--partial]: combines the folders of a sharded run.
 #include <unistd.h>
@@ -11,6 +11,7 @@
 
 #include "commands.h"
 #include "mlspaces/datagen/run.h"
+#include "mlspaces/library/license_policy.h"
 
 namespace mlspaces::cli {
 namespace {
@@ -21,12 +22,16 @@ struct RunFlags {
   int workers = 0;
   std::string shard;
   std::string gl;
+  std::string license_policy;
 };
 
 int Run(const DatagenConfigFlags& flags, const RunFlags& run) {
   const bool quiet = run.quiet;
   const datagen::ConfigRegistry configs = datagen::ConfigRegistry::WithBuiltins();
-  const datagen::ExperimentConfig config = flags.Resolve(configs);
+  datagen::ExperimentConfig config = flags.Resolve(configs);
+  if (!run.license_policy.empty()) {
+    config.license_policy = ParseLicensePolicy(run.license_policy, "--license-policy");
+  }
   const bool tty = isatty(STDERR_FILENO) != 0;
   datagen::RunOptions options;
   options.progress = !quiet;
@@ -92,6 +97,11 @@ void AddDatagen(CLI::App& app, Action& action) {
   sub->add_option("--gl", run->gl,
                   "Headless GL for the cameras: osmesa (default) or egl; default from MLSPACES_GL")
       ->type_name("osmesa|egl");
+  sub->add_option("--license-policy", run->license_policy,
+                  "Which assets the run may use: all, or commercial_safe (no by-nc / by-nc-sa "
+                  "asset; scenes holding one are refused). Overrides the config's "
+                  "license_policy; default from MLSPACES_LICENSE_POLICY, else all")
+      ->type_name("all|commercial_safe");
   sub->callback([&action, flags, run] { action = [flags, run] { return Run(*flags, *run); }; });
 
   auto output = std::make_shared<std::string>();

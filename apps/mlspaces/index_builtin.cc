@@ -1,5 +1,6 @@
 // mlspaces index-builtin [NAME...]: builds our UID index for object sources installed by
-// MolmoSpaces' own resource manager (tries file, no stores), so lookups never scan them.
+// MolmoSpaces' own resource manager (tries file, no stores), so lookups never scan them, and
+// converts objathor_metadata into our metadata and CLIP stores (resources/objathor.h).
 #include <cstdio>
 #include <filesystem>
 #include <memory>
@@ -9,6 +10,7 @@
 
 #include "commands.h"
 #include "mlspaces/resources/legacy_source.h"
+#include "mlspaces/resources/objathor.h"
 #include "mlspaces/resources/package.h"
 #include "mlspaces/resources/sources.h"
 
@@ -30,7 +32,14 @@ int Run(const IndexBuiltinFlags& flags) {
   const std::vector<ObjectSource> sources = FindObjectSources(assets, flags.names);
   for (const ObjectSource& source : sources) {
     const char* n = source.name.c_str();
-    if (source.kind == ObjectSource::Kind::kPackage) {
+    if (source.name == kObjathorLibrary) {  // annotations, not MJCFs: our metadata store
+      if (std::optional<ObjathorLocation> where = FindObjathor(assets)) {
+        const ObjathorReport report = ConvertObjathor(*where);
+        std::printf("objects/%s: %zu annotations (%zu with CLIP features) converted from %s\n", n,
+                    report.annotations, report.clip_features, report.from.c_str());
+        std::fflush(stdout);
+      }
+    } else if (source.kind == ObjectSource::Kind::kPackage) {
       std::printf("objects/%s: already an mlspaces package, skipped\n", n);
     } else if (source.kind == ObjectSource::Kind::kOther) {
       std::printf("objects/%s: no %s (not a MolmoSpaces-format source), skipped\n", n,

@@ -1,12 +1,16 @@
-// mlspaces install / verify: packaged libraries into the cache and the assets dir.
+// mlspaces install / verify: packaged libraries and MolmoSpaces-format sources into the cache
+// and the assets dir.
 #include <cstdio>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "commands.h"
 #include "mlspaces/core/error.h"
 #include "mlspaces/core/progress.h"
+#include "mlspaces/library/license_policy.h"
+#include "mlspaces/library/registry.h"
 #include "mlspaces/resources/installer.h"
 
 namespace mlspaces::cli {
@@ -28,7 +32,10 @@ struct RemoteFlags {
 struct InstallFlags {
   std::vector<std::string> uids;
   std::string library;
+  std::string scene;
+  std::string license_policy;
   std::vector<std::string> where;
+  LibraryFlags libraries;
   bool dry_run = false;
   bool quiet = false;
   int jobs = 4;
@@ -41,40 +48,71 @@ std::string Mb(uint64_t bytes) {
   return buf;
 }
 
+void PrintPlan(const InstallPlan& plan) {
+  std::printf(
+      "%zu assets in %zu archives to install: %s to download (%s unpacked); "
+      "%zu archives already installed",
+      plan.assets, plan.archives.size(), Mb(plan.download_bytes).c_str(),
+      Mb(plan.unpacked_bytes).c_str(), plan.already_installed);
+  if (plan.left_out > 0) std::printf("; %zu left out by the licence policy", plan.left_out);
+  if (plan.user_assets > 0) std::printf("; %zu in user libraries", plan.user_assets);
+  std::printf("\n");
+  std::fflush(stdout);
+}
+
 int RunInstall(const InstallFlags& flags) {
   if (!flags.where.empty() && flags.library.empty()) {
     throw UsageError("--where needs --library");
   }
-  if (flags.uids.empty() == flags.library.empty()) {
-    throw UsageError("give UIDs or --library NAME (not both)");
-  }
+  const int given = !flags.uids.empty() + !flags.library.empty() + !flags.scene.empty();
+  if (given != 1) throw UsageError("give UIDs, --library NAME or --scene PATH_OR_INDEX (one)");
   std::vector<WhereFilter> where;
   for (const std::string& w : flags.where) where.push_back(WhereFilter::Parse(w));
   InstallOptions options;
   options.parallel_downloads = flags.jobs;
+  options.dry_run = flags.dry_run;
   options.note = [](const std::string& text) {
     std::fprintf(stderr, "mlspaces: %s\n", text.c_str());
   };
+  options.license_policy = ResolveLicensePolicy(
+      flags.license_policy.empty() ? std::nullopt
+                                   : std::optional<LicensePolicy>(ParseLicensePolicy(
+                                         flags.license_policy, "--license-policy")));
+  const LibraryFlags libraries = flags.libraries;
+  options.open_registry = [libraries] { return libraries.Build(); };
   std::unique_ptr<ProgressBar> bar;
   options.progress = [&](uint64_t done, uint64_t total) {
     if (bar) bar->Update(static_cast<size_t>(done / 1000), Mb(done) + " of " + Mb(total));
   };
   Installer installer(flags.remote.Settings(), options);
-  const InstallPlan plan = flags.library.empty() ? installer.PlanUids(flags.uids)
-                                                 : installer.PlanLibrary(flags.library, where);
-  std::printf(
-      "%zu assets in %zu archives to install: %s to download (%s unpacked); "
-      "%zu archives already installed\n",
-      plan.assets, plan.archives.size(), Mb(plan.download_bytes).c_str(),
-      Mb(plan.unpacked_bytes).c_str(), plan.already_installed);
-  std::fflush(stdout);
-  if (flags.dry_run || plan.archives.empty()) return 0;
-  bar = std::make_unique<ProgressBar>("install", static_cast<size_t>(plan.download_bytes / 1000),
-                                      !flags.quiet);
-  installer.Install(plan);
-  bar->Finish();
-  std::printf("installed %zu archives into %s\n", plan.archives.size(),
-              installer.settings().cache_dir.c_str());
+  auto run = [&](const InstallPlan& plan) {
+    PrintPlan(plan);
+    if (flags.dry_run || plan.archives.empty()) return;
+    bar = std::make_unique<ProgressBar>("install", static_cast<size_t>(plan.download_bytes / 1000),
+                                        !flags.quiet);
+    installer.Install(plan);
+    bar->Finish();
+    bar.reset();
+    std::printf("installed %zu archives into %s\n", plan.archives.size(),
+                installer.settings().cache_dir.c_str());
+    std::fflush(stdout);
+  };
+  if (!flags.scene.empty()) {
+    // The scene archive first: what it references is read from the installed scene.
+    SceneRequest request;
+    const InstallPlan scene = installer.PlanScene(flags.scene, &request);
+    std::printf("scene %s in scenes/%s: ", flags.scene.c_str(), request.source.c_str());
+    run(scene);
+    if (flags.dry_run && !scene.archives.empty()) {
+      std::printf("(dry run: the scene's objects and grasps are planned once it is installed)\n");
+      return 0;
+    }
+    std::printf("objects and grasps of the scene: ");
+    run(installer.PlanSceneContents(request));
+    return 0;
+  }
+  run(flags.library.empty() ? installer.PlanUids(flags.uids)
+                            : installer.PlanLibrary(flags.library, where));
   return 0;
 }
 
@@ -104,15 +142,27 @@ void AddInstall(CLI::App& app, Action& action) {
   auto flags = std::make_shared<InstallFlags>();
   CLI::App* sub = app.add_subcommand(
       "install",
-      "Download, verify and install packaged assets (with their grasps) by UID, or "
-      "a whole library (--library NAME [--where KEY=VALUE])");
+      "Download, verify and install assets (with their grasps) by UID, a whole library "
+      "(--library NAME [--where KEY=VALUE]) or a scene with its objects and grasps (--scene), "
+      "from mlspaces packages or MolmoSpaces-format remotes");
   sub->add_option("UID", flags->uids, "Asset UIDs");
-  sub->add_option("--library", flags->library, "Install a whole library (source name)");
+  sub->add_option("--library", flags->library,
+                  "Install a whole library (object source name), or every archive of a source "
+                  "of another data type: TYPE/NAME (robots/franka_droid)");
+  sub->add_option("--scene", flags->scene,
+                  "Install a scene, then the objects and grasps it references: a path inside a "
+                  "scene source (or under <assets>/scenes), or a scene number (N, or SOURCE:N)");
+  sub->add_option("--license-policy", flags->license_policy,
+                  "all or commercial_safe: leave out non-commercial (by-nc, by-nc-sa) assets "
+                  "with a note (default MLSPACES_LICENSE_POLICY, else all)");
+  flags->libraries.AddTo(*sub);
   sub->add_option("--where", flags->where,
                   "With --library: only assets whose annotation field KEY (or JSON pointer) "
                   "equals VALUE (repeatable: all must match)")
       ->allow_extra_args(false);
-  sub->add_flag("--dry-run", flags->dry_run, "Print the size estimate only");
+  sub->add_flag("--dry-run", flags->dry_run,
+                "Print the size estimate only; nothing is installed (sources are set up: "
+                "manifests and tries)");
   sub->add_option("-j,--jobs", flags->jobs, "Parallel downloads (default 4)")
       ->check(PositiveInteger());
   sub->add_flag("-q,--quiet", flags->quiet, "No progress bar");

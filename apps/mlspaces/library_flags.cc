@@ -1,8 +1,10 @@
 // Library flags shared by the lookup commands: which asset and grasp libraries to register.
+#include <cstdio>
 #include <string>
 
 #include "commands.h"
 #include "mlspaces/core/error.h"
+#include "mlspaces/resources/objathor.h"
 #include "mlspaces/resources/sources.h"
 
 namespace mlspaces::cli {
@@ -23,6 +25,12 @@ void LibraryFlags::AddTo(CLI::App& app) {
       ->type_name("FILE.yaml");
 }
 
+std::filesystem::path LibraryFlags::AssetsDir() const {
+  std::optional<std::filesystem::path> given;
+  if (!yaml_file.empty()) given = LibraryConfig::LoadYaml(yaml_file).assets_dir;
+  return ResolveAssetsDir(given).dir;
+}
+
 Registry LibraryFlags::Build() const {
   // Parse every flag first: a malformed one is a usage error before anything is read.
   std::vector<AssetLibrarySpec> assets;
@@ -39,6 +47,12 @@ Registry LibraryFlags::Build() const {
   if (assets_dir.origin != AssetsDirOrigin::kDefault ||
       std::filesystem::is_directory(assets_dir.dir, ignored)) {
     options.assets_dir = assets_dir.dir;
+  }
+  if (objathor && options.assets_dir) {
+    if (auto report = EnsureObjathorStore(*options.assets_dir); report && report->converted) {
+      std::fprintf(stderr, "objathor metadata: %zu annotations converted from %s into %s\n",
+                   report->annotations, report->from.c_str(), report->index_dir.c_str());
+    }
   }
   Registry registry(options);
   config.ApplyTo(registry);

@@ -46,6 +46,8 @@ int Run(int argc, char** argv) {
   cli::AddPack(app, action);
   cli::AddInstall(app, action);
   cli::AddIndexBuiltin(app, action);
+  cli::AddLicense(app, action);
+  cli::AddSearch(app, action);
 #ifdef MLSPACES_HAVE_SIM
   cli::AddInspect(app, action);
 #endif

@@ -1,4 +1,5 @@
-// mlspaces meta UID: the annotation of a UID (metadata JSON with NPZ arrays merged in).
+// mlspaces meta UID: the annotation of a UID (metadata JSON with NPZ arrays merged in), from
+// the union: objathor metadata (converted on first use), packed, then user libraries.
 #include <cstdio>
 #include <memory>
 #include <string>
@@ -19,12 +20,12 @@ int Run(const MetaFlags& flags) {
   const Registry registry = flags.libraries.Build();
   std::shared_ptr<const Annotation> annotation = registry.GetAnnotation(flags.uid);
   if (annotation == nullptr) {
-    // Unknown UID: the locate error names every library. A built-in UID has no readable
-    // annotation yet (the objathor_metadata store arrives in a later issue).
+    // Unknown UID: the locate error names every library.
     const AssetLocation loc = registry.LocateOrThrow(flags.uid);
-    throw Error("no metadata for " + flags.uid + " in library " + loc.library +
-                    " (built-in annotations are not readable yet)",
-                "", "", flags.uid);
+    throw Error(
+        "no metadata for " + flags.uid + " in library " + loc.library +
+            (registry.objathor_store() ? std::string() : " (objathor metadata is not installed)"),
+        "", "", flags.uid);
   }
   std::printf("%s\n", DumpJsonIndent4(annotation->ToJson()).c_str());
   return 0;
@@ -34,8 +35,11 @@ int Run(const MetaFlags& flags) {
 
 void AddMeta(CLI::App& app, Action& action) {
   auto flags = std::make_shared<MetaFlags>();
+  flags->libraries.objathor = true;
   CLI::App* sub = app.add_subcommand(
-      "meta", "Print the metadata of a UID as JSON (NPZ arrays merged in as lists)");
+      "meta",
+      "Print the metadata of a UID as JSON (NPZ arrays merged in as lists): the objathor "
+      "metadata first (converted into our store on first use), then packed and user libraries");
   sub->add_option("UID", flags->uid, "Asset UID")->required();
   flags->libraries.AddTo(*sub);
   sub->callback([&action, flags] { action = [flags] { return Run(*flags); }; });

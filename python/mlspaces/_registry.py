@@ -51,17 +51,6 @@ _MISSING = object()
 _copy_tree = _core.copy_tree
 
 
-def _freeze_arrays(tree: Any) -> None:
-    if isinstance(tree, dict):
-        for value in tree.values():
-            _freeze_arrays(value)
-    elif isinstance(tree, list):
-        for value in tree:
-            _freeze_arrays(value)
-    elif hasattr(tree, "flags"):
-        tree.flags.writeable = False
-
-
 def _libraries_arg(grasp_libraries: Sequence[str] | None) -> list[str] | None:
     if grasp_libraries is None:
         return None
@@ -88,6 +77,7 @@ class Registry:
             k: list(v) for k, v in BUILTIN_OBJECT_TO_GRASP_LIBRARIES.items()}
         self._locate: dict[str, tuple[Any, Any, Any]] = {}
         self._annotations: dict[str, Any] = {}
+        self._objathor_checked = False
         #: (root_name, path, object_library) of each grasp library registration, in order.
         self.grasp_library_roots: list[tuple[str, Path, str]] = []
 
@@ -143,15 +133,22 @@ class Registry:
         return result
 
     def install_uid(self, uid: str, grasp_source: str = "droid_objaverse") -> Path:
-        """The MJCF path of a UID, installing its package archive first when it is not
-        installed yet. Raises ``ValueError`` for an unknown UID. ``grasp_source`` is accepted
-        for compatibility: a package install brings the archive's grasp shards along."""
+        """The MJCF path of a UID, installing its archive first when it is not installed yet
+        (for a MolmoSpaces-format source, with the archives of ``grasp_source`` matching the
+        tokens of the MJCF stem, as the original). Raises ``ValueError`` for an unknown UID."""
         found = self._r.locate(uid)
         if found is None:
+            # Not indexed here yet: with built-in data configured (a remote named, or sources
+            # installed), the install sets the sources up and indexes them, and raises for a UID
+            # no source has. Without, no network is touched for a user UID.
+            assets = Path(_core.resolve_assets_dir(None)[0])
+            if os.environ.get("MLSPACES_REMOTE_URL") or (
+                    assets / "mjthor_data_type_to_source_to_versions.json").is_file():
+                return Path(_core.install_uid(uid, grasp_source))
             raise MlspacesError(f"{uid} not found in asset libraries {self._r.asset_libraries()}",
                                 uid=uid)
         if not found[3]:
-            _core.install_uids([uid])
+            _core.install_uid(uid, grasp_source)
         return found[2]
 
     def annotation(self, uid: str) -> dict[str, Any] | None:
@@ -160,14 +157,26 @@ class Registry:
         unknown UID."""
         template = self._annotations.get(uid, _MISSING)
         if template is _MISSING:
-            template = self._r.annotation(uid)
-            _freeze_arrays(template)
+            self._ensure_objathor()
+            # Cached, handed out only as copies; its arrays are read-only views of the store's.
+            template = self._r.annotation(uid, template=True)
             self._annotations[uid] = template
         return None if template is None else _copy_tree(template)
 
     def all_uids(self) -> list[str]:
-        """The UIDs of the user libraries (registration order, each library sorted)."""
-        return self._r.user_uids()
+        """Every UID ``annotation`` answers, each once, in the union's order: the objathor
+        metadata's, packed libraries', then the user libraries' (registration order, each
+        library sorted)."""
+        self._ensure_objathor()
+        return self._r.annotated_uids()
+
+    def _ensure_objathor(self) -> None:
+        """The first annotation lookup converts the installed objathor metadata into our store
+        when that was not done yet (as the original builds its LMDB on first use)."""
+        if not self._objathor_checked and self.assets_dir is not None:
+            self._r.ensure_objathor(os.fspath(self.assets_dir))
+            self._annotations.clear()
+        self._objathor_checked = True
 
     # -- grasps ---------------------------------------------------------------------------
 

@@ -29,6 +29,13 @@ DATA_TYPE_TO_SOURCE_TO_VERSION: dict[str, dict[str, str]] = {
     "grasps": {"droid": "", "droid_objaverse": ""},
 }
 
+
+def print_license_info(data_type, data_source, asset_or_tar_id=None):
+    """Prints the licence of an item (``mlspaces.utils.license_utils.print_license_info``)."""
+    from .utils.license_utils import print_license_info as _print
+    _print(data_type, data_source, asset_or_tar_id)
+
+
 __all__ = ["ASSETS_DIR", "DATA_CACHE_DIR", "DATA_TYPE_TO_SOURCE_TO_VERSION",
            "OBJECT_LIBRARY_TO_GRASP_LIBRARIES", "USER_ASSET_LIBRARIES", "USER_GRASP_LIBRARIES",
-           "register_user_asset_library", "register_user_grasp_library"]
+           "print_license_info", "register_user_asset_library", "register_user_grasp_library"]

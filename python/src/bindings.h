@@ -22,8 +22,10 @@ class KeyLookupError : public Error {
 void BindErrors(nb::module_& m);
 void BindLibrary(nb::module_& m);
 void BindResources(nb::module_& m);
+void BindLicense(nb::module_& m);
 void BindDatagen(nb::module_& m);
 void BindVideo(nb::module_& m);
 void BindEval(nb::module_& m);
+void BindSearch(nb::module_& m);
 
 }  // namespace mlspaces::python

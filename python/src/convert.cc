@@ -53,14 +53,29 @@ nb::object JsonToPython(const Json& value) {
       return nb::str(s.data(), s.size());
     }
     case Json::value_t::array: {
-      nb::list out;
-      for (const Json& item : value) out.append(JsonToPython(item));
+      // The C API directly: a list of known size, items stolen into it.
+      nb::object out = nb::steal(PyList_New(static_cast<Py_ssize_t>(value.size())));
+      if (!out.is_valid()) throw nb::python_error();
+      Py_ssize_t i = 0;
+      for (const Json& item : value) {
+        PyList_SET_ITEM(out.ptr(), i++, JsonToPython(item).release().ptr());
+      }
       return out;
     }
     case Json::value_t::object: {
-      nb::dict out;
-      for (const auto& [key, item] : value.items()) {
-        out[nb::str(key.data(), key.size())] = JsonToPython(item);
+      // Keys are interned: annotations repeat the same few keys, so dicts share them and
+      // lookups compare pointers.
+      nb::object out = nb::steal(PyDict_New());
+      if (!out.is_valid()) throw nb::python_error();
+      for (auto it = value.begin(); it != value.end(); ++it) {
+        const std::string& key = it.key();
+        PyObject* k = PyUnicode_FromStringAndSize(key.data(), static_cast<Py_ssize_t>(key.size()));
+        if (k == nullptr) throw nb::python_error();
+        PyUnicode_InternInPlace(&k);
+        nb::object item = JsonToPython(it.value());
+        const int rc = PyDict_SetItem(out.ptr(), k, item.ptr());
+        Py_DECREF(k);
+        if (rc != 0) throw nb::python_error();
       }
       return out;
     }
@@ -79,7 +94,21 @@ nb::object NpyToNumpy(const NpyArray& array) {
                                          owner, nullptr, ToDlpack(array.dtype)));
 }
 
-nb::object AnnotationToPython(const Annotation& annotation) {
+namespace {
+
+/// A read-only numpy view of `array`, keeping `owner` (which holds it) alive.
+nb::object SharedNpyToNumpy(const NpyArray& array, const std::shared_ptr<const Annotation>& owner) {
+  auto* keep = new std::shared_ptr<const Annotation>(owner);
+  nb::capsule capsule(
+      keep, [](void* p) noexcept { delete static_cast<std::shared_ptr<const Annotation>*>(p); });
+  return nb::cast(nb::ndarray<nb::numpy, nb::ro>(array.data.data(), array.shape.size(),
+                                                 array.shape.data(), capsule, nullptr,
+                                                 ToDlpack(array.dtype)));
+}
+
+/// The annotation's JSON as Python with its arrays inserted at their pointers, made by `make`.
+template <class MakeArray>
+nb::object AnnotationWithArrays(const Annotation& annotation, const MakeArray& make) {
   nb::object root = JsonToPython(annotation.json);
   for (const auto& [pointer, array] : annotation.arrays) {
     // pointer: "/a/b/c" (tokens escaped as JSON pointer tokens; LoadAnnotation built them).
@@ -95,7 +124,7 @@ nb::object AnnotationToPython(const Annotation& annotation) {
       }
       nb::dict dict = nb::borrow<nb::dict>(node);
       if (slash == std::string::npos) {
-        dict[nb::str(token.c_str())] = NpyToNumpy(array);
+        dict[nb::str(token.c_str())] = make(array);
         break;
       }
       nb::str key(token.c_str());
@@ -105,6 +134,17 @@ nb::object AnnotationToPython(const Annotation& annotation) {
     }
   }
   return root;
+}
+
+}  // namespace
+
+nb::object AnnotationToPython(const Annotation& annotation) {
+  return AnnotationWithArrays(annotation, [](const NpyArray& a) { return NpyToNumpy(a); });
+}
+
+nb::object AnnotationToPython(std::shared_ptr<const Annotation> annotation) {
+  return AnnotationWithArrays(*annotation,
+                              [&](const NpyArray& a) { return SharedNpyToNumpy(a, annotation); });
 }
 
 nb::object PosesToNumpy(std::vector<Mat4> poses) {

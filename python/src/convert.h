@@ -40,6 +40,9 @@ nb::object NpyToNumpy(const NpyArray& array);
 /// An annotation as a new dict: its JSON with every NPZ array inserted at its '/'-path as a
 /// numpy array of the stored dtype and shape.
 nb::object AnnotationToPython(const Annotation& annotation);
+/// As above, but each array is a read-only numpy view of `annotation`'s own buffer, which the
+/// view keeps alive (no copy: the Registry's cached annotations are immutable). Not null.
+nb::object AnnotationToPython(std::shared_ptr<const Annotation> annotation);
 
 /// Poses as a fresh float64 numpy array (N,4,4), owning its buffer (no copy of `poses`' buffer:
 /// the vector is moved into the array's owner).

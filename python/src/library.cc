@@ -23,6 +23,7 @@
 #include "mlspaces/library/grasp_set.h"
 #include "mlspaces/library/registry.h"
 #include "mlspaces/library/scene_metadata.h"
+#include "mlspaces/resources/objathor.h"
 
 namespace mlspaces::python {
 
@@ -101,6 +102,22 @@ std::vector<size_t> PythonRandomSample(size_t n, size_t k, const nb::object& get
     }
   }
   return out;
+}
+
+/// Takes the dicts and lists of a tree out of the cyclic GC: a cached annotation template is
+/// never handed out (callers get CopyTree's copies) and holds no cycles, and with thousands of
+/// templates cached, Python's collections spent more time walking them than decoding.
+void UntrackTree(PyObject* node) {
+  if (PyDict_CheckExact(node)) {
+    PyObject *key = nullptr, *value = nullptr;
+    Py_ssize_t pos = 0;
+    while (PyDict_Next(node, &pos, &key, &value)) UntrackTree(value);
+  } else if (PyList_CheckExact(node)) {
+    for (Py_ssize_t i = 0; i < PyList_GET_SIZE(node); ++i) UntrackTree(PyList_GET_ITEM(node, i));
+  } else {
+    return;
+  }
+  if (PyObject_GC_IsTracked(node)) PyObject_GC_UnTrack(node);
 }
 
 /// A new tree of dicts and lists over the same leaves (str, numbers, arrays): what
@@ -182,6 +199,25 @@ void BindLibrary(nb::module_& m) {
           nb::arg("name"))
       .def("num_uids", &Registry::num_uids)
       .def("user_uids", &Registry::user_uids)
+      .def("annotated_uids", &Registry::annotated_uids)
+      // The objathor store: converted on first use (resources/objathor.h), then opened.
+      .def(
+          "ensure_objathor",
+          [](Registry& r, const std::filesystem::path& assets_dir) {
+            // Always checked (a few stats): the Registry may have opened a stale store, which
+            // EnsureObjathorStore converts again (its marker, resources/objathor.h).
+            std::optional<ObjathorReport> report;
+            {
+              nb::gil_scoped_release release;  // a conversion takes a while
+              report = EnsureObjathorStore(assets_dir);
+            }
+            if (!report) return r.objathor_store() != nullptr;
+            if (report->converted || !r.objathor_store()) {
+              r.RegisterObjathorStore(report->index_dir);
+            }
+            return true;
+          },
+          nb::arg("assets_dir"))
       .def("duplicates",
            [](const Registry& r) {
              nb::list out;
@@ -202,14 +238,18 @@ void BindLibrary(nb::module_& m) {
           },
           nb::arg("uid"))
       // Annotations: a new dict each call, or None.
+      // template=True: a tree to cache and hand out only through copy_tree (untracked by
+      // the cyclic GC; see UntrackTree).
       .def(
           "annotation",
-          [](const Registry& r, std::string_view uid) -> nb::object {
+          [](const Registry& r, std::string_view uid, bool as_template) -> nb::object {
             std::shared_ptr<const Annotation> a = r.GetAnnotation(uid);
             if (!a) return nb::none();
-            return AnnotationToPython(*a);
+            nb::object out = AnnotationToPython(std::move(a));  // arrays: read-only views
+            if (as_template) UntrackTree(out.ptr());
+            return out;
           },
-          nb::arg("uid"))
+          nb::arg("uid"), nb::arg("template") = false)
       // Grasps.
       .def(
           "grasp_libraries_for",

@@ -15,7 +15,9 @@ NB_MODULE(_core, m) {
   m.def("mujoco_runtime_version", [] { return std::string(mj_versionString()); });
   mlspaces::python::BindErrors(m);
   mlspaces::python::BindLibrary(m);
+  mlspaces::python::BindSearch(m);
   mlspaces::python::BindResources(m);
+  mlspaces::python::BindLicense(m);
   mlspaces::python::BindDatagen(m);
   mlspaces::python::BindEval(m);
   mlspaces::python::BindVideo(m);

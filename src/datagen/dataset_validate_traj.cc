@@ -4,6 +4,7 @@
 #include <cstring>
 
 #include "dataset_validate_internal.h"
+#include "mlspaces/library/license_policy.h"
 
 namespace mlspaces::datagen::dataset_check {
 
@@ -259,6 +260,24 @@ void Validator::Provenance(const Traj& t) {
       non_empty_string(a, "uid", where);
       non_empty_string(a, "library", where, uid);
       non_empty_string(a, "license", where, uid);
+    }
+  }
+  // Optional (older runs lack it): the run's licence policy, which its assets must obey.
+  if (auto it = p->find("license_policy"); it != p->end()) {
+    if (!it->is_string() || (*it != "all" && *it != "commercial_safe")) {
+      Add(path + "/license_policy", it->dump() + ", expected \"all\" or \"commercial_safe\"");
+    } else if (*it == "commercial_safe" && p->contains("assets") && (*p)["assets"].is_array()) {
+      const FlatJson& assets = (*p)["assets"];
+      for (size_t i = 0; i < assets.size(); ++i) {
+        const FlatJson& a = assets[i];
+        if (!a.is_object() || !a.contains("license") || !a["license"].is_string()) continue;
+        const std::string license = a["license"].get<std::string>();
+        if (license == "CC-BY-NC-4.0" || license == "CC-BY-NC-SA-4.0" ||
+            IsNonCommercialLicense(license)) {
+          Add(path + "/assets/" + std::to_string(i) + "/license",
+              license + " (non-commercial) under license_policy commercial_safe");
+        }
+      }
     }
   }
   // Optional fields, when present, must agree with the datasets.

@@ -4,6 +4,8 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <map>
+#include <memory>
 #include <string_view>
 #include <utility>
 
@@ -13,6 +15,7 @@
 #include "mlspaces/core/version.h"
 #include "mlspaces/datagen/policy_step.h"
 #include "mlspaces/datagen/success.h"
+#include "mlspaces/library/license_policy.h"
 #include "mlspaces/library/scene_metadata.h"
 #include "mlspaces/sim/mj_pose.h"
 
@@ -81,11 +84,46 @@ std::string Referral(const std::string& body, const Annotation* annotation) {
   return out;
 }
 
+// The licences of the assets a scene's metadata names (asset_id of each object that a library
+// holds), each UID once, sorted: recorded in every episode's provenance (role "scene").
+std::vector<AssetProvenance> SceneAssetLicenses(const Json& metadata, const Registry& registry) {
+  std::map<std::string, AssetProvenance> by_uid;
+  const auto objects = metadata.is_object() ? metadata.find("objects") : metadata.end();
+  if (objects == metadata.end() || !objects->is_object()) return {};
+  for (const auto& [body, entry] : objects->items()) {
+    const auto id = entry.is_object() ? entry.find("asset_id") : entry.end();
+    if (id == entry.end() || !id->is_string() || by_uid.contains(id->get<std::string>())) continue;
+    const std::string uid = id->get<std::string>();
+    const std::optional<AssetLocation> where = registry.Locate(uid);
+    const std::shared_ptr<const Annotation> annotation = registry.GetAnnotation(uid);
+    if (!where && !annotation) continue;  // walls, rooms: no asset of any library
+    const std::string library = where ? where->library : annotation->library;
+    by_uid[uid] = {uid, library, AssetLicenseName(library, annotation.get()), "scene"};
+  }
+  std::vector<AssetProvenance> out;
+  for (auto& [uid, asset] : by_uid) out.push_back(std::move(asset));
+  return out;
+}
+
+/// Why `policy` refuses an asset with licence `license` (SPDX-style), or "".
+std::string LicenseRefusal(LicensePolicy policy, const std::string& uid,
+                           const std::string& license) {
+  if (policy != LicensePolicy::kCommercialSafe) return {};
+  const bool nc =
+      license == "CC-BY-NC-4.0" || license == "CC-BY-NC-SA-4.0" || IsNonCommercialLicense(license);
+  if (!nc) return {};
+  return "licence policy commercial_safe: asset " + uid + " is " + license + " (non-commercial)";
+}
+
 }  // namespace
 
 struct EpisodeRunner::Impl {
   sim::DataPtr scratch;  // forward kinematics of commanded joints
   std::vector<int> object_geoms;
+  // The licence policy, the scene's assets and why the policy refuses the scene ("" = not).
+  LicensePolicy license_policy = LicensePolicy::kAll;
+  std::vector<AssetProvenance> scene_assets;
+  std::string scene_refusal;
 };
 
 EpisodeRunner::EpisodeRunner(Env& env, TaskSampler& sampler, const Registry& registry,
@@ -101,6 +139,14 @@ EpisodeRunner::EpisodeRunner(Env& env, TaskSampler& sampler, const Registry& reg
   substeps_ = PolicySubsteps(config);
   CheckSimTimestep(env.model(), config, env.scene_key());
   impl_->scratch = sim::MakeData(env.model());
+  impl_->license_policy = ResolveLicensePolicy(config.license_policy);
+  impl_->scene_assets = SceneAssetLicenses(env.metadata(), registry);
+  for (const AssetProvenance& a : impl_->scene_assets) {
+    if (std::string why = LicenseRefusal(impl_->license_policy, a.uid, a.license); !why.empty()) {
+      impl_->scene_refusal = "the scene " + env.scene_key() + " is refused: " + why;
+      break;
+    }
+  }
   const TaskConfig& task = config.task_config;
   if (options_.record && !options_.video_dir.empty() && task.enable_rendering && task.use_sensors &&
       !config.camera_config.cameras.empty()) {
@@ -144,6 +190,11 @@ EpisodeResult EpisodeRunner::Run(int64_t episode) {
   attempt.episode = episode;
   attempt.seed = EpisodeSeed(sampler_.run_seed(), env_.scene_key(), episode);
   attempt.extra = Json::object();
+  if (!impl_->scene_refusal.empty()) {  // before anything is simulated
+    attempt.outcome = Outcome::kSamplerReject;
+    attempt.message = impl_->scene_refusal;
+    return std::move(e.result);
+  }
   if (!SampleTask(e) || !LoadGrasps(e) || !Plan(e)) return std::move(e.result);
   BeginRecording(e);
   Rollout(e);
@@ -177,8 +228,17 @@ bool EpisodeRunner::LoadGrasps(Episode& e) {
     const std::optional<Json> metadata =
         env_.metadata().is_null() ? std::nullopt : std::optional<Json>(env_.metadata());
     e.uid = SceneObjectAssetId(metadata, e.task.pickup_obj_name);
-    e.grasps = registry_.LoadGrasps({e.uid, "", e.filter}, std::numeric_limits<size_t>::max());
     e.annotation = registry_.GetAnnotation(e.uid);
+    const std::optional<AssetLocation> where = registry_.Locate(e.uid);
+    const std::string license =
+        AssetLicenseName(where ? where->library : std::string(), e.annotation.get());
+    if (std::string why = LicenseRefusal(impl_->license_policy, e.uid, license); !why.empty()) {
+      e.attempt.AddTiming("grasps", Since(t0));
+      e.attempt.outcome = Outcome::kSamplerReject;
+      e.attempt.message = "the pickup object is refused: " + why;
+      return false;
+    }
+    e.grasps = registry_.LoadGrasps({e.uid, "", e.filter}, std::numeric_limits<size_t>::max());
   } catch (const Error& error) {
     e.attempt.AddTiming("grasps", Since(t0));
     e.attempt.outcome = Outcome::kNoGrasp;
@@ -481,16 +541,14 @@ void EpisodeRunner::FinishRecord(Episode& e) {
   meta.source_episode = e.index;
   const std::string expr = Referral(task.pickup_obj_name, e.annotation.get());
   meta.task_description = "Pick up the " + expr;
-  std::string license = "unknown";
-  if (e.annotation && e.annotation->json.is_object()) {
-    for (const char* key : {"license", "licence"}) {
-      const auto it = e.annotation->json.find(key);
-      if (it != e.annotation->json.end() && it->is_string()) license = it->get<std::string>();
-    }
-  }
   const std::optional<AssetLocation> where = registry_.Locate(uid);
+  const std::string library = where ? where->library : std::string("unknown");
   meta.assets.push_back(
-      {uid, where ? where->library : std::string("unknown"), license, "pickup_obj"});
+      {uid, library, AssetLicenseName(library, e.annotation.get()), "pickup_obj"});
+  for (const AssetProvenance& a : impl_->scene_assets) {
+    if (a.uid != uid) meta.assets.push_back(a);
+  }
+  meta.license_policy = std::string(LicensePolicyName(impl_->license_policy));
   meta.mujoco_version = mj_versionString();
   meta.mlspaces_version = std::string(Version());
   // Only what is the same on every machine: the grasp file relative to its library.

@@ -361,20 +361,22 @@ Json ProvenanceJson(const EpisodeRecord& r, int k) {
         Json{{"uid", a.uid}, {"library", a.library}, {"license", a.license}, {"role", a.role}});
   }
   const size_t t = NumSteps(r);
-  return Json{{"config_hash", m.config_hash},
-              {"seed", m.seed},
-              {"scene", m.scene},
-              {"episode_index", k},
-              {"source_episode", m.source_episode},
-              {"task_description", m.task_description},
-              {"assets", std::move(assets)},
-              {"mujoco_version", m.mujoco_version},
-              {"mlspaces_version", m.mlspaces_version},
-              {"num_steps", t},
-              {"success", static_cast<bool>(r.success[t - 1])},
-              {"terminated", static_cast<bool>(r.terminated[t - 1])},
-              {"truncated", static_cast<bool>(r.truncated[t - 1])},
-              {"extra", m.extra}};
+  Json out{{"config_hash", m.config_hash},
+           {"seed", m.seed},
+           {"scene", m.scene},
+           {"episode_index", k},
+           {"source_episode", m.source_episode},
+           {"task_description", m.task_description},
+           {"assets", std::move(assets)}};
+  if (!m.license_policy.empty()) out["license_policy"] = m.license_policy;
+  out["mujoco_version"] = m.mujoco_version;
+  out["mlspaces_version"] = m.mlspaces_version;
+  out["num_steps"] = t;
+  out["success"] = static_cast<bool>(r.success[t - 1]);
+  out["terminated"] = static_cast<bool>(r.terminated[t - 1]);
+  out["truncated"] = static_cast<bool>(r.truncated[t - 1]);
+  out["extra"] = m.extra;
+  return out;
 }
 
 void WriteTraj(Writer& w, const EpisodeRecord& r, int k) {

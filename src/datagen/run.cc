@@ -50,7 +50,9 @@ uint64_t DrawSeed() {
 }
 
 // The config to run, checked against a run already in the folder: a null seed takes the
-// stored one. Without `resume`, a folder whose run (this shard's journal) exists is refused.
+// stored one, a null licence policy too (else MLSPACES_LICENSE_POLICY's when it is not "all";
+// null means "all"). Without `resume`, a folder whose run (this shard's journal) exists is
+// refused.
 ExperimentConfig SettleRunConfig(const ExperimentConfig& config, const fs::path& file,
                                  const fs::path& journal, const RunOptions& options) {
   ExperimentConfig run = config;
@@ -61,10 +63,18 @@ ExperimentConfig SettleRunConfig(const ExperimentConfig& config, const fs::path&
   }
   if (!IsFile(file)) {
     if (!run.seed) run.seed = DrawSeed();
+    if (!run.license_policy && ResolveLicensePolicy() != LicensePolicy::kAll) {
+      run.license_policy = ResolveLicensePolicy();  // MLSPACES_LICENSE_POLICY, recorded
+    }
     return run;
   }
   const ExperimentConfig stored = LoadConfigFile(file, ConfigRegistry::WithBuiltins());
   if (!run.seed) run.seed = stored.seed;
+  // A null policy: the stored run's, else MLSPACES_LICENSE_POLICY (null stays null for "all").
+  if (!run.license_policy) run.license_policy = stored.license_policy;
+  if (!run.license_policy && ResolveLicensePolicy() != LicensePolicy::kAll) {
+    run.license_policy = ResolveLicensePolicy();
+  }
   if (DataConfigHashHex(stored) != DataConfigHashHex(run)) {
     throw Error("the folder holds a run of another config (data hash " + DataConfigHashHex(stored) +
                     ", this one " + DataConfigHashHex(run) +

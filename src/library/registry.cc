@@ -19,6 +19,7 @@
 #include <functional>
 #include <mutex>
 #include <unordered_map>
+#include <unordered_set>
 #include <utility>
 
 #include "annotation_internal.h"
@@ -165,6 +166,8 @@ struct Registry::Impl {
 
   mutable std::mutex annotation_mutex;
   mutable StringMap<std::shared_ptr<const Annotation>> annotations;
+  /// The converted objathor_metadata store (annotations only, asked first), or null.
+  std::shared_ptr<const PackedLibrary> objathor;
 
   explicit Impl(Options opts) : options(std::move(opts)) {
     if (options.assets_dir) {
@@ -187,6 +190,13 @@ struct Registry::Impl {
       std::error_code ec;
       for (const auto& entry : fs::directory_iterator(*options.assets_dir / "objects", ec)) {
         const fs::path& root = entry.path();
+        if (root.filename().string() == kObjathorMetadata) {  // annotations only, no MJCFs
+          const fs::path store = root / std::string(kLegacyIndexDir);
+          if (IsFile(store / std::string(kUidIndexFile))) {
+            objathor = PackedLibrary::Open(store, std::string(kObjathorMetadata), root);
+          }
+          continue;
+        }
         if (IsFile(root / std::string(kUidIndexFile))) {
           found.emplace_back(root, root);
         } else if (IsFile(root / std::string(kLegacyIndexDir) / std::string(kUidIndexFile))) {
@@ -657,6 +667,34 @@ std::vector<std::string> Registry::user_uids() const {
   return out;
 }
 
+void Registry::RegisterObjathorStore(const fs::path& dir) {
+  impl_->objathor = PackedLibrary::Open(MakeAbsolute(dir), std::string(kObjathorMetadata));
+  std::lock_guard<std::mutex> lock(impl_->annotation_mutex);
+  impl_->annotations.clear();
+}
+
+std::shared_ptr<const PackedLibrary> Registry::objathor_store() const { return impl_->objathor; }
+
+std::vector<std::string> Registry::annotated_uids() const {
+  const Impl& impl = *impl_;
+  std::vector<std::string> out;
+  std::unordered_set<std::string_view> seen;
+  auto add_packed = [&](const PackedLibrary& lib) {
+    for (size_t i = 0; i < lib.size(); ++i) {
+      const PackedAsset a = lib.At(i);
+      if (a.metadata_size != 0 && seen.insert(a.uid).second) out.emplace_back(a.uid);
+    }
+  };
+  if (impl.objathor) add_packed(*impl.objathor);
+  for (const Impl::Source& src : impl.sources) {
+    if (src.packed != nullptr) add_packed(*src.packed);
+  }
+  for (std::string& uid : user_uids()) {
+    if (!seen.contains(uid)) out.push_back(std::move(uid));
+  }
+  return out;
+}
+
 std::optional<AssetLocation> Registry::Locate(std::string_view uid) const {
   const Impl& impl = *impl_;
   // Built-in and packed sources first (one probe each); only the winner's path is built.
@@ -725,6 +763,16 @@ std::shared_ptr<const Annotation> Registry::GetAnnotation(std::string_view uid) 
     std::lock_guard<std::mutex> lock(impl.annotation_mutex);
     auto it = impl.annotations.find(uid);
     if (it != impl.annotations.end()) return it->second;
+  }
+  if (impl.objathor) {  // the original's union: objathor first
+    if (std::optional<PackedAsset> asset = impl.objathor->Find(uid)) {
+      std::shared_ptr<const Annotation> annotation = impl.objathor->LoadAnnotation(*asset);
+      if (annotation) {
+        std::lock_guard<std::mutex> lock(impl.annotation_mutex);
+        auto [it, inserted] = impl.annotations.try_emplace(std::string(uid), std::move(annotation));
+        return it->second;
+      }
+    }
   }
   for (const Impl::Source& src : impl.sources) {
     if (src.packed == nullptr) continue;

@@ -1,8 +1,6 @@
 // The tries of a MolmoSpaces-format source -> our UID index (see legacy_source.h).
 #include "mlspaces/resources/legacy_source.h"
 
-#include <zlib.h>
-
 #include <algorithm>
 #include <climits>
 #include <cstdint>
@@ -16,6 +14,7 @@
 #include "mlspaces/core/files.h"
 #include "mlspaces/core/json.h"
 #include "mlspaces/library/packed_store.h"
+#include "mlspaces/resources/molmo_remote.h"
 #include "mlspaces/resources/package.h"
 #include "mlspaces/resources/packed_store_writer.h"
 
@@ -23,63 +22,6 @@ namespace mlspaces {
 namespace fs = std::filesystem;
 
 namespace {
-
-/// Biggest JSON we inflate: far above the real files (tens of MB), low enough that a
-/// decompression bomb is an Error rather than an allocation failure.
-constexpr size_t kMaxInflated = size_t{8} << 30;
-
-bool HasGzipMagic(const unsigned char* p, size_t n) {
-  return n >= 2 && p[0] == 0x1f && p[1] == 0x8b;
-}
-
-/// Inflates a gzip file (several members are concatenated, as gzip(1) does).
-std::string Gunzip(const std::string& data, const std::string& path) {
-  const auto* in = reinterpret_cast<const unsigned char*>(data.data());
-  if (!HasGzipMagic(in, data.size())) {
-    throw Error("not a gzip file (it does not start with the gzip magic bytes 1f 8b)", path);
-  }
-  if (data.size() > UINT_MAX) throw Error("file over 4 GiB, too large for a tries file", path);
-  z_stream zs{};
-  if (inflateInit2(&zs, 15 + 16) != Z_OK) throw Error("zlib: cannot start inflating", path);
-  struct End {
-    z_stream* z;
-    ~End() { inflateEnd(z); }
-  } end{&zs};
-  zs.next_in = const_cast<Bytef*>(in);
-  zs.avail_in = static_cast<uInt>(data.size());
-  std::string out(std::min(kMaxInflated, std::max<size_t>(data.size() * 8, 1 << 16)), '\0');
-  size_t produced = 0;
-  for (;;) {
-    if (produced == out.size()) {
-      if (out.size() >= kMaxInflated) {
-        throw Error("inflates to more than " + std::to_string(kMaxInflated >> 30) +
-                        " GiB, too large for a tries file",
-                    path);
-      }
-      out.resize(std::min(kMaxInflated, out.size() * 2));
-    }
-    const size_t room = std::min<size_t>(out.size() - produced, UINT_MAX);
-    zs.next_out = reinterpret_cast<Bytef*>(out.data() + produced);
-    zs.avail_out = static_cast<uInt>(room);
-    const int rc = inflate(&zs, Z_NO_FLUSH);
-    produced += room - zs.avail_out;
-    if (rc == Z_STREAM_END) {
-      if (zs.avail_in == 0) break;
-      if (!HasGzipMagic(zs.next_in, zs.avail_in)) {
-        throw Error("trailing bytes after the gzip stream", path);
-      }
-      if (inflateReset(&zs) != Z_OK) throw Error("zlib: cannot inflate the next member", path);
-      continue;
-    }
-    if (rc == Z_OK) continue;
-    if (rc == Z_BUF_ERROR && zs.avail_out == 0) continue;  // needs more room
-    if (rc == Z_BUF_ERROR) throw Error("truncated gzip stream", path);
-    throw Error(std::string("corrupt gzip stream: ") + (zs.msg != nullptr ? zs.msg : "zlib error"),
-                path);
-  }
-  out.resize(produced);
-  return out;
-}
 
 /// An .xml leaf: an asset candidate.
 struct Candidate {
@@ -188,7 +130,7 @@ LegacyIndexReport BuildLegacyIndex(const fs::path& version_dir, const std::strin
   }
   if (!IsFile(tries_path)) throw Error("not a regular file", file);
   const FlatJson root = [&] {
-    const std::string json = Gunzip(ReadFile(tries_path), file);
+    const std::string json = InflateGzip(ReadFile(tries_path), file);
     return ParseFlatJson(json, file);
   }();
   if (!root.is_object()) {

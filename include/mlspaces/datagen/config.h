@@ -21,6 +21,7 @@
 #include <vector>
 
 #include "mlspaces/library/library_config.h"
+#include "mlspaces/library/license_policy.h"
 
 namespace mlspaces::datagen {
 
@@ -426,6 +427,11 @@ struct MLSPACES_API ExperimentConfig {
   LogLevel log_level = LogLevel::kInfo;
   std::string tag = "franka_pick_datagen";
   LibraryConfig libraries;
+  /// Which assets a run may use (library/license_policy.h, docs/licenses.md): "all" or
+  /// "commercial_safe" (no by-nc / by-nc-sa asset in the UID pools or the episodes' scenes).
+  /// null = a resumed run's recorded policy, else MLSPACES_LICENSE_POLICY (then recorded in
+  /// config.yaml when it is not "all"), else "all". `mlspaces datagen --license-policy` sets it.
+  std::optional<LicensePolicy> license_policy;
   TaskConfig task_config;
   TaskSamplerConfig task_sampler_config;
   RobotConfig robot_config;
@@ -454,6 +460,7 @@ struct MLSPACES_API ExperimentConfig {
     a->Visit("log_level", log_level);
     a->Visit("tag", tag);
     a->Visit("libraries", libraries);
+    a->Visit("license_policy", license_policy);
     a->Visit("task_config", task_config);
     a->Visit("task_sampler_config", task_sampler_config);
     a->Visit("robot_config", robot_config);

@@ -99,6 +99,8 @@ struct MLSPACES_API EpisodeMetadata {
   int64_t source_episode = -1;   ///< episode number in the run (attempt counter), -1 = unknown
   std::string task_description;  ///< e.g. "Pick up the block"
   std::vector<AssetProvenance> assets;
+  /// The run's licence policy ("all", "commercial_safe"); empty = not recorded (older runs).
+  std::string license_policy;
   std::string mujoco_version;    ///< required, e.g. mj_versionString() of the running library
   std::string mlspaces_version;  ///< required
   Json extra = Json::object();   ///< anything else worth keeping (object)

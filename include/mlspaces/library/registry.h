@@ -177,9 +177,20 @@ class MLSPACES_API Registry {
 
   /// The annotation of a UID, cached after the first call (the shared object is immutable).
   /// nullptr for an unknown UID or one without metadata. @throws Error for a bad metadata
-  /// file. Packed libraries first, then user libraries in registration order; the built-in
-  /// objathor_metadata store is not readable yet, so built-in-only UIDs give nullptr.
+  /// file. The original's union order: the objathor store first, then packed libraries, then
+  /// user libraries in registration order.
   std::shared_ptr<const Annotation> GetAnnotation(std::string_view uid) const;
+  /// Every UID GetAnnotation answers, each once, in that order: the objathor store's, the
+  /// packed libraries' with metadata, then user_uids().
+  std::vector<std::string> annotated_uids() const;
+
+  /// Opens a converted objathor store (uid_index.mlsx + metadata.mlsm in `dir`, written by
+  /// resources/objathor.h) as the annotations asked first, replacing any other; clears the
+  /// annotation cache. The assets dir's <assets>/objects/objathor_metadata/.mlspaces/index is
+  /// opened at construction when present. Not concurrent with lookups. @throws Error.
+  void RegisterObjathorStore(const std::filesystem::path& dir);
+  /// The objathor store (shared: it outlives the Registry if held), or nullptr.
+  std::shared_ptr<const PackedLibrary> objathor_store() const;
 
   // ===========================================================================================
   // Grasps

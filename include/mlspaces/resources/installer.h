@@ -16,16 +16,21 @@
 #include <cstdint>
 #include <filesystem>
 #include <functional>
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
 
 #include "mlspaces/core/diagnostics.h"
+#include "mlspaces/library/license_policy.h"
 #include "mlspaces/library/packed_store.h"
 #include "mlspaces/resources/package.h"
 #include "mlspaces/resources/sources.h"
 
 namespace mlspaces {
+
+class Registry;
+struct MolmoSource;
 
 struct MLSPACES_API InstallOptions {
   /// Messages for the user (waiting for a lock, skipped sources). May be empty.
@@ -34,6 +39,18 @@ struct MLSPACES_API InstallOptions {
   std::function<void(uint64_t, uint64_t)> progress;
   int parallel_downloads = 4;
   int retries = 3;
+  /// Assets the licence policy leaves out are skipped with a note (their annotation is read
+  /// through the Registry: objathor first, as GetAnnotation answers).
+  LicensePolicy license_policy = LicensePolicy::kAll;
+  /// The grasp source install_uid takes grasp archives from for a non-THOR object.
+  std::string grasp_source = "droid_objaverse";
+  /// Opens the Registry used for annotations (--where, the licence policy) and to recognise
+  /// user-library UIDs; called at most once, after the built-in sources are set up. Empty:
+  /// a Registry on the assets dir without user libraries.
+  std::function<Registry()> open_registry;
+  /// A plan only: nothing is installed while planning (objathor_metadata, which --where and
+  /// the licence policy read, joins the plan instead when it is missing).
+  bool dry_run = false;
 };
 
 // =============================================================================================
@@ -43,7 +60,9 @@ struct MLSPACES_API InstallOptions {
 struct MLSPACES_API InstalledSource {
   std::string type, name, version;
   std::filesystem::path dir;  ///< the version dir in the cache
-  PackageManifest manifest;
+  PackageManifest manifest;   ///< empty for a MolmoSpaces-format source
+  /// Set for a MolmoSpaces-format source (owned by the Installer), null for a package.
+  const MolmoSource* molmo = nullptr;
 };
 
 /// What an install would fetch, and then did.
@@ -59,7 +78,22 @@ struct MLSPACES_API InstallPlan {
   std::vector<Item> archives;    ///< not yet installed, sorted
   size_t assets = 0;             ///< assets selected
   size_t already_installed = 0;  ///< selected archives already there
+  size_t left_out = 0;           ///< assets the licence policy left out (each with a note)
+  size_t user_assets = 0;        ///< UIDs of user libraries (nothing to install)
+  /// Bytes to download; for MolmoSpaces-format sources an estimate from the size manifest
+  /// (MB), and unpacked_bytes is unknown (0) for them.
   uint64_t download_bytes = 0, unpacked_bytes = 0;
+  /// type -> source -> the archives a scene plan asked for, installed already or not, sorted
+  /// (PlanScene, PlanSceneContents: what the original's install_*_for_scene return). A
+  /// grasp source that is asked for appears even when nothing matched.
+  std::map<std::string, std::map<std::string, std::vector<std::string>>> requested;
+};
+
+/// A scene asked for by `install --scene`: its source and MJCF files (relative to the
+/// source), installed first; PlanSceneContents then plans what they reference.
+struct MLSPACES_API SceneRequest {
+  std::string source;
+  std::vector<std::string> files;
 };
 
 /// A `--where KEY=VALUE` filter on annotations: KEY is a top-level field or a JSON pointer;
@@ -97,12 +131,38 @@ class MLSPACES_API Installer {
   // Planning and installing
 
   /// Plans installing UIDs: each is looked up in the object sources in priority order (thor,
-  /// then the others alphabetically; docs/resources.md); sources that are not mlspaces
-  /// packages on the remote are skipped with a note.
+  /// then the others alphabetically; docs/resources.md), by our UID index of the source
+  /// (packages, and MolmoSpaces-format sources indexed at set-up). For a MolmoSpaces-format
+  /// source the UID's grasp archives come too (droid_objaverse archives matching the tokens
+  /// of the MJCF stem; droid for thor), as install_uid does. Every pinned MolmoSpaces-format
+  /// source is set up first, as the original's set-up does, and its EAGER archives (and the
+  /// scene sources' base archives) join the plan. A UID of a user library needs nothing.
   /// @throws Error "<uid> not found in object sources [...]".
   InstallPlan PlanUids(const std::vector<std::string>& uids);
   /// Plans installing a whole library, or the assets whose annotation matches every filter.
+  /// `name` may be "TYPE/NAME" for a source of another data type (robots/franka_droid):
+  /// PlanSource, no filters.
   InstallPlan PlanLibrary(const std::string& name, const std::vector<WhereFilter>& where);
+  /// Plans every archive of one source, `type` any data type (robots, benchmarks, scenes...).
+  InstallPlan PlanSource(const std::string& type, const std::string& name);
+  /// Plans a scene: `scene` is a path inside a scene source (relative to it, to
+  /// <assets>/scenes, or absolute under <assets>/scenes/<source>), or a scene number found by
+  /// the source's NumericIndex ("N" when one scene source is pinned, else "SOURCE:N"). Fills
+  /// `request` with the scene's MJCFs. @throws Error "no scene ..." naming the key.
+  InstallPlan PlanScene(const std::string& scene, SceneRequest* request);
+  /// After the scene archive is installed: the object archives its MJCFs reference through
+  /// ../objects/<source>/... file attributes (found by path in the tries), then the grasp
+  /// archives of `grasp_sources` matching the tokens of each referenced file's name, as
+  /// install_scene_with_objects_and_grasps_from_path does.
+  /// `objects` false leaves the object archives out (install_grasps_for_scene); nothing
+  /// of objects/ is planned unless objects/objaverse is pinned (install_objects_for_scene).
+  /// THOR's references and its grasp sources (droid, rum) are skipped with `exclude_thor`.
+  InstallPlan PlanSceneContents(const SceneRequest& request,
+                                const std::vector<std::string>& grasp_sources = {"droid_objaverse"},
+                                bool objects = true, bool exclude_thor = true);
+  /// The request for one scene MJCF given by path under <assets>/scenes/<source>/ (absolute
+  /// or relative to the cwd). @throws Error naming the path when it is not under it.
+  SceneRequest RequestForSceneFile(const std::filesystem::path& xml) const;
   /// Downloads, verifies and extracts a plan's archives (with their grasp shards).
   void Install(const InstallPlan& plan);
 

@@ -105,9 +105,9 @@ class ObjectMeta:
         for uid in uids:
             found = reg.annotation(uid)
             if found is None:
-                raise MlspacesKeyError(f"{uid}: no annotation", uid=uid)
+                raise MlspacesKeyError(f"Missing {uid} for {feature_type_str}", uid=uid)
             if feature_type_str not in found:
-                raise MlspacesKeyError(f"{uid}: no feature {feature_type_str!r}", uid=uid,
+                raise MlspacesKeyError(f"Missing {uid} for {feature_type_str}", uid=uid,
                                        field=feature_type_str)
             rows.append(np.asarray(found[feature_type_str]))
         return np.stack(rows)

@@ -67,10 +67,10 @@ export MLSPACES_REMOTE_URL="file://$OUT/builtin/remote" MLSPACES_PINNED_ASSETS_F
 "$ML" verify
 MUG="$("$PY" -c "import json; print(json.load(open('builtin/fixture.json'))['scenes']['ithor']['FloorPlan1']['references'][3]['path'].split('/')[0])")"
 "$ML" locate "$MUG"
-"$ML" meta "$MUG" | head -12
+"$ML" meta "$MUG" > builtin/meta.json && head -12 builtin/meta.json
 "$ML" search --uid "$MUG" --top-k 5
 "$ML" search --text "bowl" --top-k 3
-"$ML" license "$MUG" Bowl_1 --json | head -c 400; echo
+"$ML" license "$MUG" Bowl_1
 "$ML" grasps Fridge_1 --joint door_hinge --num 1
 PYTHONPATH="$ROOT/build/python" "$PY" - "$MUG" <<'PY'
 import sys

@@ -3,8 +3,8 @@
 #   1. the full build and all ctest suites;
 #   2. the core (parser) and datagen (planner, runner, recorder) suites again under
 #      AddressSanitizer + UndefinedBehaviorSanitizer;
-#   3. the libFuzzer targets of the binary parsers (NPY/NPZ, MessagePack, packed UID index),
-#      MLSPACES_FUZZ_SECONDS (default 30) each (scripts/fuzz.sh).
+#   3. the libFuzzer targets of the binary parsers (NPY/NPZ, MessagePack, packed UID index, the tries and the restricted pickle reader),
+#      MLSPACES_FUZZ_SECONDS (default 20) each (scripts/fuzz.sh).
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 "$ROOT/scripts/install-deps.sh"
@@ -23,4 +23,4 @@ ASAN_OPTIONS=detect_leaks=1:abort_on_error=0 UBSAN_OPTIONS=print_stacktrace=1 \
   ctest --test-dir "$ROOT/build-asan" --output-on-failure -j "$(nproc)" -L 'core|library|resources|datagen'
 
 echo "== fuzz targets of the binary parsers =="
-"$ROOT/scripts/fuzz.sh" "${MLSPACES_FUZZ_SECONDS:-30}"
+"$ROOT/scripts/fuzz.sh" "${MLSPACES_FUZZ_SECONDS:-20}"

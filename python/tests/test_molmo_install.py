@@ -134,3 +134,25 @@ def test_a_complete_cache_installs_offline(env, monkeypatch):
                  if not _flag(tmp, fx, "objects", "objaverse", info["archive"]).is_file())
     with pytest.raises(Exception, match="127.0.0.1"):
         install_uid(other)
+
+
+def test_user_library_index_readers(tmp_path):
+    from mlspaces.utils.lazy_loading_utils import (UserAssetLibraryIndexEntry,
+                                                   get_user_grasp_library_index,
+                                                   get_user_library_index)
+
+    lib = SOURCE_DIR / "examples" / "custom_assets" / "asset_library"
+    want = json.loads((lib / "assets_index.json").read_text())
+    got = get_user_library_index(lib)
+    assert set(got) == set(want)
+    for uid, entry in want.items():
+        assert got[uid] == UserAssetLibraryIndexEntry(
+            entry["uid"], Path(entry["object_path"]), Path(entry["metadata_path"]),
+            None if entry["metadata_npz_path"] is None else Path(entry["metadata_npz_path"]))
+    grasps = json.loads((lib / "grasps_index.json").read_text())
+    index = get_user_grasp_library_index(lib)
+    assert index.grasp_paths == {r: {u: Path(p) for u, p in m.items()}
+                                 for r, m in grasps["grasp_paths"].items()}
+    (tmp_path / "assets_index.json").write_text('{"x": {"uid": "x", "object_path": 3}}')
+    with pytest.raises(ValueError, match="x/object_path"):
+        get_user_library_index(tmp_path)

@@ -143,9 +143,15 @@ InstallPlan Installer::PlanUids(const std::vector<std::string>& uids) {
     }
     std::string list;
     for (const std::string& name : order) list += (list.empty() ? "" : ", ") + name;
-    throw Error(uid + " not found in object sources [" + list + "]", "", "", uid);
+    std::string why;
+    if (impl.listing == Impl::Listing::kUnreachable) {
+      why = " (the remote's listing of published sources was unreachable: " + impl.listing_error +
+            ")";
+    }
+    throw Error(uid + " not found in object sources [" + list + "]" + why, "", "", uid);
   }
   SortByArchive(plan);
+  impl.NoteListing();
   return plan;
 }
 
@@ -184,6 +190,7 @@ InstallPlan Installer::PlanLibrary(const std::string& name, const std::vector<Wh
     ++plan.assets;
   }
   SortByArchive(plan);
+  impl.NoteListing();
   return plan;
 }
 

@@ -150,9 +150,11 @@ struct Installer::Impl {
     if (listing != Listing::kNotFetched) return listing == Listing::kMerged;
     Versions();
     const std::string url = JoinUrl(settings.remote_url, kRemoteSourcesFile);
+    FetchOptions once = Fetch();
+    once.retries = 0;  // optional: one try
     try {
       SourceVersions v = BuiltinSourceVersions();
-      MergePinJson(v, FetchToString(url, Fetch()), url);
+      MergePinJson(v, FetchToString(url, once), url);
       if (!settings.pin_file.empty()) MergePinFile(v, settings.pin_file);
       effective = std::move(v);
       listing = Listing::kMerged;
@@ -167,10 +169,18 @@ struct Installer::Impl {
       listing_error = e.what();
     }
     listing = Listing::kUnreachable;
-    Note("the optional listing of published sources could not be read (" + listing_error +
-         "); going on with the built-in and pinned versions");
     return false;
   }
+
+  /// The note for an unreachable listing, once, from a plan that succeeded (a failing one
+  /// says only its own error, in one line).
+  void NoteListing() {
+    if (listing != Listing::kUnreachable || listing_noted) return;
+    listing_noted = true;
+    Note("the optional listing of published sources could not be read (" + listing_error +
+         "); went on with the built-in and pinned versions");
+  }
+  bool listing_noted = false;
 
   /// Whether type/name at `version` is set up in the cache already (either format).
   bool SetUpInCache(const std::string& type, const std::string& name, const std::string& version) {

@@ -336,6 +336,7 @@ InstallPlan Installer::PlanSource(const std::string& type, const std::string& na
     }
   }
   SortPlan(plan);
+  impl.NoteListing();
   return plan;
 }
 
@@ -431,6 +432,7 @@ InstallPlan Installer::PlanScene(const std::string& scene, SceneRequest* request
   plan.assets = req.files.size();
   if (request != nullptr) *request = std::move(req);
   SortPlan(plan);
+  impl.NoteListing();
   return plan;
 }
 
@@ -498,6 +500,7 @@ InstallPlan Installer::PlanSceneContents(const SceneRequest& request,
   recording.Finish();
   plan.assets = assets_seen.size();
   SortPlan(plan);
+  impl.NoteListing();
   return plan;
 }
 

@@ -620,7 +620,9 @@ TEST_F(MolmoRemoteTest, ACompleteCacheNeedsNoNetworkAndTheListingIsOptional) {
   // An unknown UID asks for the optional listing: unreachable, it is a note; the error is
   // the UID's.
   ExpectError([&] { offline.PlanUids({"no_such_uid_z"}); },
-              {"no_such_uid_z not found in object sources"});
+              {"no_such_uid_z not found in object sources", "listing", "mlspaces_sources.json"});
+  // Once read in vain, a plan that succeeds says so in a note.
+  EXPECT_TRUE(offline.PlanUids({uid}).archives.empty());
   ASSERT_FALSE(notes.empty());
   EXPECT_THAT(notes.back(), HasSubstr("mlspaces_sources.json"));
   // The CLI: installing what is installed succeeds with the dead remote.
@@ -628,11 +630,12 @@ TEST_F(MolmoRemoteTest, ACompleteCacheNeedsNoNetworkAndTheListingIsOptional) {
   EXPECT_EQ(cli.exit_code, 0) << cli.err;
   const auto cli_scene = RunCli({"install", "--remote", dead, "--scene", index}, Env());
   EXPECT_EQ(cli_scene.exit_code, 0) << cli_scene.err;
-  // A source missing from the cache: the listing is tried (a note), then the source's own
-  // fetch fails as one line with exit 1.
+  // A source missing from the cache: the listing is tried, then the source's own fetch fails:
+  // one line, exit 1.
   fs::remove_all(tmp / "cache" / "robots");
   const auto gone = RunCli({"install", "--remote", dead, uid}, Env());
   EXPECT_EQ(gone.exit_code, 1) << gone.err;
+  EXPECT_EQ(std::count(gone.err.begin(), gone.err.end(), '\n'), 1) << gone.err;
   EXPECT_THAT(gone.err, HasSubstr("127.0.0.1"));
 }
 

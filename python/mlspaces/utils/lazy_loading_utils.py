@@ -4,11 +4,83 @@ MLSPACES_ASSETS_DIR, MLSPACES_REMOTE_URL, MLSPACES_PINNED_ASSETS_FILE)."""
 
 from __future__ import annotations
 
+import functools
+import json
 import os
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from .. import _core
 from .._registry import install_uid, locate_uid_package
+
+
+@dataclass(frozen=True)
+class UserAssetLibraryIndexEntry:
+    """One entry of a user library's ``assets_index.json`` (paths relative to the library)."""
+    uid: str
+    object_path: Path
+    metadata_path: Path
+    metadata_npz_path: Path | None = None
+
+
+@dataclass(frozen=True)
+class UserGraspLibraryIndex:
+    """A user grasp library's ``grasps_index.json`` (paths relative to the library)."""
+    articulated_grasp_paths: dict[str, dict[str, dict[str, Path]]] = field(default_factory=dict)
+    grasp_paths: dict[str, dict[str, Path]] = field(default_factory=dict)
+
+
+def _index_error(file: Path, key: str, what: str) -> ValueError:
+    return ValueError(f"{file}: {key}: {what}")
+
+
+def _paths(file: Path, key: str, value, depth: int):
+    """A nest of dicts ``depth`` deep whose leaves are path strings, as Paths."""
+    if depth == 0:
+        if not isinstance(value, str):
+            raise _index_error(file, key, "expected a path string")
+        return Path(value)
+    if not isinstance(value, dict):
+        raise _index_error(file, key, "expected an object")
+    return {k: _paths(file, f"{key}/{k}", v, depth - 1) for k, v in value.items()}
+
+
+@functools.cache
+def get_user_library_index(path: Path) -> dict[str, UserAssetLibraryIndexEntry]:
+    """The parsed ``assets_index.json`` of a user library dir (cached per path, as the
+    original). Raises ``OSError`` when unreadable, ``ValueError`` naming the field when
+    malformed."""
+    file = Path(path) / "assets_index.json"
+    doc = json.loads(file.read_text())
+    if not isinstance(doc, dict):
+        raise _index_error(file, "", "expected an object")
+    out = {}
+    for key, entry in doc.items():
+        if not isinstance(entry, dict):
+            raise _index_error(file, key, "expected an object")
+        for name in ("uid", "object_path", "metadata_path"):
+            if not isinstance(entry.get(name), str):
+                raise _index_error(file, f"{key}/{name}", "expected a string")
+        npz = entry.get("metadata_npz_path")
+        if npz is not None and not isinstance(npz, str):
+            raise _index_error(file, f"{key}/metadata_npz_path", "expected a string or null")
+        out[key] = UserAssetLibraryIndexEntry(entry["uid"], Path(entry["object_path"]),
+                                              Path(entry["metadata_path"]),
+                                              None if npz is None else Path(npz))
+    return out
+
+
+@functools.cache
+def get_user_grasp_library_index(path: Path) -> UserGraspLibraryIndex:
+    """The parsed ``grasps_index.json`` of a user grasp library dir (cached per path).
+    Raises ``OSError`` when unreadable, ``ValueError`` naming the field when malformed."""
+    file = Path(path) / "grasps_index.json"
+    doc = json.loads(file.read_text())
+    if not isinstance(doc, dict):
+        raise _index_error(file, "", "expected an object")
+    return UserGraspLibraryIndex(
+        _paths(file, "articulated_grasp_paths", doc.get("articulated_grasp_paths", {}), 3),
+        _paths(file, "grasp_paths", doc.get("grasp_paths", {}), 2))
 
 
 def install_scene_with_objects_and_grasps_from_path(
@@ -23,7 +95,8 @@ def install_scene_with_objects_and_grasps_from_path(
     if isinstance(xml_path, dict):
         xml_path = xml_path["base"]
     return _core.install_scene_with_objects_and_grasps_from_path(
-        os.fspath(xml_path), list(grasp_sources), exclude_thor)
+        str(xml_path) if isinstance(xml_path, int) else os.fspath(xml_path), list(grasp_sources),
+        exclude_thor)
 
 
 def install_objects_for_scene(xml_path: str | os.PathLike, exclude_thor: bool = True
@@ -48,6 +121,10 @@ def find_object_paths(scene_xml: str | os.PathLike, exclude_thor: bool = True):
 
 
 __all__ = [
+    "UserAssetLibraryIndexEntry",
+    "UserGraspLibraryIndex",
+    "get_user_grasp_library_index",
+    "get_user_library_index",
     "find_object_paths",
     "install_grasps_for_scene",
     "install_objects_for_scene",

@@ -6,10 +6,12 @@
 #include <cstdint>
 #include <string_view>
 
+#include "mlspaces/core/npy.h"
+
 namespace mlspaces::clip {
 
-/// IEEE binary16 -> float (exact).
-float HalfToFloat(uint16_t h);
+/// IEEE binary16 -> float (exact): core's (mlspaces/core/npy.h).
+using ::mlspaces::HalfToFloat;
 /// float -> IEEE binary16, round to nearest even (numpy's astype(float16)); Inf/NaN kept.
 uint16_t FloatToHalf(float f);
 

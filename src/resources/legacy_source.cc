@@ -39,20 +39,6 @@ std::string Pointer(const std::string& archive, const std::vector<const std::str
   return p;
 }
 
-/// Checks each '/'-separated component of a trie key: not empty, not "." or "..", so every
-/// path stays inside the source folder. @returns the bad component, or nullopt.
-std::optional<std::string_view> BadComponent(std::string_view key) {
-  size_t start = 0;
-  for (;;) {
-    const size_t slash = key.find('/', start);
-    const std::string_view c =
-        key.substr(start, slash == std::string_view::npos ? std::string_view::npos : slash - start);
-    if (c.empty() || c == "." || c == ".." || c.find('\0') != std::string_view::npos) return c;
-    if (slash == std::string_view::npos) return std::nullopt;
-    start = slash + 1;
-  }
-}
-
 /// Walks one archive's trie (iteratively: no recursion on untrusted depth), appending its
 /// .xml leaves to `out`. @throws Error with the JSON pointer of a bad node or key.
 void WalkTrie(const FlatJson& trie, const std::string& archive, uint32_t archive_index,
@@ -76,7 +62,7 @@ void WalkTrie(const FlatJson& trie, const std::string& archive, uint32_t archive
     const std::string& key = f.it.key();
     const FlatJson& value = *f.it;
     ++f.it;
-    if (auto bad = BadComponent(key)) {
+    if (auto bad = BadPathComponent(key)) {
       throw Error("bad path component '" + std::string(*bad) + "' in trie key '" + key +
                       "' (components must be non-empty and not '.' or '..')",
                   file, Pointer(archive, keys, &key));

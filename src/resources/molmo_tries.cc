@@ -169,8 +169,9 @@ bool HasGzipMagic(const unsigned char* p, size_t n) {
   return n >= 2 && p[0] == 0x1f && p[1] == 0x8b;
 }
 
-/// Checks each '/'-separated component of a trie key: not empty, not "." or "..", no NUL.
-std::optional<std::string_view> BadComponent(std::string_view key) {
+}  // namespace
+
+std::optional<std::string_view> BadPathComponent(std::string_view key) {
   size_t start = 0;
   for (;;) {
     const size_t slash = key.find('/', start);
@@ -181,8 +182,6 @@ std::optional<std::string_view> BadComponent(std::string_view key) {
     start = slash + 1;
   }
 }
-
-}  // namespace
 
 std::string InflateGzip(const std::string& data, const std::string& origin) {
   const auto* in = reinterpret_cast<const unsigned char*>(data.data());
@@ -267,7 +266,7 @@ SourceTries ParseTries(const std::string& gzip_bytes, const std::string& origin)
       const FlatJson& value = *f.it;
       ++f.it;
       const std::string pointer = f.pointer + "/" + JsonPointerToken(key);
-      if (auto bad = BadComponent(key)) {
+      if (auto bad = BadPathComponent(key)) {
         throw Error("bad path component '" + std::string(*bad) + "' in trie key '" + key +
                         "' (components must be non-empty and not '.' or '..')",
                     origin, pointer);
@@ -324,7 +323,7 @@ std::map<std::string, double> ParseSizeManifest(const std::string& text,
                   pointer);
     }
     const std::string& name = it.key();
-    if (BadComponent(name)) {  // empty, '/'-rooted, '.' or '..' components
+    if (BadPathComponent(name)) {  // empty, '/'-rooted, '.' or '..' components
       throw Error("bad archive name '" + name + "'", origin, pointer);
     }
     out.emplace(name, it->get<double>());

@@ -195,31 +195,6 @@ NpyArray Row(const NpyArray& a, size_t i) {
   return row;
 }
 
-/// A float16 as a float, exactly (normals, subnormals, infinities, NaNs), by bit operations.
-float HalfBitsToFloat(uint16_t h) {
-  const uint32_t sign = uint32_t{h & 0x8000u} << 16;
-  const uint32_t exp = (h >> 10) & 0x1f;
-  uint32_t mant = h & 0x3ffu;
-  uint32_t bits;
-  if (exp == 0x1f) {
-    bits = sign | 0x7f800000u | (mant << 13);
-  } else if (exp != 0) {
-    bits = sign | ((exp + 112) << 23) | (mant << 13);
-  } else if (mant == 0) {
-    bits = sign;
-  } else {  // subnormal: normalise
-    uint32_t e = 113;
-    while ((mant & 0x400u) == 0) {
-      mant <<= 1;
-      --e;
-    }
-    bits = sign | (e << 23) | ((mant & 0x3ffu) << 13);
-  }
-  float f;
-  std::memcpy(&f, &bits, 4);
-  return f;
-}
-
 /// An array's elements as floats, into `out` (float16 and float32 without a detour through
 /// double, the common case of the CLIP features).
 void ToFloats(const NpyArray& a, std::vector<float>& out) {
@@ -229,7 +204,7 @@ void ToFloats(const NpyArray& a, std::vector<float>& out) {
     for (size_t i = 0; i < n; ++i) {
       uint16_t h;
       std::memcpy(&h, a.data.data() + 2 * i, 2);
-      out[i] = HalfBitsToFloat(h);
+      out[i] = HalfToFloat(h);
     }
   } else if (a.dtype == DType::kF4) {
     std::memcpy(out.data(), a.data.data(), 4 * n);

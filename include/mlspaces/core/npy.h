@@ -84,5 +84,7 @@ void WriteNpyFile(const std::string& path, const NpyArray& array,
 /// IEEE half <-> double conversions (round to nearest even).
 MLSPACES_API double HalfToDouble(uint16_t h);
 MLSPACES_API uint16_t DoubleToHalf(double d);
+/// IEEE half -> float, exactly (normals, subnormals, infinities, NaNs), by bit operations.
+MLSPACES_API float HalfToFloat(uint16_t h);
 
 }  // namespace mlspaces

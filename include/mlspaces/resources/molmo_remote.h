@@ -104,6 +104,10 @@ struct MLSPACES_API SourceTries {
   std::optional<uint32_t> ArchiveOf(std::string_view path) const;
 };
 
+/// The first '/'-separated component of a path inside a source that is empty, ".", ".." or
+/// holds a NUL (such a path could leave the source folder), or nullopt when all are fine.
+/// Tries keys and archive names are checked with it.
+MLSPACES_API std::optional<std::string_view> BadPathComponent(std::string_view path);
 /// Inflates gzip bytes (concatenated members allowed). @throws Error naming `origin` for a
 /// missing magic, truncation, corruption, trailing bytes or more than 8 GiB inflated.
 MLSPACES_API std::string InflateGzip(const std::string& data, const std::string& origin);

@@ -20,6 +20,10 @@ if [[ ! -x "$BUILD/bench/clip_search_bench" ]]; then
   MLSPACES_BUILD_DIR="$BUILD" MLSPACES_BUILD_TARGETS='clip_search_bench' "$ROOT/scripts/build.sh" >&2
 fi
 STORE="$WORK/clip_features_${ASSETS}.mlsc"
+# A store left by an older format (another magic) is generated again.
+for f in "$STORE" "$WORK/clip_features_${ASSETS}_isotropic.mlsc"; do
+  if [[ -f "$f" && "$(head -c 8 "$f")" != "MLSCLIP2" ]]; then rm -f "$f"; fi
+done
 echo "== synthetic CLIP-like features (decaying spectrum)"
 "$BUILD/bench/clip_search_bench" "$STORE" --assets "$ASSETS" --queries 20 --out "$WORK"
 if [[ -z "${MLSPACES_CLIP_BENCH_SKIP_ISOTROPIC:-}" ]]; then

@@ -206,7 +206,7 @@ std::vector<Installer::Problem> Installer::Verify(const std::vector<std::string>
   std::set<std::string> types;
   for (const auto& [type, srcs] : BuiltinSourceVersions()) types.insert(type);
   for (const auto& [type, srcs] : impl.settings.versions) types.insert(type);
-  const Json installed = ReadVersionManifest(impl.settings.assets_dir / kInstallManifest);
+  const Json installed = ReadVersionsManifest(impl.settings.assets_dir / kVersionsManifestFile);
   for (auto it = installed.begin(); it != installed.end(); ++it) types.insert(it.key());
   for (const std::string& type : types) {
     const fs::path type_dir = impl.settings.assets_dir / type;

@@ -32,19 +32,6 @@ namespace mlspaces {
 namespace fs = std::filesystem;
 
 inline constexpr const char* kRemoteSourcesFile = "mlspaces_sources.json";
-inline constexpr const char* kInstallManifest = "mjthor_data_type_to_source_to_versions.json";
-
-/// One of the original's small version manifests as an object; a missing, unreadable or
-/// malformed one reads as {} (the caller rewrites it from what is installed).
-inline Json ReadVersionManifest(const fs::path& file) {
-  if (!IsFile(file)) return Json::object();
-  try {
-    Json doc = ParseJsonFile(file);
-    return doc.is_object() ? doc : Json::object();
-  } catch (const Error&) {
-    return Json::object();
-  }
-}
 
 inline bool JsonValueMatches(const Json& v, const std::string& want) {
   if (v.is_array()) {
@@ -244,8 +231,8 @@ struct Installer::Impl {
     CrashPoint("assets-dir symlink renamed into place");
     // The install-side manifest, as the original keeps it: {type: {source: version}}.
     FileLock lock(settings.assets_dir / ".lock");
-    const fs::path manifest = settings.assets_dir / kInstallManifest;
-    Json doc = ReadVersionManifest(manifest);
+    const fs::path manifest = settings.assets_dir / kVersionsManifestFile;
+    Json doc = ReadVersionsManifest(manifest);
     doc[src.type][src.name] = src.version;
     WriteFileAtomic(manifest, DumpJsonIndent4(doc));
   }
@@ -325,8 +312,8 @@ struct Installer::Impl {
   void RecordInCache(const InstalledSource& src) {
     FileLock lock(settings.cache_dir / ".lock");
     RemoveDeadTempFiles(settings.cache_dir);
-    const fs::path manifest = settings.cache_dir / kInstallManifest;
-    Json doc = ReadVersionManifest(manifest);
+    const fs::path manifest = settings.cache_dir / kVersionsManifestFile;
+    Json doc = ReadVersionsManifest(manifest);
     Json& list = doc[src.type][src.name];
     if (!list.is_array()) list = Json::array();
     for (const Json& v : list) {

@@ -1,5 +1,6 @@
 // Licences of MolmoSpaces data (include/mlspaces/resources/license.h, docs/licenses.md).
 #include "mlspaces/resources/license.h"
+#include "mlspaces/resources/molmo_remote.h"
 
 #include <zlib.h>
 
@@ -23,7 +24,6 @@ namespace fs = std::filesystem;
 
 namespace {
 
-constexpr char kInstallManifest[] = "mjthor_data_type_to_source_to_versions.json";
 /// Biggest tries file we inflate (the real ones are tens of MB).
 constexpr size_t kMaxTriesBytes = size_t{1} << 30;
 
@@ -620,7 +620,7 @@ std::optional<fs::path> FindSizeManifest(const LicenseContext& context, std::str
   if (context.cache_dir.empty()) return std::nullopt;
   const fs::path base = context.cache_dir / type / src;
   if (!context.assets_dir.empty()) {
-    const fs::path install = context.assets_dir / kInstallManifest;
+    const fs::path install = context.assets_dir / kVersionsManifestFile;
     if (fs::is_regular_file(install, ec)) {
       const Json versions = ParseJsonFile(install);
       const Json* by_type = Member(versions, type);

@@ -49,8 +49,6 @@ namespace fs = std::filesystem;
 
 namespace {
 
-constexpr const char* kVersionsManifest = "mjthor_data_type_to_source_to_versions.json";
-
 /// '/' -> "__", as the original's flags name archives.
 std::string Flat(const std::string& archive) {
   std::string flat;
@@ -60,16 +58,6 @@ std::string Flat(const std::string& archive) {
 
 std::string LinkFlagName(const std::string& archive) {
   return "." + Flat(archive) + "_complete_links";
-}
-
-Json ReadManifest(const fs::path& file) {
-  if (!IsFile(file)) return Json::object();
-  try {
-    Json doc = ParseJsonFile(file);
-    return doc.is_object() ? doc : Json::object();
-  } catch (const Error&) {
-    return Json::object();
-  }
 }
 
 /// The original writes json.dump(indent=2); any JSON reads back the same.
@@ -144,6 +132,16 @@ bool EnvBool(const char* name, bool fallback) {
 
 }  // namespace
 
+Json ReadVersionsManifest(const fs::path& file) {
+  if (!IsFile(file)) return Json::object();
+  try {
+    Json doc = ParseJsonFile(file);
+    return doc.is_object() ? doc : Json::object();
+  } catch (const Error&) {
+    return Json::object();
+  }
+}
+
 bool MolmoSource::Extracted(const std::string& archive) const {
   return IsFile(dir / ExtractFlagName(archive));
 }
@@ -212,8 +210,8 @@ struct MolmoSources::Impl {
 
   void RecordCache(const MolmoSource& s) {
     if (!cache_lock) return;  // the original leaves the cache manifest alone then too
-    const fs::path file = cache / kVersionsManifest;
-    Json doc = ReadManifest(file);
+    const fs::path file = cache / kVersionsManifestFile;
+    Json doc = ReadVersionsManifest(file);
     Json& list = doc[s.type][s.name];
     if (!list.is_array()) list = Json::array();
     for (const Json& v : list) {
@@ -225,8 +223,8 @@ struct MolmoSources::Impl {
   }
 
   void RecordInstall(const MolmoSource& s, bool installed) {
-    const fs::path file = assets / kVersionsManifest;
-    Json doc = ReadManifest(file);
+    const fs::path file = assets / kVersionsManifestFile;
+    Json doc = ReadVersionsManifest(file);
     Json want = installed ? Json(s.version) : Json(nullptr);
     if (doc.contains(s.type) && doc[s.type].is_object() && doc[s.type].contains(s.name) &&
         doc[s.type][s.name] == want) {
@@ -238,7 +236,7 @@ struct MolmoSources::Impl {
   }
 
   bool CacheListed(const MolmoSource& s) const {
-    const Json doc = ReadManifest(cache / kVersionsManifest);
+    const Json doc = ReadVersionsManifest(cache / kVersionsManifestFile);
     const Json* list = nullptr;
     if (doc.contains(s.type) && doc[s.type].is_object() && doc[s.type].contains(s.name)) {
       list = &doc[s.type][s.name];
@@ -274,7 +272,7 @@ struct MolmoSources::Impl {
     std::error_code ec;
     const fs::file_status st = fs::symlink_status(s.install, ec);
     const Json installed = [&] {
-      const Json doc = ReadManifest(assets / kVersionsManifest);
+      const Json doc = ReadVersionsManifest(assets / kVersionsManifestFile);
       if (doc.contains(s.type) && doc[s.type].is_object() && doc[s.type].contains(s.name)) {
         return doc[s.type][s.name];
       }
@@ -584,7 +582,7 @@ struct MolmoSources::Impl {
                                  size_t* files_checked) {
     std::vector<Diagnostic> problems;
     size_t checked = 0;
-    const Json doc = ReadManifest(assets / kVersionsManifest);
+    const Json doc = ReadVersionsManifest(assets / kVersionsManifestFile);
     for (auto t = doc.begin(); t != doc.end(); ++t) {
       if (!t->is_object()) continue;
       for (auto src = t->begin(); src != t->end(); ++src) {

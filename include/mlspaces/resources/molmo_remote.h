@@ -28,6 +28,7 @@
 #include <vector>
 
 #include "mlspaces/core/diagnostics.h"
+#include "mlspaces/core/json.h"
 #include "mlspaces/resources/sources.h"
 
 namespace mlspaces {
@@ -108,6 +109,13 @@ struct MLSPACES_API SourceTries {
 /// holds a NUL (such a path could leave the source folder), or nullopt when all are fine.
 /// Tries keys and archive names are checked with it.
 MLSPACES_API std::optional<std::string_view> BadPathComponent(std::string_view path);
+/// The versions manifest of both dirs: {type: {source: [versions]}} in the cache,
+/// {type: {source: version or null}} in the assets (install) dir.
+inline constexpr std::string_view kVersionsManifestFile =
+    "mjthor_data_type_to_source_to_versions.json";
+/// Reads a versions manifest as an object; a missing, unreadable or malformed one reads as {}
+/// (the caller rewrites it from what is installed).
+MLSPACES_API Json ReadVersionsManifest(const std::filesystem::path& file);
 /// Inflates gzip bytes (concatenated members allowed). @throws Error naming `origin` for a
 /// missing magic, truncation, corruption, trailing bytes or more than 8 GiB inflated.
 MLSPACES_API std::string InflateGzip(const std::string& data, const std::string& origin);

@@ -53,7 +53,7 @@ install_venv() {
   # The Python package's pinned runtime dependencies as wheels, so the ctest python_wheel can
   # install the built wheel into a fresh venv offline (tests/python/wheel_test.sh).
   "$venv/bin/python" -m pip download -q --disable-pip-version-check -d "$venv/wheelhouse" \
-    $(grep -E '^(mujoco|numpy|pydantic)==' "$req")
+    $(grep -E '^(mujoco|numpy|pydantic|scipy)==' "$req")
   echo "$want" > "$venv/.mlspaces-requirements"
 }
 

@@ -5,6 +5,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -80,6 +81,17 @@ void AddConfig(CLI::App& app, Action& action);
 void AddDatagen(CLI::App& app, Action& action);
 void AddValidateDataset(CLI::App& app, Action& action);
 #endif
+
+/// The help formatter of every command (cli_app.cc): `--episodes N`, never `N:N` or a C++
+/// type name. Set it on the top app before adding subcommands (they copy it).
+std::shared_ptr<CLI::Formatter> MakeHelpFormatter();
+
+/// Parses argv (argv[0] the program, argv[1] the subcommand) and runs the chosen action, mapping
+/// errors to exit codes: 0 ok; 2 usage (CLI11 parse errors, with the first misspelled flag
+/// typed and "did you mean"; mlspaces::UsageError); 1 mlspaces::Error and anything else. Each
+/// error is one "mlspaces: error: ..." line on stderr with control characters escaped
+/// (Printable). --help / --version print and return 0.
+int ParseAndRun(CLI::App& app, const Action& action, int argc, char** argv);
 
 /// Checks a flag value is a whole number >= 1, with a short message ("expected a whole
 /// number >= 1, got '-3'") instead of CLI11's range dump.

@@ -4,12 +4,16 @@
 // mlspaces merge OUTPUT RUN_DIR... [--partial]: combines the folders of a sharded run.
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 #include <memory>
+#include <set>
 #include <string>
+#include <vector>
 
 #include "commands.h"
+#include "mlspaces/core/strings.h"
 #include "mlspaces/datagen/run.h"
 #include "mlspaces/library/license_policy.h"
 
@@ -24,6 +28,40 @@ struct RunFlags {
   std::string gl;
   std::string license_policy;
 };
+
+// --workers W runs work items in parallel, never the episodes of one item: says so (one
+// line) when the run has fewer items than W, with the knob that splits them. The split is
+// left as it is: it decides the batch files, so the dataset's bytes.
+void WarnIfWorkersCannotHelp(const datagen::ExperimentConfig& config, const datagen::Shard& shard,
+                             int workers) {
+  const std::vector<datagen::WorkItem> items =
+      datagen::ShardItems(datagen::PlanWorkItems(config), shard);
+  if (static_cast<int64_t>(items.size()) >= workers) return;
+  int64_t episodes = 0;
+  std::set<int64_t> houses;
+  for (const datagen::WorkItem& item : items) {
+    episodes += item.episodes;
+    houses.insert(item.house);
+  }
+  const datagen::TaskSamplerConfig& s = config.task_sampler_config;
+  // Batches per scene for W items, and the episodes_per_batch that gives them.
+  const int64_t scenes = std::max<int64_t>(1, static_cast<int64_t>(houses.size()));
+  const int64_t batches = (workers + scenes - 1) / scenes;
+  const int64_t per_batch = std::max<int64_t>(1, s.samples_per_house / batches);
+  std::string text = "all " + std::to_string(episodes) + " episodes are in " +
+                     std::to_string(items.size()) + " work item" + (items.size() == 1 ? "" : "s") +
+                     "; --workers " + std::to_string(workers) + " cannot run " +
+                     (items.size() == 1 ? "them in parallel"
+                                        : "more than " + std::to_string(items.size()) + " at once");
+  const int64_t items_per_scene = static_cast<int64_t>(items.size()) / scenes;
+  if (per_batch < s.episodes_per_batch && s.samples_per_house > items_per_scene) {
+    text += " (a work item is a batch of up to task_sampler_config.episodes_per_batch = " +
+            std::to_string(s.episodes_per_batch) + " episodes of one scene; --set " +
+            "task_sampler_config.episodes_per_batch=" + std::to_string(per_batch) +
+            " splits them, into other batch files)";
+  }
+  Warn(text);
+}
 
 int Run(const DatagenConfigFlags& flags, const RunFlags& run) {
   const bool quiet = run.quiet;
@@ -49,9 +87,10 @@ int Run(const DatagenConfigFlags& flags, const RunFlags& run) {
     // On a terminal the progress bar shows the per-episode progress.
     if (tty && !quiet && level == datagen::LogLevel::kDebug) return;
     const char* tag = level >= datagen::LogLevel::kWarning ? "warning: " : "";
-    // Clear a progress bar line before printing.
-    std::fprintf(stderr, "%smlspaces: %s%s\n", tty ? "\r\033[K" : "", tag, line.c_str());
+    // Clear a progress bar line before printing; UIDs and file names from input escaped.
+    std::fprintf(stderr, "%smlspaces: %s%s\n", tty ? "\r\033[K" : "", tag, Printable(line).c_str());
   };
+  if (run.workers > 1) WarnIfWorkersCannotHelp(config, options.shard, run.workers);
   const datagen::RunReport report =
       datagen::RunDatagen(config, datagen::TaskSamplerRegistry::WithBuiltins(), options);
   std::printf("run folder: %s\nseed: %llu\n", report.folder.c_str(),

@@ -1,5 +1,6 @@
-// mlspaces validate-dataset DIR: deep checks of a generated trajectory dataset (HDF5 schema,
-// JSON rows, flags, provenance, videos); see datagen/dataset_validate.h.
+// mlspaces validate-dataset DIR|FILE.h5: deep checks of a generated trajectory dataset, or of
+// one trajectory file (HDF5 schema, JSON rows, flags, provenance, videos); see
+// datagen/dataset_validate.h.
 #include <cstdio>
 #include <memory>
 #include <string>
@@ -37,8 +38,11 @@ void AddValidateDataset(CLI::App& app, Action& action) {
   auto dir = std::make_shared<std::string>();
   CLI::App* sub = app.add_subcommand(
       "validate-dataset",
-      "Check a generated dataset: HDF5 schema, JSON rows, flags, provenance, videos");
-  sub->add_option("DIR", *dir, "A datagen run folder, or any folder of trajectory files")
+      "Check a generated dataset or one trajectory file: HDF5 schema, JSON rows, flags, "
+      "provenance, videos");
+  sub->add_option("PATH", *dir,
+                  "A datagen run folder, any folder of trajectory files, or one trajectory "
+                  "file (FILE.h5: that file and the videos it names)")
       ->required();
   sub->callback([&action, dir] { action = [dir] { return Run(*dir); }; });
 }

@@ -1,6 +1,7 @@
 // mlspaces index-assets: writes <DIR>/assets_index.json (MolmoSpaces'
 // generate_user_asset_library_index).
 #include <cstdio>
+#include <filesystem>
 #include <memory>
 #include <string>
 
@@ -44,14 +45,24 @@ int RunComputeMetadata(const IndexAssetsFlags& flags) {
   for (const Diagnostic& warning : report.index.warnings) {
     std::fprintf(stderr, "%s\n", IndexWarningLine(warning).c_str());
   }
+  // One line per failed asset (file, field, reason); those assets are not in the index.
   for (const sim::AssetFailure& failure : report.failures) {
-    std::fprintf(stderr, "mlspaces: error: %s\n", failure.message.c_str());
+    std::fprintf(stderr, "mlspaces: error: %s\n", failure.ToString().c_str());
+  }
+  for (const std::filesystem::path& removed : report.removed) {
+    std::fprintf(stderr, "mlspaces: removed %s (written by an earlier run; its asset failed)\n",
+                 removed.c_str());
   }
   std::printf("Computed metadata: %zu assets (%zu computed, %zu reused, %zu failed).\n",
               report.computed + report.reused, report.computed, report.reused,
               report.failures.size());
-  std::printf("Wrote %s with %zu assets.\n", report.index.output.c_str(), report.index.count);
-  return report.failures.empty() ? 0 : 1;
+  if (report.failures.empty()) {
+    std::printf("Wrote %s with %zu assets.\n", report.index.output.c_str(), report.index.count);
+    return 0;
+  }
+  std::printf("Wrote %s with %zu assets, leaving out the %zu that failed.\n",
+              report.index.output.c_str(), report.index.count, report.failures.size());
+  return 1;
 #else
   (void)flags;
   throw UsageError("--compute-metadata needs the sim layer (build with MLSPACES_BUILD_SIM=ON)");
@@ -85,7 +96,8 @@ void AddIndexAssets(CLI::App& app, Action& action) {
   sub->add_flag("--suppress-missing-metadata", flags->suppress_missing_metadata,
                 "Skip XMLs without a sibling <uid>.json, with a warning");
   sub->add_flag("--compute-metadata", flags->compute_metadata,
-                "Fill in missing mass and boundingBox into <uid>_computed.json (needs MuJoCo)");
+                "Fill in missing mass and boundingBox into <uid>_computed.json (needs MuJoCo); "
+                "assets that fail are left out of the index (exit 1)");
   sub->callback([&action, flags] { action = [flags] { return Run(*flags); }; });
 }
 

@@ -1,31 +1,22 @@
 // mlspaces: command-line entry point.
+#include <algorithm>
+#include <cctype>
 #include <cstdio>
 #include <iostream>
+#include <string_view>
+#include <vector>
 
 #include "commands.h"
 #include "mlspaces/core/crash_point.h"
 #include "mlspaces/core/error.h"
+#include "mlspaces/core/strings.h"
+#include "mlspaces/core/yaml_archive.h"
 
 namespace mlspaces::cli {
 
 #ifdef MLSPACES_HAVE_SIM
 void AddInspect(CLI::App& app, Action& action);
 #endif
-
-void Warn(const std::string& text) {
-  std::fprintf(stderr, "mlspaces: warning: %s\n", text.c_str());
-}
-
-CLI::Validator PositiveInteger() {
-  return CLI::Validator(
-      [](std::string& value) -> std::string {
-        bool digits = !value.empty() && value.size() <= 18 &&
-                      value.find_first_not_of("0123456789") == std::string::npos;
-        if (digits && std::stoll(value) >= 1) return {};
-        return "expected a whole number >= 1, got '" + value + "'";
-      },
-      "N");
-}
 
 }  // namespace mlspaces::cli
 
@@ -34,6 +25,7 @@ namespace {
 int Run(int argc, char** argv) {
   using namespace mlspaces;
   CLI::App app{"mlspaces: asset and grasp libraries and pick data generation for MuJoCo"};
+  app.formatter(cli::MakeHelpFormatter());  // before the subcommands: they copy it
   app.set_version_flag("--version", std::string("mlspaces ") + MLSPACES_VERSION);
   app.require_subcommand(1);
   cli::Action action;
@@ -57,45 +49,21 @@ int Run(int argc, char** argv) {
   cli::AddValidateDataset(app, action);
 #endif
   if (argc >= 2 && argv[1][0] != '-') {
-    std::string names;
+    std::vector<std::string> names;
     bool known = false;
     for (CLI::App* sub : app.get_subcommands([](CLI::App*) { return true; })) {
-      names += (names.empty() ? "" : ", ") + sub->get_name();
+      names.push_back(sub->get_name());
       known = known || sub->get_name() == argv[1];
     }
     if (!known) {
-      std::fprintf(stderr, "mlspaces: error: unknown command '%s' (commands: %s)\n", argv[1],
-                   names.c_str());
+      std::string hint = DidYouMean(argv[1], names);
+      if (!hint.empty()) hint += " ";
+      std::fprintf(stderr, "mlspaces: error: unknown command '%s' (%scommands: %s)\n",
+                   Printable(argv[1]).c_str(), hint.c_str(), JoinNames(names).c_str());
       return 2;
     }
   }
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::CallForHelp& e) {
-    return app.exit(e);
-  } catch (const CLI::CallForAllHelp& e) {
-    return app.exit(e);
-  } catch (const CLI::CallForVersion& e) {
-    return app.exit(e);
-  } catch (const CLI::ParseError& e) {
-    std::fprintf(stderr, "mlspaces: error: %s (see --help)\n", e.what());
-    return 2;
-  }
-  try {
-    CrashPointCount();  // a malformed MLSPACES_CRASH_* fails here, before any work
-    return action ? action() : 2;
-  } catch (const UsageError& e) {
-    std::fprintf(stderr, "mlspaces: error: %s\n", e.what());
-    return 2;
-  } catch (const Error& e) {
-    std::fprintf(stderr, "mlspaces: error: %s\n", e.what());
-    return 1;
-  } catch (const std::exception& e) {
-    // The libraries throw mlspaces::Error (MuJoCo's sim::MujocoError included) for every bad
-    // input; what arrives here is a bug (a std::logic_error bug check) or out of memory.
-    std::fprintf(stderr, "mlspaces: internal error: %s\n", e.what());
-    return 1;
-  }
+  return cli::ParseAndRun(app, action, argc, argv);
 }
 
 }  // namespace
@@ -105,7 +73,7 @@ int main(int argc, char** argv) {
   try {
     return Run(argc, argv);
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "mlspaces: internal error: %s\n", e.what());
+    std::fprintf(stderr, "mlspaces: internal error: %s\n", mlspaces::Printable(e.what()).c_str());
   } catch (...) {
     std::fprintf(stderr, "mlspaces: internal error: unknown exception\n");
   }

@@ -17,8 +17,8 @@ from pathlib import Path as _Path
 import mujoco as _mujoco  # first: the extension links the libmujoco this package ships
 
 from . import _core
-from .errors import (HouseInvalidForTask, MlspacesError, MlspacesKeyError, RobotPlacementError,
-                     UsageError)
+from .errors import (HouseInvalidForTask, MlspacesError, MlspacesFileError, MlspacesKeyError,
+                     MlspacesTypeError, RobotPlacementError, UsageError)
 
 if _core.mujoco_runtime_version() != _mujoco.__version__:  # pragma: no cover - broken installs
     raise ImportError(
@@ -28,8 +28,9 @@ if _core.mujoco_runtime_version() != _mujoco.__version__:  # pragma: no cover - 
 
 __version__: str = _core.__version__
 
-# An installed wheel carries the bundled robot models beside the package.
-if (_Path(__file__).parent / "robots").is_dir():
+# An installed wheel carries the bundled robot models beside the package (in the folder of the
+# mlspaces.robots modules).
+if (_Path(__file__).parent / "robots" / "franka_droid").is_dir():
     _os.environ.setdefault("MLSPACES_ROBOTS_DIR", str(_Path(__file__).parent / "robots"))
 
 from ._registry import (Registry, default_registry, get_grasp_libraries_for_object,  # noqa: E402
@@ -44,7 +45,8 @@ from .utils.object_metadata import ObjectMeta  # noqa: E402
 from .utils.pose import pos_quat_to_pose_mat, pose_mat_to_7d, pose_mat_to_pos_quat  # noqa: E402
 
 __all__ = [
-    "HouseInvalidForTask", "MlspacesError", "MlspacesKeyError", "ObjectMeta", "Registry",
+    "HouseInvalidForTask", "MlspacesError", "MlspacesFileError", "MlspacesKeyError",
+    "MlspacesTypeError", "ObjectMeta", "Registry",
     "RobotPlacementError", "UsageError", "default_registry", "flip_grasps",
     "get_grasp_libraries_for_object", "get_joint_grasp_path", "get_pickup_grasp_path",
     "get_scene_metadata", "has_joint_grasp_path", "has_pickup_grasp_path",

@@ -30,6 +30,7 @@ from pathlib import Path
 from typing import Any
 
 from . import _core
+from . import _validate as _v
 from .errors import MlspacesError
 
 _log = logging.getLogger("mlspaces")
@@ -51,12 +52,16 @@ _MISSING = object()
 _copy_tree = _core.copy_tree
 
 
-def _libraries_arg(grasp_libraries: Sequence[str] | None) -> list[str] | None:
-    if grasp_libraries is None:
-        return None
-    if isinstance(grasp_libraries, str):
-        return [grasp_libraries]
-    return [str(x) for x in grasp_libraries]
+def _uid(uid: Any, func: str) -> str:
+    return uid if type(uid) is str else _v.string(uid, "uid", func)
+
+
+def _joint(joint_name: Any, func: str) -> str:
+    return joint_name if type(joint_name) is str else _v.string(joint_name, "joint_name", func)
+
+
+def _libraries_arg(grasp_libraries: Any, func: str) -> list[str] | None:
+    return _v.libraries(grasp_libraries, "grasp_libraries", func)
 
 
 class Registry:
@@ -69,7 +74,8 @@ class Registry:
     """
 
     def __init__(self, assets_dir: str | os.PathLike[str] | None = None) -> None:
-        self._r = _core.Registry(None if assets_dir is None else os.fspath(assets_dir))
+        assets_dir = _v.optional_path(assets_dir, "assets_dir", "Registry")
+        self._r = _core.Registry(assets_dir)
         self.assets_dir: Path | None = None if assets_dir is None else Path(assets_dir)
         self.user_asset_libraries: dict[str, Path] = {}
         self.user_grasp_libraries: dict[str, Path] = {}
@@ -87,7 +93,10 @@ class Registry:
         """Registers ``path`` (a folder holding ``assets_index.json``) as asset library
         ``name``. Raises ``ValueError`` (:class:`MlspacesError`) for a name with ``/``, a name
         taken or built-in, or a missing or bad index."""
-        self._r.register_asset_library(name, os.fspath(path))
+        func = "register_user_asset_library"
+        name = _v.string(name, "name", func, empty=False)
+        path = _v.path(path, "path", func)
+        self._r.register_asset_library(name, path)
         self.user_asset_libraries[name] = Path(path).absolute()
         self._locate.clear()
         self._annotations.clear()
@@ -96,7 +105,11 @@ class Registry:
                                     object_library: str) -> None:
         """Registers ``path`` (a folder holding ``grasps_index.json``) as grasp libraries
         ``"<root_name>/<robot>"``, one per robot, in front of ``object_library``'s list."""
-        names = self._r.register_grasp_library(root_name, os.fspath(path), object_library)
+        func = "register_user_grasp_library"
+        root_name = _v.string(root_name, "root_name", func, empty=False)
+        path = _v.path(path, "path", func)
+        object_library = _v.string(object_library, "object_library", func, empty=False)
+        names = self._r.register_grasp_library(root_name, path, object_library)
         absolute = Path(path).absolute()
         for name in names:
             self.user_grasp_libraries[name] = absolute
@@ -123,10 +136,13 @@ class Registry:
 
         ``package`` is the archive of a packaged library, else ``None``. ``extension`` is
         accepted for compatibility (every library holds MJCF ``.xml`` files)."""
+        if type(extension) is not str:
+            _v.string(extension, "extension", "locate_uid_package")
         try:
             return self._locate[uid]
-        except KeyError:
+        except (KeyError, TypeError):  # a miss, or an unhashable uid: checked below
             pass
+        uid = _uid(uid, "locate_uid_package")
         found = self._r.locate(uid)
         result = (None, None, None) if found is None else found[:3]
         self._locate[uid] = result
@@ -136,6 +152,8 @@ class Registry:
         """The MJCF path of a UID, installing its archive first when it is not installed yet
         (for a MolmoSpaces-format source, with the archives of ``grasp_source`` matching the
         tokens of the MJCF stem, as the original). Raises ``ValueError`` for an unknown UID."""
+        uid = _uid(uid, "install_uid")
+        grasp_source = _v.string(grasp_source, "grasp_source", "install_uid", empty=False)
         found = self._r.locate(uid)
         if found is None:
             # Not indexed here yet: with built-in data configured (a remote named, or sources
@@ -155,8 +173,12 @@ class Registry:
         """The metadata of a UID as a new dict (NPZ arrays inserted as numpy arrays of their
         stored dtype and shape, shared between calls and read-only), or ``None`` for an
         unknown UID."""
-        template = self._annotations.get(uid, _MISSING)
+        try:
+            template = self._annotations.get(uid, _MISSING)
+        except TypeError:  # unhashable: refused below
+            template = _MISSING
         if template is _MISSING:
+            uid = _uid(uid, "annotation")
             self._ensure_objathor()
             # Cached, handed out only as copies; its arrays are read-only views of the store's.
             template = self._r.annotation(uid, template=True)
@@ -182,34 +204,46 @@ class Registry:
 
     def get_grasp_libraries_for_object(self, uid: str) -> list[str]:
         """Grasp libraries serving the UID's asset library, highest priority first."""
-        return self._r.grasp_libraries_for(uid, None)
+        return self._r.grasp_libraries_for(_uid(uid, "get_grasp_libraries_for_object"), None)
 
     def get_pickup_grasp_path(self, uid: str, grasp_libraries: Sequence[str] | None = None
                               ) -> Path | None:
-        found = self._r.grasp_path(uid, "", _libraries_arg(grasp_libraries))
+        func = "get_pickup_grasp_path"
+        found = self._r.grasp_path(_uid(uid, func), "", _libraries_arg(grasp_libraries, func))
         return None if found is None else Path(found)
 
     def get_joint_grasp_path(self, uid: str, joint_name: str,
                              grasp_libraries: Sequence[str] | None = None) -> Path | None:
-        found = self._r.grasp_path(uid, joint_name, _libraries_arg(grasp_libraries))
+        func = "get_joint_grasp_path"
+        found = self._r.grasp_path(_uid(uid, func), _joint(joint_name, func),
+                                   _libraries_arg(grasp_libraries, func))
         return None if found is None else Path(found)
 
     def has_pickup_grasp_path(self, uid: str, grasp_libraries: Sequence[str] | None = None
                               ) -> bool:
-        return self._r.grasp_path(uid, "", _libraries_arg(grasp_libraries)) is not None
+        func = "has_pickup_grasp_path"
+        return self._r.grasp_path(_uid(uid, func), "",
+                                  _libraries_arg(grasp_libraries, func)) is not None
 
     def has_joint_grasp_path(self, uid: str, joint_name: str,
                              grasp_libraries: Sequence[str] | None = None) -> bool:
-        return self._r.grasp_path(uid, joint_name, _libraries_arg(grasp_libraries)) is not None
+        func = "has_joint_grasp_path"
+        return self._r.grasp_path(_uid(uid, func), _joint(joint_name, func),
+                                  _libraries_arg(grasp_libraries, func)) is not None
 
     def has_valid_pickup_grasps(self, uid: str, num_grasps: int = 1,
                                 grasp_libraries: Sequence[str] | None = None) -> bool:
-        return self._r.has_valid_grasps(uid, "", num_grasps, _libraries_arg(grasp_libraries))
+        func = "has_valid_pickup_grasps"
+        return self._r.has_valid_grasps(_uid(uid, func), "",
+                                        _v.count(num_grasps, "num_grasps", func),
+                                        _libraries_arg(grasp_libraries, func))
 
     def has_valid_joint_grasps(self, uid: str, joint_name: str, num_grasps: int = 1,
                                grasp_libraries: Sequence[str] | None = None) -> bool:
-        return self._r.has_valid_grasps(uid, joint_name, num_grasps,
-                                        _libraries_arg(grasp_libraries))
+        func = "has_valid_joint_grasps"
+        return self._r.has_valid_grasps(_uid(uid, func), _joint(joint_name, func),
+                                        _v.count(num_grasps, "num_grasps", func),
+                                        _libraries_arg(grasp_libraries, func))
 
     def load_pickup_grasps(self, uid: str, grasp_libraries: Sequence[str] | None = None,
                            num_grasps: int = 50) -> Any:
@@ -217,16 +251,19 @@ class Registry:
         when the file holds at most ``num_grasps``, else ``num_grasps`` rows drawn with
         Python's ``random.sample`` (as MolmoSpaces draws them). Raises ``ValueError`` when
         there is no grasp file."""
-        return self._r.load_grasps(uid, "", _libraries_arg(grasp_libraries), num_grasps,
-                                   _getrandbits())
+        func = "load_pickup_grasps"
+        return self._r.load_grasps(_uid(uid, func), "", _libraries_arg(grasp_libraries, func),
+                                   _v.count(num_grasps, "num_grasps", func), _getrandbits())
 
     def load_joint_grasps(self, uid: str, joint_name: str,
                           grasp_libraries: Sequence[str] | None = None,
                           num_grasps: int = 50) -> Any:
         """As :meth:`load_pickup_grasps`, for the grasps of one joint (in the frame of the
         joint's body)."""
-        return self._r.load_grasps(uid, joint_name, _libraries_arg(grasp_libraries),
-                                   num_grasps, _getrandbits())
+        func = "load_joint_grasps"
+        return self._r.load_grasps(_uid(uid, func), _joint(joint_name, func),
+                                   _libraries_arg(grasp_libraries, func),
+                                   _v.count(num_grasps, "num_grasps", func), _getrandbits())
 
 
 _default: Registry | None = None
@@ -311,7 +348,8 @@ def get_scene_metadata(mj_base_scene_path: str | os.PathLike[str]) -> dict[str, 
     """The scene metadata beside a scene XML (``<scene>_metadata.json``, else the file of the
     longest ``_``-prefix of its stem) as a new dict, or ``None`` when there is none. Raises
     ``ValueError`` for a path that is not ``*.xml`` or a bad metadata file."""
-    meta = _core.load_scene_metadata(os.fspath(mj_base_scene_path))
+    meta = _core.load_scene_metadata(
+        _v.path(mj_base_scene_path, "mj_base_scene_path", "get_scene_metadata"))
     if meta is None:
         _log.warning("no scene metadata found for %s", mj_base_scene_path)
     return meta

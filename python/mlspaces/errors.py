@@ -3,7 +3,10 @@
 Every error of the C++ library (``mlspaces::Error``) arrives as :class:`MlspacesError`, a
 ``ValueError`` (the type MolmoSpaces raises for bad input), carrying the file, the field in it
 and the asset UID it is about. Lookups of an unknown key raise :class:`MlspacesKeyError`,
-which is also a ``KeyError``, where MolmoSpaces raises ``KeyError``.
+which is also a ``KeyError``, where MolmoSpaces raises ``KeyError``. A bad argument to a public
+function is a :class:`UsageError` (a bad value) or :class:`MlspacesTypeError` (a wrong type, also
+a ``TypeError``), naming the function and the argument; a file that cannot be read is a
+:class:`MlspacesFileError` (also an ``OSError``) naming the file.
 """
 
 from __future__ import annotations
@@ -34,6 +37,23 @@ class UsageError(MlspacesError):
     """A bad argument to an API call or command (the CLI exits with 2 for it)."""
 
 
+class MlspacesTypeError(UsageError, TypeError):
+    """An argument of the wrong type (``None`` where a value is needed included), named in the
+    message. A ``TypeError`` as Python has it, and a ``ValueError`` as MolmoSpaces' callers
+    catch for bad input."""
+
+
+class MlspacesFileError(MlspacesError, OSError):
+    """A file that cannot be read or is not what it should be (a corrupt HDF5 file, bad JSON):
+    the message starts with the file's path, also in ``.path`` and ``.filename``. An ``OSError``
+    (what ``open`` and h5py raise) and a ``ValueError`` (what a parser raises)."""
+
+    def __init__(self, what: str, message: str | None = None, path: str = "", field: str = "",
+                 uid: str = "") -> None:
+        super().__init__(what, message, path, field, uid)
+        self.filename = path or None
+
+
 class MlspacesKeyError(MlspacesError, KeyError):
     """An unknown name or UID where MolmoSpaces raises ``KeyError``."""
 
@@ -49,5 +69,5 @@ class HouseInvalidForTask(Exception):
     """The scene holds nothing the task can use (e.g. no object with grasps)."""
 
 
-__all__ = ["MlspacesError", "UsageError", "MlspacesKeyError", "RobotPlacementError",
-           "HouseInvalidForTask"]
+__all__ = ["MlspacesError", "UsageError", "MlspacesTypeError", "MlspacesFileError",
+           "MlspacesKeyError", "RobotPlacementError", "HouseInvalidForTask"]

@@ -37,6 +37,7 @@ from typing import Any
 import numpy as np
 
 from . import _core
+from . import _validate as _v
 from .errors import MlspacesError
 
 _HOUSE = re.compile(r"house_(\d+)")
@@ -45,6 +46,7 @@ _TRAJ = re.compile(r"traj_(\d+)")
 #: Where uint8 datasets hold zero-padded JSON (docs/dataset.md, "Schema of traj_k").
 _JSON_GROUPS = ("actions/", "obs/agent/", "obs/extra/")
 _SENSOR_DATA = "obs/sensor_data"
+_NOT_HDF5 = "cannot read it as an HDF5 batch file"
 
 
 def _h5py() -> Any:
@@ -140,6 +142,7 @@ class Episode(Mapping):
 
     def video_path(self, camera: str) -> Path:
         """The MP4 of ``camera``. Raises ``KeyError`` for a camera the episode does not have."""
+        camera = _v.string(camera, "camera", "Episode.video_path")
         if camera not in self.video_files:
             raise KeyError(f"{self.traj} of {self.batch_file} has no camera {camera!r}; "
                            f"cameras: {', '.join(self.video_files) or 'none'}")
@@ -149,6 +152,7 @@ class Episode(Mapping):
         """Every frame of ``camera`` as a (T, H, W, 3) uint8 RGB array, decoded from its MP4 on
         the first call and cached. Raises ``KeyError`` for an unknown camera and ``ValueError``
         (:class:`MlspacesError`) naming the file for a missing or corrupt video."""
+        camera = _v.string(camera, "camera", "Episode.frames")
         if camera not in self._frames:
             self._frames[camera] = _core.decode_video(self.video_path(camera))
         return self._frames[camera]
@@ -220,7 +224,11 @@ def _read_episode(f: Any, batch_file: Path, traj: str, house: int | None, index:
             video_files[camera] = _text(item[()]).decode()
     provenance = group.attrs.get("provenance")
     if provenance is not None:
-        provenance = json.loads(provenance)
+        try:
+            provenance = json.loads(provenance)
+        except ValueError as e:
+            raise MlspacesError(f"{batch_file}: {traj} attribute provenance: not JSON text: {e}",
+                                path=str(batch_file), field=f"{traj}/provenance") from None
     return Episode(batch_file, traj, house, index, data, video_files, provenance)
 
 
@@ -240,7 +248,7 @@ class Dataset:
     iteration reads the files again); ``len()`` is the number of episodes."""
 
     def __init__(self, folder: str | os.PathLike[str]) -> None:
-        self.folder = Path(folder)
+        self.folder = Path(_v.path(folder, "folder", "read_dataset"))
         if not self.folder.is_dir():
             raise FileNotFoundError(f"dataset folder not found: {self.folder}")
         houses = sorted(((n, p) for p in self.folder.iterdir()
@@ -267,7 +275,7 @@ class Dataset:
             h5py = _h5py()
             n = 0
             for _, path in self.batch_files:
-                with h5py.File(path, "r") as f:
+                with _v.reading(path, _NOT_HDF5), h5py.File(path, "r") as f:
                     n += len(_trajs(f))
             self._num_episodes = n
         return self._num_episodes
@@ -279,7 +287,8 @@ class Dataset:
         h5py = _h5py()
         index = 0
         for house, path in self.batch_files:
-            with h5py.File(path, "r") as f:
+            # A file that is not HDF5 (or is cut short) raises from h5py without its name.
+            with _v.reading(path, _NOT_HDF5), h5py.File(path, "r") as f:
                 for traj in _trajs(f):
                     yield _read_episode(f, path, traj, house, index, h5py)
                     index += 1
@@ -293,7 +302,9 @@ def read_dataset(folder: str | os.PathLike[str]) -> Dataset:
     house folder): a :class:`Dataset`, iterated for one :class:`Episode` per ``traj_<k>``.
 
     Raises ``FileNotFoundError`` for a missing folder, ``ValueError`` (:class:`MlspacesError`)
-    for a folder holding no dataset, and ``ImportError`` without h5py."""
+    for a folder holding no dataset, ``TypeError`` for a ``folder`` that is not a path, and
+    ``ImportError`` without h5py. Reading a batch file that is not HDF5 or is cut short raises
+    :class:`~mlspaces.errors.MlspacesFileError` (an ``OSError``) naming it."""
     _h5py()
     return Dataset(folder)
 

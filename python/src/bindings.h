@@ -27,5 +27,7 @@ void BindDatagen(nb::module_& m);
 void BindVideo(nb::module_& m);
 void BindEval(nb::module_& m);
 void BindSearch(nb::module_& m);
+/// The CLI's index-assets / index-grasps (index.cc).
+void BindIndex(nb::module_& m);
 
 }  // namespace mlspaces::python

@@ -26,6 +26,7 @@
 #include "convert.h"
 #include "python_sampler.h"
 
+#include "mlspaces/core/strings.h"
 #include "mlspaces/core/yaml_archive.h"
 #include "mlspaces/datagen/config.h"
 #include "mlspaces/datagen/env.h"
@@ -143,7 +144,8 @@ void BindDatagen(nb::module_& m) {
           if (level < threshold) return;
           const char* tag = level >= dg::LogLevel::kWarning ? "warning: " : "";
           // On a terminal, clear the progress bar's line first.
-          std::fprintf(stderr, "%smlspaces: %s%s\n", tty ? "\r\033[K" : "", tag, line.c_str());
+          std::fprintf(stderr, "%smlspaces: %s%s\n", tty ? "\r\033[K" : "", tag,
+                       Printable(line).c_str());
         };
         // Ctrl-C: the interpreter's SIGINT handler only sets a flag while C++ runs; look at
         // it after every attempt and stop there (the journal is consistent: --resume goes on).

@@ -61,15 +61,15 @@ class PyEvalEnv {
 
   void Reset(uint64_t seed, int64_t house, int64_t episode) {
     nb::gil_scoped_release no_gil;
-    env_->Reset(seed, house, episode);
+    env().Reset(seed, house, episode);
   }
 
   nb::dict Step(nb::handle arm, double gripper) {
-    const std::vector<double> q = DoublesFromPython(arm, env_->robot().num_arm(), "action 'arm'");
+    const std::vector<double> q = DoublesFromPython(arm, env().robot().num_arm(), "action 'arm'");
     dg::EvalStep step;
     {
       nb::gil_scoped_release no_gil;
-      step = env_->Step(q, gripper);
+      step = env().Step(q, gripper);
     }
     nb::dict out;
     out["success"] = step.verdict.success;
@@ -82,8 +82,8 @@ class PyEvalEnv {
   /// The observation in the dataset's layout (docs/dataset.md): agent joint state per move
   /// group and the extra poses (tcp_pose in the robot base frame).
   nb::dict Observation() const {
-    const dg::RobotView& robot = env_->robot();
-    const mjData* d = env_->env().data();
+    const dg::RobotView& robot = env().robot();
+    const mjData* d = env().env().data();
     nb::dict qpos, qvel;
     qpos["arm"] = Vector(robot.ArmQpos(d));
     qpos["gripper"] = Vector(robot.GripperQpos(d));
@@ -93,10 +93,10 @@ class PyEvalEnv {
     agent["qpos"] = qpos;
     agent["qvel"] = qvel;
     const Mat4 base = robot.BasePose(d);
-    const dg::Task& task = env_->task();
+    const dg::Task& task = env().task();
     nb::dict extra;
     extra["tcp_pose"] = PoseVector(ToPose(InverseRigid(base) * robot.TcpPose(d)));
-    extra["robot_base_pose"] = PoseVector(env_->env().GetRobotBasePose());
+    extra["robot_base_pose"] = PoseVector(env().env().GetRobotBasePose());
     extra["obj_start"] = PoseVector(task.pickup_obj_start_pose);
     extra["obj_end"] = PoseVector(task.pickup_obj_goal_pose);
     nb::dict out;
@@ -106,18 +106,18 @@ class PyEvalEnv {
   }
 
   nb::object Render(size_t index) {
-    const size_t height = static_cast<size_t>(env_->image_height());
-    const size_t width = static_cast<size_t>(env_->image_width());
+    const size_t height = static_cast<size_t>(env().image_height());
+    const size_t width = static_cast<size_t>(env().image_width());
     std::vector<uint8_t> rgb(height * width * 3);
     {
       nb::gil_scoped_release no_gil;
-      env_->Render(index, rgb.data());
+      env().Render(index, rgb.data());
     }
     return OwnedNumpy<uint8_t>(std::move(rgb), {height, width, 3});
   }
 
   nb::dict Task() const {
-    const dg::Task& t = env_->task();
+    const dg::Task& t = env().task();
     nb::dict out;
     out["pickup_obj_name"] = t.pickup_obj_name;
     out["robot_base_pose"] = PoseVector(t.robot_base_pose);
@@ -125,23 +125,57 @@ class PyEvalEnv {
     out["pickup_obj_goal_pose"] = PoseVector(t.pickup_obj_goal_pose);
     out["episode"] = t.episode;
     out["seed"] = t.seed;
-    out["success"] = env_->verdict().success;
-    out["steps"] = env_->steps();
+    out["success"] = env().verdict().success;
+    out["steps"] = env().steps();
     return out;
   }
 
-  dg::EvalEnv& env() { return *env_; }
+  /// The engine env. @throws Error after Close().
+  dg::EvalEnv& env() {
+    if (!env_) throw Error("the env is closed (GymEnv.close() was called)");
+    return *env_;
+  }
+  const dg::EvalEnv& env() const { return const_cast<PyEvalEnv*>(this)->env(); }
   nb::object python_env() const { return python_ ? python_->python_env() : nb::none(); }
+  /// Frees the engine env (renderer, scene, the Python sampler it holds); idempotent.
+  void Close() {
+    python_ = nullptr;
+    env_.reset();
+  }
+  bool closed() const { return env_ == nullptr; }
+  int Traverse(visitproc visit, void* arg) const {
+    return python_ ? python_->Traverse(visit, arg) : 0;
+  }
 
  private:
   std::unique_ptr<dg::EvalEnv> env_;
   PythonTaskSampler* python_ = nullptr;
 };
 
+// The env holds the Python sampler (and through it the sampler's env and config): tp_traverse
+// shows those references to the cyclic GC, so a cycle through them (the sampler's class, its
+// module, an object that holds the env) is collected, also at interpreter exit; tp_clear
+// breaks it by closing the env.
+int EvalEnvTraverse(PyObject* self, visitproc visit, void* arg) {
+  Py_VISIT(Py_TYPE(self));
+  if (!nb::inst_ready(self)) return 0;
+  return nb::inst_ptr<PyEvalEnv>(self)->Traverse(visit, arg);
+}
+
+int EvalEnvClear(PyObject* self) {
+  if (nb::inst_ready(self)) nb::inst_ptr<PyEvalEnv>(self)->Close();
+  return 0;
+}
+
+PyType_Slot eval_env_slots[] = {{Py_tp_traverse, reinterpret_cast<void*>(EvalEnvTraverse)},
+                                {Py_tp_clear, reinterpret_cast<void*>(EvalEnvClear)},
+                                {0, nullptr}};
+
 }  // namespace
 
 void BindEval(nb::module_& m) {
-  nb::class_<PyEvalEnv>(m, "EvalEnv", "The datagen scene driven one policy step at a time.")
+  nb::class_<PyEvalEnv>(m, "EvalEnv", "The datagen scene driven one policy step at a time.",
+                        nb::type_slots(eval_env_slots))
       .def(nb::init<const std::string&, const std::string&, const std::filesystem::path&,
                     nb::object, bool, const std::string&>(),
            nb::arg("text"), nb::arg("origin"), nb::arg("base_dir"), nb::arg("sampler").none(),
@@ -172,7 +206,9 @@ void BindEval(nb::module_& m) {
                    })
       .def_prop_ro("started", [](PyEvalEnv& e) { return e.env().started(); })
       .def_prop_ro("task_horizon", [](PyEvalEnv& e) { return e.env().config().task_horizon; })
-      .def_prop_ro("python_env", &PyEvalEnv::python_env);
+      .def_prop_ro("python_env", &PyEvalEnv::python_env)
+      .def("close", &PyEvalEnv::Close)
+      .def_prop_ro("closed", &PyEvalEnv::closed);
 }
 
 }  // namespace mlspaces::python

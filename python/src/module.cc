@@ -21,4 +21,5 @@ NB_MODULE(_core, m) {
   mlspaces::python::BindDatagen(m);
   mlspaces::python::BindEval(m);
   mlspaces::python::BindVideo(m);
+  mlspaces::python::BindIndex(m);
 }

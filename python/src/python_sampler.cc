@@ -23,13 +23,25 @@ namespace dg = mlspaces::datagen;
 
 namespace {
 
+/// Whether Python objects may still be released: the interpreter runs, or is finalizing (its
+/// module teardown, when Py_IsInitialized() is already false but objects are freed as usual:
+/// an env left open at exit is destroyed then, and must release what it holds, else the
+/// sampler's module and everything it reaches leak, which nanobind reports at exit).
+bool PythonAlive() {
+#if PY_VERSION_HEX >= 0x030D0000
+  return Py_IsInitialized() || Py_IsFinalizing();
+#else
+  return Py_IsInitialized() || _Py_IsFinalizing();
+#endif
+}
+
 /// A deleter that keeps a Python object alive and drops it (under the GIL) when the C++ side
 /// is done with the pointer it owns.
 struct PyOwner {
   PyObject* owner;
   template <class T>
   void operator()(T*) const noexcept {
-    if (!Py_IsInitialized()) return;  // the interpreter is gone: nothing left to free
+    if (!PythonAlive()) return;  // the interpreter is gone: nothing left to free
     PyGILState_STATE state = PyGILState_Ensure();
     Py_DECREF(owner);
     PyGILState_Release(state);
@@ -58,7 +70,7 @@ PythonTaskSampler::PythonTaskSampler(dg::ExperimentConfig config, uint64_t seed,
       overrides_place_(Overrides(sampler_, "_sample_and_place_robot")) {}
 
 PythonTaskSampler::~PythonTaskSampler() {
-  if (!Py_IsInitialized()) {
+  if (!PythonAlive()) {
     (void)sampler_.release();
     (void)env_.release();
     return;

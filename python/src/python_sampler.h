@@ -26,6 +26,13 @@ class PythonTaskSampler : public datagen::BlockPickupTaskSampler {
   void PrepareEnv(datagen::Env& env) override;
   /// The Python CPUMujocoEnv of the last PrepareEnv (None before).
   nb::object python_env() const { return env_; }
+  /// Visits the Python objects this holds (the sampler, its env), for the tp_traverse of the
+  /// Python object that owns this, so the cyclic GC sees the references.
+  int Traverse(visitproc visit, void* arg) const {
+    Py_VISIT(sampler_.ptr());
+    Py_VISIT(env_.ptr());
+    return 0;
+  }
 
  protected:
   void RandomizeScene(datagen::Env& env, Rng& rng) override;

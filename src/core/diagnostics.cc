@@ -4,13 +4,15 @@
 #include <algorithm>
 #include <utility>
 
+#include "mlspaces/core/strings.h"
+
 namespace mlspaces {
 
 std::string Diagnostic::ToString() const {
   std::string out = path;
   if (!field.empty()) out += (out.empty() ? "" : ": ") + field;
   if (!message.empty()) out += (out.empty() ? "" : ": ") + message;
-  return out;
+  return Printable(out);  // file names, UIDs and messages from input may hold control bytes
 }
 
 void Diagnostics::Error(std::string path, std::string field, std::string message, std::string uid) {

@@ -3,11 +3,21 @@
 // (core/yaml_archive.h). Validation: config_validate.cc; named configs: config_registry.cc.
 #include "mlspaces/datagen/config.h"
 
+#include <sys/stat.h>
+#include <xxhash.h>
+
+#include <algorithm>
 #include <cstdio>
+#include <fstream>
+#include <memory>
+#include <mutex>
+#include <tuple>
 
 #include "mlspaces/core/error.h"
 #include "mlspaces/core/rng.h"
 #include "mlspaces/core/yaml_archive.h"
+#include "mlspaces/datagen/run.h"
+#include "mlspaces/library/scene_metadata.h"
 
 namespace mlspaces::datagen {
 namespace fs = std::filesystem;
@@ -35,6 +45,127 @@ ExperimentConfig ReadConfig(const YAML::Node& root, const std::string& origin,
   reader.ReadStruct(root, "", config, {"base"});
   ResolvePaths(config, base_dir);
   return config;
+}
+
+// ---------------------------------------------------------------------------------------
+// Content digests for the data hash: what a path holds, not where it is.
+
+constexpr uint64_t kFnvBasis = 0xcbf29ce484222325ULL;
+
+void FnvAdd(uint64_t& h, std::string_view bytes) {
+  for (const unsigned char c : bytes) {
+    h ^= c;
+    h *= 0x100000001b3ULL;
+  }
+}
+
+std::string Hex64(uint64_t v) {
+  char buf[17];
+  std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(v));
+  return buf;
+}
+
+// XXH3-64 of a file's bytes, cached per process while the file's stat is unchanged (a run
+// hashes its config several times: config.yaml, resume, every episode's provenance).
+uint64_t FileDigest(const fs::path& file) {
+  using Stamp = std::tuple<dev_t, ino_t, off_t, int64_t, int64_t, int64_t, int64_t>;
+  static std::mutex mutex;
+  static std::map<std::string, std::pair<Stamp, uint64_t>> cache;
+  struct stat st {};
+  if (::stat(file.c_str(), &st) != 0) throw Error("cannot stat", file.string());
+  const Stamp stamp{st.st_dev,          st.st_ino,         st.st_size,        st.st_mtim.tv_sec,
+                    st.st_mtim.tv_nsec, st.st_ctim.tv_sec, st.st_ctim.tv_nsec};
+  {
+    const std::lock_guard lock(mutex);
+    if (auto it = cache.find(file.string()); it != cache.end() && it->second.first == stamp) {
+      return it->second.second;
+    }
+  }
+  std::ifstream in(file, std::ios::binary);
+  if (!in) throw Error("cannot read", file.string());
+  const std::unique_ptr<XXH3_state_t, decltype(&XXH3_freeState)> state(XXH3_createState(),
+                                                                       &XXH3_freeState);
+  if (!state || XXH3_64bits_reset(state.get()) != XXH_OK) throw Error("out of memory");
+  std::string buf(1 << 20, '\0');
+  while (in) {
+    in.read(buf.data(), static_cast<std::streamsize>(buf.size()));
+    XXH3_64bits_update(state.get(), buf.data(), static_cast<size_t>(in.gcount()));
+  }
+  if (in.bad()) throw Error("cannot read", file.string());
+  const uint64_t h = XXH3_64bits_digest(state.get());
+  const std::lock_guard lock(mutex);
+  cache[file.string()] = {stamp, h};
+  return h;
+}
+
+// What a config path stands for in the data hash: a file's bytes (a scene XML's with its
+// scene metadata file's), a folder's files by relative path and bytes (hidden entries left
+// out: caches; and `run_folder`), or only the name of a path that does not exist.
+std::string PathDigest(const fs::path& path, const fs::path& run_folder) {
+  std::error_code ec;
+  if (fs::is_regular_file(path, ec)) {
+    std::string out = "file:" + Hex64(FileDigest(path));
+    if (path.extension() == ".xml") {
+      if (const std::optional<fs::path> meta = FindSceneMetadataFile(path)) {
+        out += "+" + meta->filename().string() + ":" + Hex64(FileDigest(*meta));
+      }
+    }
+    return out;
+  }
+  if (fs::is_directory(path, ec)) {
+    std::vector<std::pair<std::string, fs::path>> files;
+    fs::recursive_directory_iterator it(path, fs::directory_options::skip_permission_denied, ec);
+    if (ec) throw Error("cannot list: " + ec.message(), path.string());
+    for (; it != fs::recursive_directory_iterator(); it.increment(ec)) {
+      if (ec) throw Error("cannot list: " + ec.message(), path.string());
+      const fs::path& p = it->path();
+      if (p.filename().string().starts_with(".") || p == run_folder) {
+        it.disable_recursion_pending();
+        continue;
+      }
+      if (it->is_regular_file(ec))
+        files.emplace_back(p.lexically_relative(path).generic_string(), p);
+    }
+    std::sort(files.begin(), files.end());
+    uint64_t h = kFnvBasis;
+    for (const auto& [rel, file] : files) {
+      FnvAdd(h, rel);
+      FnvAdd(h, std::string_view("\0", 1));
+      FnvAdd(h, Hex64(FileDigest(file)));
+      FnvAdd(h, "\n");
+    }
+    return "dir:" + Hex64(h);
+  }
+  return "missing:" + path.filename().string();
+}
+
+// Applies `map` to every non-empty path of a config struct (as ResolveYamlPaths walks them).
+template <class T>
+void MapPaths(T& value, const std::function<fs::path(const fs::path&)>& map);
+
+struct PathMapper {
+  const std::function<fs::path(const fs::path&)>* map;
+  template <class T>
+  void Visit(const char*, T& field) {
+    MapPaths(field, *map);
+  }
+};
+
+template <class T>
+void MapPaths(T& value, const std::function<fs::path(const fs::path&)>& map) {
+  using namespace yaml_internal;
+  if constexpr (std::is_same_v<T, fs::path>) {
+    if (!value.empty()) value = map(value);
+  } else if constexpr (IsOptional<T>::value) {
+    if (value.has_value()) MapPaths(*value, map);
+  } else if constexpr (IsVector<T>::value || IsArray<T>::value) {
+    for (auto& item : value) MapPaths(item, map);
+  } else if constexpr (IsMap<T>::value) {
+    for (auto& [k, v] : value) MapPaths(v, map);
+  } else if constexpr (YamlStruct<T>) {
+    PathMapper mapper{&map};
+    VisitYamlFields(&mapper, value);
+  }
 }
 
 }  // namespace
@@ -101,6 +232,14 @@ std::string DataConfigHashHex(const ExperimentConfig& config) {
   data.log_level = defaults.log_level;
   data.num_workers = defaults.num_workers;
   data.profile = defaults.profile;
+  // The built-in data folder is where installed packages sit, as MLSPACES_ASSETS_DIR.
+  data.libraries.assets_dir = defaults.libraries.assets_dir;
+  // Every other path by what it holds: the same project in another folder, the same hash.
+  // A library folder holding the run's own output does not count that output.
+  const fs::path run_folder = fs::absolute(RunFolder(config)).lexically_normal();
+  MapPaths(data, std::function<fs::path(const fs::path&)>([&run_folder](const fs::path& p) {
+             return fs::path(PathDigest(p, run_folder));
+           }));
   return ConfigHashHex(data);
 }
 

@@ -10,6 +10,11 @@
 namespace mlspaces::datagen::dataset_check {
 
 void Validator::Run(const fs::path& dir) {
+  // One trajectory file: that file and the videos it names (no folder walk).
+  if (std::error_code fec; fs::is_regular_file(dir, fec)) {
+    FileIsolated(dir);
+    return;
+  }
   // Walk first (the .parts folders must be skipped while walking), then check in path order.
   enum class Kind { kH5, kVideo, kPartsDir, kTemp, kEpisodeVideo };
   std::vector<std::pair<fs::path, Kind>> entries;
@@ -93,8 +98,11 @@ namespace mlspaces::datagen {
 
 DatasetReport ValidateDataset(const std::filesystem::path& dir) {
   std::error_code ec;
-  if (!std::filesystem::is_directory(dir, ec)) {
-    throw Error(std::filesystem::exists(dir, ec) ? "not a folder" : "no such folder", dir.string());
+  if (!std::filesystem::is_directory(dir, ec) && !std::filesystem::is_regular_file(dir, ec)) {
+    const char* what = std::filesystem::exists(dir, ec) ? "not a folder or a file"
+                       : dir.extension() == ".h5"       ? "no such file"
+                                                        : "no such folder";
+    throw Error(what, dir.string());
   }
   DatasetReport report;
   dataset_check::Validator(report).Run(dir);

@@ -90,31 +90,6 @@ std::string Snippet(std::string_view text) {
   return out + (text.size() > 60 ? "\"…" : "\"");
 }
 
-/// `s` with control characters and bytes that are not UTF-8 written as \xNN (HDF5 names and
-/// messages are bytes; a corrupt file can hold anything).
-std::string Printable(std::string_view s) {
-  std::string out;
-  out.reserve(s.size());
-  for (size_t i = 0; i < s.size();) {
-    const unsigned char c = static_cast<unsigned char>(s[i]);
-    size_t len = c < 0x80 ? 1 : (c >> 5) == 6 ? 2 : (c >> 4) == 14 ? 3 : (c >> 3) == 30 ? 4 : 0;
-    bool ok = len > 0 && i + len <= s.size() && (len > 1 || (c >= 0x20 && c != 0x7f));
-    for (size_t j = 1; ok && j < len; ++j) {
-      ok = (static_cast<unsigned char>(s[i + j]) & 0xC0) == 0x80;
-    }
-    if (ok) {
-      out.append(s.substr(i, len));
-      i += len;
-    } else {
-      char buf[8];
-      std::snprintf(buf, sizeof buf, "\\x%02x", c);
-      out += buf;
-      ++i;
-    }
-  }
-  return out;
-}
-
 /// Python's json.loads accepts NaN, Infinity and -Infinity (DumpJsonCompactSorted writes them
 /// for non-finite floats); nlohmann does not. Replaces them by 0 outside strings.
 std::string PythonJsonToStrict(std::string_view text) {

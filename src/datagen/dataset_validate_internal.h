@@ -17,6 +17,7 @@
 
 #include "hdf5_util.h"
 #include "mlspaces/core/json.h"
+#include "mlspaces/core/strings.h"
 #include "mlspaces/datagen/dataset_schema.h"
 #include "mlspaces/datagen/dataset_validate.h"
 
@@ -50,10 +51,6 @@ bool IsNumeric(hid_t type);
 
 /// Up to 60 bytes of `text`, quoted, non-printable bytes as \xNN.
 std::string Snippet(std::string_view text);
-
-/// `s` with control characters and bytes that are not UTF-8 written as \xNN (HDF5 names and
-/// messages are bytes; a corrupt file can hold anything).
-std::string Printable(std::string_view s);
 
 /// Python's json.loads accepts NaN, Infinity and -Infinity (DumpJsonCompactSorted writes them
 /// for non-finite floats); nlohmann does not. Replaces them by 0 outside strings.

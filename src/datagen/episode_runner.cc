@@ -14,12 +14,14 @@
 #include "mlspaces/core/se3.h"
 #include "mlspaces/core/version.h"
 #include "mlspaces/datagen/policy_step.h"
+#include "mlspaces/datagen/preflight.h"
 #include "mlspaces/datagen/success.h"
 #include "mlspaces/library/license_policy.h"
 #include "mlspaces/library/scene_metadata.h"
 #include "mlspaces/sim/mj_pose.h"
 
 namespace mlspaces::datagen {
+namespace fs = std::filesystem;
 namespace {
 
 using Clock = std::chrono::steady_clock;
@@ -219,15 +221,14 @@ bool EpisodeRunner::SampleTask(Episode& e) {
 }
 
 // The object's grasps (missing ones are a "no grasp" attempt, as the original's candidate
-// rejection).
+// rejection, and an input error: preflight.h).
 bool EpisodeRunner::LoadGrasps(Episode& e) {
   const auto t0 = Clock::now();
   e.filter = config_.policy_config.grasp_libraries ? *config_.policy_config.grasp_libraries
                                                    : std::vector<std::string>{};
+  const fs::path metadata_file = SceneMetadataFileFor(env_.scene().composer().path());
   try {
-    const std::optional<Json> metadata =
-        env_.metadata().is_null() ? std::nullopt : std::optional<Json>(env_.metadata());
-    e.uid = SceneObjectAssetId(metadata, e.task.pickup_obj_name);
+    e.uid = PickupAssetId(env_.metadata(), metadata_file, e.task.pickup_obj_name);
     e.annotation = registry_.GetAnnotation(e.uid);
     const std::optional<AssetLocation> where = registry_.Locate(e.uid);
     const std::string license =
@@ -238,11 +239,12 @@ bool EpisodeRunner::LoadGrasps(Episode& e) {
       e.attempt.message = "the pickup object is refused: " + why;
       return false;
     }
-    e.grasps = registry_.LoadGrasps({e.uid, "", e.filter}, std::numeric_limits<size_t>::max());
+    e.grasps = LoadPickupGrasps(registry_, e.uid, e.task.pickup_obj_name, metadata_file, e.filter);
   } catch (const Error& error) {
     e.attempt.AddTiming("grasps", Since(t0));
     e.attempt.outcome = Outcome::kNoGrasp;
     e.attempt.message = error.what();
+    e.result.input_error = error;
     return false;
   }
   e.attempt.AddTiming("grasps", Since(t0));
@@ -535,7 +537,8 @@ void EpisodeRunner::FinishRecord(Episode& e) {
   const Task& task = e.task;
   const std::string& uid = e.uid;
   EpisodeMetadata& meta = rec.meta;
-  meta.config_hash = DataConfigHashHex(config_);
+  if (options_.config_hash.empty()) options_.config_hash = DataConfigHashHex(config_);
+  meta.config_hash = options_.config_hash;
   meta.seed = e.attempt.seed;
   meta.scene = options_.scene_name;
   meta.source_episode = e.index;

@@ -44,7 +44,8 @@ MergeReport MergeRuns(const std::vector<fs::path>& inputs, const fs::path& outpu
     const fs::path file = in / "config.yaml";
     if (!IsFile(file)) throw Error("not a run folder (no config.yaml)", in.string());
     ExperimentConfig c = LoadConfigFile(file, configs);
-    const std::string h = DataConfigHashHex(c);
+    std::string h = RecordedDataHash(file);  // shards may have run in other folders
+    if (h.empty()) h = DataConfigHashHex(c);
     if (!config) {
       config = std::move(c);
       hash = h;

@@ -11,6 +11,8 @@
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
+#include <fstream>
+#include <functional>
 #include <map>
 #include <memory>
 #include <optional>
@@ -23,8 +25,10 @@
 #include "mlspaces/core/files.h"
 #include "mlspaces/core/progress.h"
 #include "mlspaces/core/subprocess.h"
+#include "mlspaces/core/yaml_archive.h"
 #include "mlspaces/datagen/env.h"
 #include "mlspaces/datagen/episode_runner.h"
+#include "mlspaces/datagen/preflight.h"
 #include "mlspaces/datagen/recorder.h"
 #include "mlspaces/library/registry.h"
 
@@ -47,6 +51,51 @@ int64_t RoundHalfEven(double x) {
 uint64_t DrawSeed() {
   std::random_device device;
   return (static_cast<uint64_t>(device()) << 32) ^ device();
+}
+
+// What differs between two configs in the fields that shape the data (DataConfigHashHex's),
+// as "seed 0 -> 1, task_sampler_config.samples_per_house 4 -> 8" (at most 6, then "and N
+// more"); empty when the canonical YAML of those fields is the same.
+std::string ConfigChanges(const ExperimentConfig& before, const ExperimentConfig& after) {
+  auto data_yaml = [](ExperimentConfig c) {
+    const ExperimentConfig defaults;
+    c.output_dir = defaults.output_dir;
+    c.log_level = defaults.log_level;
+    c.num_workers = defaults.num_workers;
+    c.profile = defaults.profile;
+    return YAML::Load(DumpConfig(c));
+  };
+  auto text = [](const YAML::Node& node) {
+    if (!node.IsDefined()) return std::string("(none)");
+    YAML::Emitter out;
+    out << YAML::Flow << node;
+    std::string s = out.c_str();
+    return s.size() > 60 ? s.substr(0, 57) + "..." : s;
+  };
+  std::vector<std::string> changes;
+  std::function<void(const YAML::Node&, const YAML::Node&, const std::string&)> walk =
+      [&](const YAML::Node& a, const YAML::Node& b, const std::string& key) {
+        if (a.IsMap() && b.IsMap()) {
+          std::vector<std::string> keys;
+          for (const auto& kv : a) keys.push_back(kv.first.as<std::string>());
+          for (const auto& kv : b) {
+            const std::string k = kv.first.as<std::string>();
+            if (!a[k]) keys.push_back(k);
+          }
+          for (const std::string& k : keys) walk(a[k], b[k], YamlChildKey(key, k));
+        } else if (a.IsSequence() && b.IsSequence() && a.size() == b.size()) {
+          for (size_t i = 0; i < a.size(); ++i) {
+            walk(a[i], b[i], key + "[" + std::to_string(i) + "]");
+          }
+        } else if (text(a) != text(b)) {
+          changes.push_back(key + " " + text(a) + " -> " + text(b));
+        }
+      };
+  walk(data_yaml(before), data_yaml(after), "");
+  std::string out;
+  for (size_t i = 0; i < changes.size() && i < 6; ++i) out += (i ? ", " : "") + changes[i];
+  if (changes.size() > 6) out += " and " + std::to_string(changes.size() - 6) + " more";
+  return out;
 }
 
 // The config to run, checked against a run already in the folder: a null seed takes the
@@ -75,10 +124,16 @@ ExperimentConfig SettleRunConfig(const ExperimentConfig& config, const fs::path&
   if (!run.license_policy && ResolveLicensePolicy() != LicensePolicy::kAll) {
     run.license_policy = ResolveLicensePolicy();
   }
-  if (DataConfigHashHex(stored) != DataConfigHashHex(run)) {
-    throw Error("the folder holds a run of another config (data hash " + DataConfigHashHex(stored) +
-                    ", this one " + DataConfigHashHex(run) +
-                    "): choose another output folder, or remove this one to start over",
+  // The hash recorded when the run began (its paths may since have moved with the folder).
+  std::string stored_hash = RecordedDataHash(file);
+  if (stored_hash.empty()) stored_hash = DataConfigHashHex(stored);
+  if (const std::string run_hash = DataConfigHashHex(run); stored_hash != run_hash) {
+    // Which fields changed (seed, episodes, ...); the hashes when the fields say nothing.
+    std::string changes = ConfigChanges(stored, run);
+    if (changes.empty()) changes = "data hash " + stored_hash + ", this one " + run_hash;
+    throw Error("the folder holds a run of another config (" + changes +
+                    "); --resume continues a run only with its own config: choose another "
+                    "output folder (--output), or remove this one to start over",
                 file.string());
   }
   std::error_code ec;
@@ -122,7 +177,8 @@ class ItemRunner {
         gl_(gl),
         emit_(std::move(emit)),
         registry_(registry),
-        sampler_(sampler) {}
+        sampler_(sampler),
+        hash_(DataConfigHashHex(config)) {}
 
   void Run(size_t index, const WorkItem& item) {
     const std::string scene = item.scene_name();
@@ -180,17 +236,34 @@ class ItemRunner {
       env_.emplace(Env::Create(sim::Scene::Load(item.scene_xml),
                                RobotSpecFromConfig(config_.robot_config), scene));
       sampler_.PrepareEnv(*env_);
+      env_house_ = -1;  // a scene whose preflight throws is built again by the next item
+      // Broken input stops the run here, before the scene's first attempt, when no pickup
+      // candidate is left; broken candidates beside good ones are reported (preflight.h).
+      for (const Error& problem :
+           PreflightScene(*env_, item.scene_xml, registry_, config_).problems) {
+        emit_(Json{{"warning", scene + ": attempts on this pickup candidate will fail: " +
+                                   std::string(problem.what())}});
+      }
       EpisodeRunnerOptions runner_options;
       runner_options.scene_name = scene;
       runner_options.video_dir = rec_options.dir;
       runner_options.gl_backend = gl_;
+      runner_options.config_hash = hash_;  // hashed once, not per scene
       runner_ =
           std::make_unique<EpisodeRunner>(*env_, sampler_, registry_, config_, runner_options);
       env_house_ = item.house;
     }
     int64_t sequential_rejects = 0;
+    // Attempts of this invocation, and those that failed for an input reason (the first kept).
+    int64_t ran = 0, input_failed = 0;
+    std::optional<Error> input_error;
     for (int64_t a = next; kept < item.episodes && a < item.max_attempts; ++a) {
       EpisodeResult result = runner_->Run(item.first_episode + a);
+      ++ran;
+      if (result.input_error) {
+        ++input_failed;
+        if (!input_error) input_error = result.input_error;
+      }
       const bool keep = result.record.has_value() &&
                         (result.success || !config_.filter_for_successful_trajectories);
       if (keep) {
@@ -232,6 +305,13 @@ class ItemRunner {
         sequential_rejects = 0;
       }
     }
+    if (kept == 0 && ran > 0 && input_failed == ran) {
+      // Every attempt failed on the input: the run stops, naming the file and the field.
+      throw Error(input_error->message() + " (every attempt of " + scene + " batch " +
+                      std::to_string(item.batch) + "/" + std::to_string(item.num_batches) +
+                      " failed so)",
+                  input_error->path(), input_error->field(), input_error->uid());
+    }
     const bool wrote = recorder.Finish();
     emit_(Json{{"item", index},
                {"finished", true},
@@ -247,6 +327,7 @@ class ItemRunner {
   Emit emit_;
   const Registry& registry_;
   TaskSampler& sampler_;
+  std::string hash_;  // DataConfigHashHex(config_)
   std::optional<Env> env_;
   std::unique_ptr<EpisodeRunner> runner_;
   int64_t env_house_ = -1;
@@ -309,6 +390,14 @@ std::vector<WorkItem> ShardItems(const std::vector<WorkItem>& items, const Shard
     }
   }
   return out;
+}
+
+std::string RecordedDataHash(const fs::path& config_file) {
+  static constexpr std::string_view kPrefix = "# mlspaces datagen run; data hash ";
+  std::string first;
+  if (std::ifstream in(config_file); !std::getline(in, first)) return "";
+  if (!first.starts_with(kPrefix)) return "";
+  return first.substr(kPrefix.size());
 }
 
 fs::path JournalPath(const fs::path& folder, const Shard& shard) {
@@ -418,22 +507,36 @@ RunReport RunDatagen(const ExperimentConfig& input, const TaskSamplerRegistry& s
     todo.emplace_back(k, item);
   }
 
+  // Progress per episode on stderr: a bar on a terminal, else a line at most once a second.
+  ProgressStyle progress_style;
+  progress_style.enabled = options.progress;
+  progress_style.lines_when_not_tty = true;
+  progress_style.unit = "episodes";
   ProgressBar bar(options.shard.count > 1 ? "datagen " + options.shard.Name() : "datagen",
-                  static_cast<size_t>(total_episodes), options.progress);
+                  static_cast<size_t>(total_episodes), progress_style);
   std::vector<AttemptRecord> attempts;
   int64_t successes = 0, kept_now = 0;
   std::map<size_t, int64_t> kept_messages;  // per item: kept episodes reported so far
   const auto t_work = Clock::now();
   auto progress_note = [&] {
+    if (attempts.empty()) {
+      return std::string(done_episodes >= total_episodes ? "done in an earlier run"
+                         : done_episodes > 0             ? "resuming"
+                                                         : "starting");
+    }
     const double secs = Since(t_work);
     const double per_hour = secs > 0 ? kept_now / secs * 3600.0 : 0;
     const int64_t left = total_episodes - done_episodes;
     char buf[160];
-    std::snprintf(buf, sizeof buf, "success %.1f%%, %.0f ep/h, ETA %s",
+    std::snprintf(buf, sizeof buf, "%zu attempt%s, success %.1f%%, %.0f ep/h, ETA %s",
+                  attempts.size(), attempts.size() == 1 ? "" : "s",
                   attempts.empty() ? 0.0 : 100.0 * successes / attempts.size(), per_hour,
                   per_hour > 0 ? Duration(left / per_hour * 3600.0).c_str() : "?");
     return std::string(buf);
   };
+  // Before the first scene loads: the bar at once, a plain line within seconds (none when
+  // input stops the run sooner: its error line alone says why).
+  bar.Start(static_cast<size_t>(done_episodes), progress_note());
   // Every message of every worker comes through here: the journal's only writer.
   auto handle = [&](const Json& m) {
     if (m.contains("warning")) {

@@ -1,12 +1,20 @@
 #include "mlspaces/library/asset_index.h"
 
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+#include <memory>
 #include <string_view>
 #include <system_error>
+
+#define XXH_INLINE_ALL
+#include <xxhash.h>
 
 #include "library_walk.h"
 #include "mlspaces/core/error.h"
 #include "mlspaces/core/files.h"
 #include "mlspaces/core/json.h"
+#include "mlspaces/core/strings.h"
 
 namespace mlspaces {
 namespace fs = std::filesystem;
@@ -87,7 +95,7 @@ std::string AssetIndex::Serialize() const {
 }
 
 std::string IndexWarningLine(const Diagnostic& warning) {
-  return "Warning: " + warning.message + " Skipping.";
+  return "Warning: " + Printable(warning.message) + " Skipping.";
 }
 
 AssetIndex BuildAssetIndex(const fs::path& dir, const AssetIndexOptions& options,
@@ -99,6 +107,9 @@ AssetIndex BuildAssetIndex(const fs::path& dir, const AssetIndexOptions& options
     constexpr std::string_view kXml = ".xml";
     if (name.size() <= kXml.size() || !name.ends_with(kXml)) return;
     const std::string uid(name.substr(0, name.size() - kXml.size()));
+    if (e.kind == internal::WalkEntry::Kind::kSymlink && !d.HasFile(e.name)) {
+      throw Error("broken symbolic link: its target does not exist", d.AbsChild(name), {}, uid);
+    }
     const std::string json_name = uid + ".json";
     if (!d.HasFile(json_name)) {
       std::string message = "Expected metadata JSON for " + d.AbsChild(name) + " at " +
@@ -142,6 +153,102 @@ IndexReport WriteAssetIndex(const fs::path& dir, const AssetIndexOptions& option
   AssetIndex index = BuildAssetIndex(dir, options, &report, /*use_computed=*/false);
   WriteFileAtomic(report.output, index.Serialize());
   return report;
+}
+
+std::string SourceFileHash(const fs::path& file) {
+  std::unique_ptr<FILE, int (*)(FILE*)> f(std::fopen(file.c_str(), "rb"), &std::fclose);
+  if (!f) throw Error(std::string("cannot read: ") + std::strerror(errno), file.string());
+  XXH3_state_t state{};
+  XXH3_128bits_reset(&state);
+  std::unique_ptr<char[]> buf(new char[1 << 20]);
+  size_t n;
+  while ((n = std::fread(buf.get(), 1, 1 << 20, f.get())) > 0) {
+    XXH3_128bits_update(&state, buf.get(), n);
+  }
+  if (std::ferror(f.get())) throw Error("cannot read: read error", file.string());
+  XXH128_canonical_t canonical;
+  XXH128_canonicalFromHash(&canonical, XXH3_128bits_digest(&state));
+  static constexpr char kHex[] = "0123456789abcdef";
+  std::string hex;
+  for (unsigned char byte : canonical.digest) {
+    hex += kHex[byte >> 4];
+    hex += kHex[byte & 15];
+  }
+  return hex;
+}
+
+namespace {
+constexpr std::string_view kComputedHash = "xxh128";
+}  // namespace
+
+Json ComputedFromRecord(const fs::path& computed_file, const std::vector<fs::path>& sources) {
+  const fs::path folder = fs::absolute(computed_file).lexically_normal().parent_path();
+  std::map<std::string, std::string> files;
+  for (const fs::path& source : sources) {
+    const fs::path abs = fs::absolute(source).lexically_normal();
+    files[abs.lexically_relative(folder).generic_string()] = SourceFileHash(abs);
+  }
+  Json record = Json::object();
+  record["hash"] = kComputedHash;
+  record["files"] = Json::object();
+  for (const auto& [rel, hash] : files) record["files"][rel] = hash;
+  return record;
+}
+
+std::optional<std::vector<Diagnostic>> CheckComputedFrom(const fs::path& computed_file,
+                                                         const Json& computed) {
+  if (!computed.is_object()) return std::nullopt;
+  auto it = computed.find(kComputedFromKey);
+  if (it == computed.end()) return std::nullopt;
+  const std::string file = computed_file.string();
+  const std::string pointer = "/" + std::string(kComputedFromKey);
+  std::vector<Diagnostic> problems;
+  auto add = [&](std::string field, std::string message) {
+    problems.emplace_back(file, std::move(field), std::move(message));
+  };
+  const Json& record = *it;
+  if (!record.is_object()) {
+    add(pointer, "expected object, got " + JsonTypeWord(record));
+    return problems;
+  }
+  auto hash = record.find("hash");
+  if (hash == record.end() || !hash->is_string() || *hash != kComputedHash) {
+    add(pointer + "/hash", "expected \"" + std::string(kComputedHash) + "\"");
+    return problems;
+  }
+  auto files = record.find("files");
+  if (files == record.end() || !files->is_object() || files->empty()) {
+    add(pointer + "/files", "expected a non-empty object of source files and their hashes");
+    return problems;
+  }
+  const fs::path folder = computed_file.parent_path();
+  for (auto f = files->begin(); f != files->end(); ++f) {
+    const std::string field = pointer + "/files/" + JsonPointerToken(f.key());
+    if (!f.value().is_string()) {
+      add(field, "expected string, got " + JsonTypeWord(f.value()));
+      continue;
+    }
+    const fs::path source = (folder / f.key()).lexically_normal();
+    std::error_code ec;
+    if (f.key().empty() || fs::path(f.key()).is_absolute() || !fs::is_regular_file(source, ec)) {
+      add(field, "source file not found: " + source.string() +
+                     " (run mlspaces index-assets --compute-metadata again)");
+      continue;
+    }
+    std::string now;
+    try {
+      now = SourceFileHash(source);
+    } catch (const Error& e) {
+      add(field, e.what());
+      continue;
+    }
+    if (now != f.value().get_ref<const std::string&>()) {
+      add(field, "stale: " + source.string() +
+                     " changed since this file was computed (run mlspaces index-assets "
+                     "--compute-metadata again)");
+    }
+  }
+  return problems;
 }
 
 }  // namespace mlspaces

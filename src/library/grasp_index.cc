@@ -129,6 +129,9 @@ GraspIndex BuildGraspIndex(const fs::path& dir, IndexReport* report) {
     const bool joint = !pickup && name.size() >= kJointPrefix.size() + kNpz.size() &&
                        name.starts_with(kJointPrefix) && name.ends_with(kNpz);
     if (!pickup && !joint) return;
+    if (e.kind == internal::WalkEntry::Kind::kSymlink && !d.HasFile(name)) {
+      throw Error("broken symbolic link: its target does not exist", d.AbsChild(name));
+    }
     std::string uid, robot;
     if (!UidAndRobot(d.rel, &uid, &robot)) {
       throw Error("grasp files must be at <uid>/<robot>/" + name +

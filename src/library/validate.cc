@@ -12,6 +12,7 @@
 #include "mlspaces/core/error.h"
 #include "mlspaces/core/json.h"
 #include "mlspaces/core/npz.h"
+#include "mlspaces/library/asset_index.h"
 
 namespace mlspaces {
 namespace fs = std::filesystem;
@@ -159,6 +160,10 @@ class Validator {
     Json meta;
     if (!ParseObject(json_path, &meta)) return;
     CheckKnownFields(file, meta);
+    // A computed file mlspaces wrote names its sources and their hashes: any change is stale.
+    if (auto stale = CheckComputedFrom(json_path, meta)) {
+      problems_.insert(problems_.end(), stale->begin(), stale->end());
+    }
     if (npz_path) ValidateMetadataNpz(uid, *npz_path, meta);
   }
 

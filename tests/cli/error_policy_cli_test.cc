@@ -2,6 +2,7 @@
 // one line "mlspaces: error: ..." on stderr and exit 1, never as an "internal error" (which
 // main.cc keeps for exceptions that are not mlspaces::Error: bugs).
 #include <filesystem>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -93,6 +94,182 @@ TEST(ErrorPolicyCli, InspectOfBrokenMjcf) {
   WriteText(tmp / "bad.xml", "<mujoco><worldbody><geom type=\"box\"/></worldbody>\n");
   ExpectOneLineError(RunCli({"inspect", (tmp / "bad.xml").string()}, Env(tmp)),
                      (tmp / "bad.xml").string());
+}
+
+}  // namespace
+}  // namespace mlspaces
+
+// ------------------------------------------------------------------------------------------
+// The command line as users expect it (issue 29): misspelled flags, help placeholders,
+// escaped error lines, and (where the CLI has datagen) the datagen run's messages.
+
+namespace mlspaces {
+namespace {
+
+using ::testing::Not;
+
+// Exit 2 and one line "mlspaces: error: ... (see --help)" saying `says`.
+void ExpectUsageLine(const CliResult& r, const std::string& says) {
+  EXPECT_EQ(r.exit_code, 2) << r.err;
+  EXPECT_THAT(r.err, StartsWith("mlspaces: error: "));
+  EXPECT_THAT(r.err, HasSubstr(says));
+  EXPECT_EQ(r.err.find('\n'), r.err.size() - 1) << r.err;
+}
+
+TEST(UsageCli, MisspelledFlagsGetDidYouMeanForTheFirstTyped) {
+  ExpectUsageLine(RunCli({"grasps", "red_block", "--sed", "1", "--nmu", "2"}),
+                  "--sed: unknown flag of grasps (did you mean '--seed'?)");
+  ExpectUsageLine(RunCli({"grasps", "red_block", "--nmu", "2", "--sed", "1"}),
+                  "--nmu: unknown flag of grasps (did you mean '--num'?)");
+  // "--flag=value", a negative number, short flags, the top level's flags.
+  ExpectUsageLine(RunCli({"locate", "--asset-libary=a=b", "red_block"}),
+                  "--asset-libary: unknown flag of locate (did you mean '--asset-library'?)");
+  ExpectUsageLine(RunCli({"grasps", "red_block", "--seed", "-1", "--jiont", "j"}),
+                  "--jiont: unknown flag of grasps (did you mean '--joint'?)");
+  ExpectUsageLine(RunCli({"pack", "a", "b", "-Q"}),
+                  "-Q: unknown flag of pack (did you mean '-q'?)");
+  ExpectUsageLine(RunCli({"pack", "a", "b", "-quiet"}),
+                  "-quiet: unknown flag of pack (did you mean '--quiet'?)");
+  ExpectUsageLine(RunCli({"--verison"}), "--verison: unknown flag (did you mean '--version'?)");
+  // Nothing close: no guess.
+  const CliResult far = RunCli({"locate", "red_block", "--zzzzzzzz"});
+  ExpectUsageLine(far, "--zzzzzzzz: unknown flag of locate");
+  EXPECT_THAT(far.err, Not(HasSubstr("did you mean")));
+  // A misspelled command.
+  ExpectUsageLine(RunCli({"locaet", "red_block"}),
+                  "unknown command 'locaet' (did you mean 'locate'?");
+}
+
+// The commands, from the unknown-command error's list.
+std::vector<std::string> Commands() {
+  const std::string err = RunCli({"no-such-command"}).err;
+  const size_t at = err.find("commands: ");
+  EXPECT_NE(at, std::string::npos) << err;
+  std::vector<std::string> out;
+  std::string list = err.substr(at + 10, err.rfind(')') - at - 10);
+  for (size_t start = 0; start < list.size();) {
+    const size_t end = std::min(list.find(", ", start), list.size());
+    out.push_back(list.substr(start, end - start));
+    start = end + 2;
+  }
+  return out;
+}
+
+TEST(UsageCli, HelpShowsPlaceholdersNotTypes) {
+  const std::vector<std::string> commands = Commands();
+  ASSERT_GE(commands.size(), 10u);
+  for (const std::string& command : commands) {
+    const CliResult r = RunCli({command, "--help"});
+    EXPECT_EQ(r.exit_code, 0) << command;
+    // CLI11's defaults in the flags' column: a validator's description after the type name
+    // ("N:N", "UINT:N", "TEXT:{...}") and C++ type names ("CONFIG TEXT REQUIRED").
+    std::istringstream lines(r.out);
+    for (std::string line; std::getline(lines, line);) {
+      if (!line.starts_with("  ") || line.starts_with("   ")) continue;
+      const std::string flags = line.substr(0, line.find("  ", 2)) + " ";
+      for (const char* bad : {"N:N", ":N ", " TEXT:", " TEXT ", " UINT", " INT", " FLOAT"}) {
+        if (flags.starts_with("  --text TEXT ") && std::string(bad) == " TEXT ") continue;
+        EXPECT_THAT(flags, Not(HasSubstr(bad))) << command << " --help: " << line;
+      }
+    }
+  }
+  EXPECT_THAT(RunCli({"grasps", "--help"}).out, HasSubstr("--num N "));
+  EXPECT_THAT(RunCli({"license", "--help"}).out,
+              HasSubstr("--type {objects,scenes,grasps,robots}"));
+  EXPECT_THAT(RunCli({"pack", "--help"}).out, HasSubstr("--zstd-level N in [1 - 19]"));
+  EXPECT_THAT(RunCli({"search", "--help"}).out, HasSubstr("--top-k N=50 "));
+}
+
+// Exactly one line on stderr, with no control character but its final newline.
+void ExpectEscapedLine(const CliResult& r, const std::string& escaped) {
+  EXPECT_THAT(r.err, HasSubstr(escaped));
+  ASSERT_FALSE(r.err.empty());
+  for (size_t i = 0; i + 1 < r.err.size(); ++i) {
+    EXPECT_GE(static_cast<unsigned char>(r.err[i]), 0x20) << "byte " << i << " of " << r.err;
+  }
+  EXPECT_EQ(r.err.back(), '\n');
+}
+
+TEST(UsageCli, ControlCharactersFromInputAreEscapedInErrorLines) {
+  TempDir tmp;
+  // A UID (mlspaces::Error), a flag value (a CLI11 parse error), an unknown flag, a file name.
+  CliResult r = RunCli({"locate", "red\x1b[2J\nblock"}, Env(tmp));
+  EXPECT_EQ(r.exit_code, 1) << r.err;
+  ExpectEscapedLine(r, "red\\x1b[2J\\x0ablock");
+  r = RunCli({"grasps", "red_block", "--num", "\x1b]0;x\x07\n"}, Env(tmp));
+  EXPECT_EQ(r.exit_code, 2) << r.err;
+  ExpectEscapedLine(r, "got '\\x1b]0;x\\x07\\x0a'");
+  r = RunCli({"locate", "red_block", "--li\x1b[1mbraries", "x"}, Env(tmp));
+  EXPECT_EQ(r.exit_code, 2) << r.err;
+  ExpectEscapedLine(r, "--li\\x1b[1mbraries: unknown flag");
+  const std::string file = (tmp / "libs\x1b[31m\n.yaml").string();
+  r = RunCli({"locate", "red_block", "--libraries", file}, Env(tmp));
+  EXPECT_EQ(r.exit_code, 1) << r.err;
+  ExpectEscapedLine(r, "libs\\x1b[31m\\x0a.yaml");
+}
+
+// The tutorial's datagen command, cameras off; nothing when the CLI has no datagen.
+std::vector<std::string> Datagen(const fs::path& output, const std::string& episodes,
+                                 const std::string& seed) {
+  return {"datagen",    (fs::path(MLSPACES_EXAMPLES_DIR) / "custom_assets/datagen.yaml").string(),
+          "--output",   output.string(),
+          "--episodes", episodes,
+          "--seed",     seed,
+          "--set",      "task_config.enable_rendering=false"};
+}
+
+TEST(UsageCli, DatagenProgressRefusalWorkersAndOneFileValidation) {
+  if (RunCli({"datagen", "--help"}).exit_code != 0) GTEST_SKIP() << "built without datagen";
+  TempDir tmp;
+  // Progress without a terminal (stderr is a file here): plain lines per episode (not per
+  // work item: one after the first episode), the last with the final count; none on stdout.
+  // ("datagen: episodes 0/2, starting" comes first when the first episode takes over 5 s.)
+  const CliResult run = RunCli(Datagen(tmp / "run", "2", "0"), Env(tmp));
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_THAT(run.err, HasSubstr("datagen: episodes 1/2, 1 attempt, success 100.0%, "));
+  EXPECT_THAT(run.err, HasSubstr("\ndatagen: episodes 2/2, 2 attempts, success 100.0%"));
+  std::istringstream lines(run.err);
+  for (std::string line; std::getline(lines, line);) {
+    EXPECT_TRUE(line.starts_with("datagen: episodes ") || line.starts_with("mlspaces: wrote "))
+        << line;
+  }
+  EXPECT_THAT(run.out, Not(HasSubstr("datagen: episodes")));
+
+  // The same command with another seed and episode count: which fields changed.
+  const CliResult again = RunCli(Datagen(tmp / "run", "3", "1"), Env(tmp));
+  ExpectOneLineError(again, "seed 0 -> 1, task_sampler_config.samples_per_house 2 -> 3");
+  EXPECT_THAT(again.err, HasSubstr((tmp / "run/config.yaml").string()));
+  EXPECT_THAT(again.err, HasSubstr("--output"));
+
+  // validate-dataset FILE.h5 checks that file (and its videos) alone: a broken file beside it
+  // fails the folder, not the file.
+  const fs::path h5 = tmp / "run/house_0/trajectories_batch_1_of_1.h5";
+  WriteText(tmp / "run/house_0/broken.h5", "not HDF5");
+  CliResult check = RunCli({"validate-dataset", h5.string()}, Env(tmp));
+  EXPECT_EQ(check.exit_code, 0) << check.out << check.err;
+  EXPECT_EQ(check.out, "2 trajectories in 1 file, 0 videos: ok\n");
+  check = RunCli({"validate-dataset", (tmp / "run/house_0/broken.h5").string()}, Env(tmp));
+  EXPECT_EQ(check.exit_code, 1);
+  EXPECT_THAT(check.out, HasSubstr("broken.h5"));
+  EXPECT_THAT(check.out, HasSubstr("0 trajectories in 1 file"));
+  check = RunCli({"validate-dataset", (tmp / "run").string()}, Env(tmp));
+  EXPECT_EQ(check.exit_code, 1);
+  ExpectOneLineError(RunCli({"validate-dataset", (tmp / "nope.h5").string()}, Env(tmp)),
+                     (tmp / "nope.h5").string() + ": no such file");
+
+  // --workers more than the work items: one line saying why it cannot help, and the knob; the
+  // split (so the dataset) is left as it is.
+  std::vector<std::string> args = Datagen(tmp / "workers", "2", "0");
+  args.insert(args.end(), {"--workers", "2", "-q"});
+  const CliResult workers = RunCli(args, Env(tmp));
+  EXPECT_EQ(workers.exit_code, 0) << workers.err;
+  EXPECT_EQ(workers.err,
+            "mlspaces: warning: all 2 episodes are in 1 work item; --workers 2 cannot run them "
+            "in parallel (a work item is a batch of up to task_sampler_config.episodes_per_batch "
+            "= 4 episodes of one scene; --set task_sampler_config.episodes_per_batch=1 splits "
+            "them, into other batch files)\n");
+  EXPECT_TRUE(testing::Slurp(tmp / "workers/house_0/trajectories_batch_1_of_1.h5") ==
+              testing::Slurp(h5));
 }
 
 }  // namespace

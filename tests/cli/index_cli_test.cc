@@ -1,6 +1,7 @@
 // Runs the mlspaces binary: index-assets, index-grasps, validate.
 #include <sys/stat.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -25,6 +26,7 @@ using ::mlspaces::testing::Slurp;
 using ::mlspaces::testing::TempDir;
 using ::mlspaces::testing::WriteText;
 using ::testing::HasSubstr;
+using ::testing::Not;
 using ::testing::StartsWith;
 
 constexpr char kExampleAssetIndexPlain[] =
@@ -191,10 +193,66 @@ TEST_F(IndexCliTest, ComputeMetadataReportsBrokenAssetAndGoesOn) {
   WriteText(lib_ / "broken/broken.json", "{\"category\": \"junk\"}");
   CliResult r = RunCli({"index-assets", lib_.string(), "--compute-metadata", "--overwrite"});
   EXPECT_EQ(r.exit_code, 1);
-  EXPECT_THAT(r.err, HasSubstr("broken.xml"));
+  EXPECT_EQ(r.err, "mlspaces: error: " + (lib_ / "broken/broken.xml").string() +
+                       ": line 1, element <geom>: bad format in attribute 'size'\n");
   EXPECT_THAT(r.out, HasSubstr("1 failed"));
+  EXPECT_THAT(r.out, HasSubstr("with 1 assets, leaving out the 1 that failed.\n"));
   EXPECT_TRUE(fs::exists(lib_ / "red_block/red_block_computed.json"));
   EXPECT_THAT(Slurp(lib_ / "assets_index.json"), HasSubstr("red_block"));
+  EXPECT_THAT(Slurp(lib_ / "assets_index.json"), Not(HasSubstr("broken")));
+}
+
+// The case: one asset's metadata JSON is malformed. It is named (file and line) on one
+// line, left out of the index (no entry points at a file that is not there), and exit is 1.
+TEST_F(IndexCliTest, ComputeMetadataMalformedJsonIsLeftOut) {
+  fs::create_directories(lib_ / "bad");
+  fs::copy_file(lib_ / "red_block/red_block.xml", lib_ / "bad/bad.xml");
+  WriteText(lib_ / "bad/bad.json", "{\"category\": \"x\",\n");
+  CliResult r = RunCli({"index-assets", lib_.string(), "--compute-metadata", "--overwrite"});
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(r.err, StartsWith("mlspaces: error: " + (lib_ / "bad/bad.json").string() +
+                                ": line 2, column 1: invalid JSON: "));
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1);
+  EXPECT_THAT(r.out, HasSubstr("(1 computed, 0 reused, 1 failed)"));
+  const std::string index = Slurp(lib_ / "assets_index.json");
+  EXPECT_THAT(index, Not(HasSubstr("bad")));
+  EXPECT_FALSE(fs::exists(lib_ / "bad/bad_computed.json"));
+  EXPECT_EQ(RunCli({"validate", lib_.string()}).out, lib_.string() + ": OK\n");
+}
+
+// A mesh broken after an earlier compute: the old computed file does not stand in for the
+// failed one (it is deleted: mlspaces wrote it), and validate names the asset.
+TEST_F(IndexCliTest, ComputeMetadataBrokenMeshAndValidate) {
+  const fs::path mesh_lib =
+      fs::path(MLSPACES_TESTDATA_DIR).parent_path().parent_path() / "sim/testdata/library/neg_tet";
+  fs::copy(mesh_lib, lib_ / "neg_tet");
+  ASSERT_EQ(RunCli({"index-assets", lib_.string(), "--compute-metadata"}).exit_code, 0);
+  ASSERT_EQ(RunCli({"validate", lib_.string()}).exit_code, 0);
+  WriteText(lib_ / "neg_tet/neg_tet.obj", "v 0 0 0\n");
+
+  const std::string xml = (lib_ / "neg_tet/neg_tet.xml").string();
+  const std::string computed = (lib_ / "neg_tet/neg_tet_computed.json").string();
+  const std::string stale = computed + ": /computed_from/files/neg_tet.obj: stale: " +
+                            (lib_ / "neg_tet/neg_tet.obj").string() +
+                            " changed since this file was computed (run mlspaces index-assets "
+                            "--compute-metadata again)\n";
+  CliResult r = RunCli({"validate", lib_.string()});
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(r.out, HasSubstr(stale));
+  EXPECT_THAT(r.out, HasSubstr(xml + ": line 6: asset 'neg_tet' does not compile: "));
+  EXPECT_THAT(r.out, HasSubstr("2 problems in " + lib_.string() + "\n"));
+  r = RunCli({"validate", lib_.string(), "--no-compile"});
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_EQ(r.out, stale + "1 problems in " + lib_.string() + "\n");
+
+  fs::remove(lib_ / "assets_index.json");
+  r = RunCli({"index-assets", lib_.string(), "--compute-metadata"});
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(r.err, HasSubstr("mlspaces: error: " + xml + ": line 6: "));
+  EXPECT_THAT(r.err, HasSubstr("mlspaces: removed " + computed));
+  EXPECT_FALSE(fs::exists(computed));
+  EXPECT_THAT(Slurp(lib_ / "assets_index.json"), Not(HasSubstr("neg_tet")));
+  EXPECT_EQ(RunCli({"validate", lib_.string()}).out, lib_.string() + ": OK\n");
 }
 
 TEST_F(IndexCliTest, ValidateExample) {

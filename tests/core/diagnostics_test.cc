@@ -15,6 +15,12 @@ TEST(DiagnosticsTest, OneLineLeavesOutEmptyParts) {
   EXPECT_EQ((Diagnostic{"f", "g", "m", "uid", Severity::kWarning}).ToString(), "f: g: m");
 }
 
+TEST(DiagnosticsTest, OneLineEscapesControlCharactersFromInput) {
+  // A file name, HDF5 path or UID from input never moves the cursor or breaks the line.
+  EXPECT_EQ((Diagnostic{"a\nb.json", "/x\x1b[2J", "uid red\rblock"}).ToString(),
+            "a\\x0ab.json: /x\\x1b[2J: uid red\\x0dblock");
+}
+
 TEST(DiagnosticsTest, CollectorCountsErrors) {
   Diagnostics d;
   EXPECT_TRUE(d.ok());

@@ -7,7 +7,9 @@
 #include <algorithm>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <map>
+#include <memory>
 #include <sstream>
 #include <stdexcept>
 
@@ -488,11 +490,12 @@ TEST(DatagenCliTest, KilledMergeAtCountedStepsRerunsToTheSameFolder) {
   testing::TempDir dir;
   const std::string yaml = (kExample / "datagen.yaml").string();
   for (const char* shard : {"0/2", "1/2"}) {
-    const testing::CliResult r =
-        testing::RunCli({"datagen", yaml, "-q", "--seed", "4", "--episodes", "4", "--set",
-                         "task_sampler_config.episodes_per_batch=1", "--set",
-                         "camera_config.img_resolution=[64, 48]", "--shard", shard, "--output",
-                         (dir / (std::string("s") + shard[0])).string()});
+    const testing::CliResult r = testing::RunCli(
+        {"datagen", yaml, "-q", "--seed", "4", "--episodes", "4", "--set",
+         "task_sampler_config.episodes_per_batch=1", "--set",
+         "camera_config.img_resolution=[64, 48]", "--set", "camera_config.shadows=false", "--set",
+         "camera_config.reflections=false", "--shard", shard, "--output",
+         (dir / (std::string("s") + shard[0])).string()});
     ASSERT_EQ(r.exit_code, 0) << r.err;
   }
   auto merge = [&](const std::string& out) {
@@ -592,7 +595,9 @@ TEST(DatagenCliTest, ShardAndMergeFlags) {
   for (const char* shard : {"0/2", "1/2"}) {
     r = testing::RunCli({"datagen", yaml, "-q", "--seed", "4", "--episodes", "2", "--set",
                          "task_sampler_config.episodes_per_batch=1", "--set",
-                         "camera_config.img_resolution=[64, 48]", "--shard", shard, "--output",
+                         "camera_config.img_resolution=[64, 48]", "--set",
+                         "camera_config.shadows=false", "--set", "camera_config.reflections=false",
+                         "--shard", shard, "--output",
                          (dir / (std::string("s") + shard[0])).string()});
     ASSERT_EQ(r.exit_code, 0) << r.err;
   }
@@ -600,6 +605,159 @@ TEST(DatagenCliTest, ShardAndMergeFlags) {
       {"merge", (dir / "m").string(), (dir / "s0").string(), (dir / "s1").string()});
   EXPECT_EQ(r.exit_code, 0) << r.err;
   EXPECT_THAT(r.out, HasSubstr("2 batch files, 2 episodes"));
+}
+
+// Broken input (preflight.h) and the data hash of a moved project: on copies of the tutorial.
+
+// The tutorial folder copied to `dst`; returns its datagen.yaml.
+fs::path CopyTutorial(const fs::path& dst) {
+  fs::create_directories(dst.parent_path());
+  fs::copy(kExample, dst, fs::copy_options::recursive);
+  fs::remove_all(dst / "experiment_output");
+  return dst / "datagen.yaml";
+}
+
+// Every .h5 under `dir` (none when it does not exist).
+size_t CountH5(const fs::path& dir) {
+  size_t n = 0;
+  if (!fs::exists(dir)) return 0;
+  for (const auto& e : fs::recursive_directory_iterator(dir)) n += e.path().extension() == ".h5";
+  return n;
+}
+
+TEST(DatagenCliTest, BrokenInputStopsTheRunBeforeSimulatingWithOneLine) {
+  testing::TempDir dir;
+  // A NaN in the block's grasp (row 0).
+  const fs::path nan_yaml = CopyTutorial(dir / "nan");
+  const fs::path npz = dir / "nan/asset_library/red_block/droid/grasps.npz";
+  testing::RunPython(dir.path(), R"(
+import numpy as np, sys
+d = dict(np.load(sys.argv[1]))
+d["transforms"][0, 0, 3] = np.nan
+np.savez(sys.argv[1], **d)
+)",
+                     testing::ShellQuote(npz.string()));
+  // An asset_id no library knows.
+  const fs::path unknown_yaml = CopyTutorial(dir / "unknown");
+  std::string meta = testing::Slurp(dir / "unknown/scene_metadata.json");
+  meta.replace(meta.find("\"asset_id\": \"red_block\""), 23, "\"asset_id\": \"no_such_block\"");
+  testing::WriteText(dir / "unknown/scene_metadata.json", meta);
+  struct Case {
+    fs::path yaml;
+    std::vector<std::string> says;
+  };
+  for (const Case& c :
+       {Case{nan_yaml, {npz.string(), "transforms", "grasp 0 ", "non-finite"}},
+        Case{unknown_yaml,
+             {(dir / "unknown/scene_metadata.json").string(), "objects.red_block.asset_id",
+              "no_such_block", "no asset library"}}}) {
+    const fs::path out = c.yaml.parent_path() / "out";
+    const testing::CliResult r =
+        testing::RunCli({"datagen", c.yaml.string(), "-q", "--output", out.string(), "--episodes",
+                         "2", "--seed", "1", "--set", "task_config.enable_rendering=false"});
+    EXPECT_EQ(r.exit_code, 1) << r.out << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+    for (const std::string& s : c.says) EXPECT_THAT(r.err, HasSubstr(s));
+    // Nothing simulated: no attempt journaled, no trajectory written.
+    EXPECT_EQ(CountH5(out), 0u);
+    EXPECT_TRUE(ReadJournal(out / "journal.jsonl").records.empty());
+  }
+}
+
+// Picks `stone` (a free body with no scene-metadata entry) every time.
+class StonePicker : public BlockPickupTaskSampler {
+ public:
+  using BlockPickupTaskSampler::BlockPickupTaskSampler;
+
+ protected:
+  std::string SelectPickupObject(Env&, Rng&) override { return "stone"; }
+};
+
+TEST(RunDatagenTest, ABrokenCandidateBesideAGoodOneIsReportedAndAllAttemptsBrokenStop) {
+  testing::TempDir dir;
+  const fs::path yaml = CopyTutorial(dir / "p");
+  std::string xml = testing::Slurp(dir / "p/scene.xml");
+  xml.replace(xml.find("  </worldbody>"), 0,
+              "    <body name=\"stone\" pos=\"0.5 0.4 0.03\"><freejoint/>"
+              "<geom type=\"sphere\" size=\"0.03\"/></body>\n");
+  testing::WriteText(dir / "p/scene.xml", xml);
+  ExperimentConfig config = LoadConfigFile(yaml, ConfigRegistry::WithBuiltins());
+  config.output_dir = dir / "run";
+  config.seed = 2;
+  config.task_sampler_config.samples_per_house = 2;
+  config.task_config.enable_rendering = false;
+  // block_pickup alternates red_block and stone: the stone's attempts fail, the run goes on.
+  std::vector<std::string> warnings;
+  RunOptions options;
+  options.log = [&](LogLevel level, const std::string& line) {
+    if (level == LogLevel::kWarning) warnings.push_back(line);
+  };
+  const RunReport report = RunDatagen(config, TaskSamplerRegistry::WithBuiltins(), options);
+  EXPECT_EQ(report.episodes_kept, 2);
+  EXPECT_GE(report.summary.count(Outcome::kNoGrasp), 1);
+  ASSERT_EQ(warnings.size(), 1u);
+  EXPECT_THAT(warnings[0], HasSubstr("scene_metadata.json: objects.stone.asset_id"));
+  // A sampler that only ever picks the stone: every attempt fails on the input, the run stops.
+  TaskSamplerRegistry samplers = TaskSamplerRegistry::WithBuiltins();
+  samplers.Register("stone_picker", [](const ExperimentConfig& c, uint64_t seed) {
+    return std::make_unique<StonePicker>(c, seed);
+  });
+  config.task_sampler_config.task_sampler_class = "stone_picker";
+  config.output_dir = dir / "stone";
+  testing::ExpectError([&] { RunDatagen(config, samplers); },
+                       {(dir / "p/scene_metadata.json").string(), "objects.stone.asset_id",
+                        "every attempt of house_0 batch 1/1"});
+  EXPECT_EQ(CountH5(dir / "stone"), 0u);
+}
+
+TEST(RunDatagenTest, TheDataHashFollowsContentsNotTheProjectFolder) {
+  testing::TempDir dir;
+  std::vector<fs::path> runs;
+  for (const char* where : {"a/project", "b/elsewhere"}) {
+    ExperimentConfig c = LoadConfigFile(CopyTutorial(dir / where), ConfigRegistry::WithBuiltins());
+    c.output_dir = dir / where / "out";
+    c.seed = 3;
+    c.task_sampler_config.samples_per_house = 1;
+    c.task_config.enable_rendering = false;
+    RunDatagen(c, TaskSamplerRegistry::WithBuiltins());
+    runs.push_back(*c.output_dir);
+  }
+  // A library folder that holds the run folder: the run's output is not hashed.
+  ExperimentConfig holding =
+      LoadConfigFile(dir / "a/project/datagen.yaml", ConfigRegistry::WithBuiltins());
+  holding.output_dir = runs[0];
+  holding.libraries.asset_libraries[0].dir = dir / "a/project";
+  const std::string before = DataConfigHashHex(holding);
+  testing::WriteText(runs[0] / "more.txt", "output");
+  EXPECT_EQ(DataConfigHashHex(holding), before);
+  testing::WriteText(dir / "a/project/more.txt", "input");
+  EXPECT_NE(DataConfigHashHex(holding), before);
+  const std::string hash = RecordedDataHash(runs[0] / "config.yaml");
+  EXPECT_EQ(hash.size(), 16u);
+  EXPECT_EQ(hash, RecordedDataHash(runs[1] / "config.yaml"));
+  const std::string h5 = "house_0/trajectories_batch_1_of_1.h5";
+  const std::string bytes = testing::Slurp(runs[0] / h5);
+  EXPECT_FALSE(bytes.empty());
+  EXPECT_TRUE(bytes == testing::Slurp(runs[1] / h5));  // the hash is in there too
+  // The folder moved as a whole resumes; an edited grasp file is another config.
+  fs::rename(dir / "b", dir / "moved");
+  ExperimentConfig moved =
+      LoadConfigFile(dir / "moved/elsewhere/datagen.yaml", ConfigRegistry::WithBuiltins());
+  moved.output_dir = dir / "moved/elsewhere/out";
+  moved.seed = 3;
+  moved.task_sampler_config.samples_per_house = 1;
+  moved.task_config.enable_rendering = false;
+  EXPECT_EQ(DataConfigHashHex(moved), hash);
+  RunOptions resume;
+  resume.resume = true;
+  EXPECT_EQ(RunDatagen(moved, TaskSamplerRegistry::WithBuiltins(), resume).items_skipped, 1);
+  {
+    std::ofstream(dir / "moved/elsewhere/asset_library/red_block/droid/grasps.npz", std::ios::app)
+        << '\0';
+  }
+  EXPECT_NE(DataConfigHashHex(moved), hash);
+  testing::ExpectError([&] { RunDatagen(moved, TaskSamplerRegistry::WithBuiltins(), resume); },
+                       {"another config"});
 }
 
 }  // namespace

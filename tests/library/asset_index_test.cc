@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <functional>
+#include <optional>
 #include <set>
 #include <string>
 
@@ -14,6 +15,7 @@
 
 #include "mlspaces/core/error.h"
 #include "mlspaces/core/files.h"
+#include "mlspaces/core/json.h"
 #include "mlspaces/core/npz.h"
 #include "mlspaces/library/grasp_index.h"
 #include "test_util.h"
@@ -200,6 +202,60 @@ TEST(AssetIndexTest, DuplicateUidNamesBothFiles) {
   AddAsset(tmp / "lib", "b/c", "block");
   EXPECT_EQ(ErrorOf([&] { BuildAssetIndex(tmp / "lib", {}, nullptr); }),
             "Duplicate asset id 'block' found at b/c/block.xml and a/block.xml.");
+}
+
+TEST(AssetIndexTest, BrokenSymlinkIsAnError) {
+  TempDir tmp;
+  const fs::path root = fs::weakly_canonical(tmp.path()) / "lib";
+  AddAsset(root, "a", "a");
+  WriteText(root / "b/b.json", MinimalMetadata("b"));
+  fs::create_symlink(tmp / "gone.xml", root / "b/b.xml");
+  EXPECT_EQ(ErrorOf([&] { WriteAssetIndex(root, {}); }),
+            (root / "b/b.xml").string() + ": broken symbolic link: its target does not exist");
+  EXPECT_FALSE(fs::exists(root / "assets_index.json"));
+  WriteText(tmp / "gone.xml", "<mujoco/>");
+  EXPECT_EQ(BuildAssetIndex(root, {}, nullptr).entries.at("b").object_path, "b/b.xml");
+}
+
+// The record of a computed file: sources relative to its folder, XXH3-128 as xxh128sum prints
+// it; a change, a missing source or a malformed record is a problem naming the field.
+TEST(AssetIndexTest, ComputedFromRecordAndCheck) {
+  TempDir tmp;
+  WriteText(tmp / "empty", "");
+  WriteText(tmp / "a/x.json", "abc");
+  EXPECT_EQ(SourceFileHash(tmp / "empty"), "99aa06d3014798d86001c324468d497f");
+  EXPECT_EQ(SourceFileHash(tmp / "a/x.json"), "06b05ab6733a618578af5f94892f3950");
+  EXPECT_THAT(ErrorOf([&] { SourceFileHash(tmp / "nope"); }),
+              HasSubstr((tmp / "nope").string() + ": cannot read"));
+
+  const fs::path computed = tmp / "a/x_computed.json";
+  Json record = ComputedFromRecord(computed, {tmp / "a/x.json", tmp / "empty"});
+  EXPECT_EQ(record.dump(),
+            R"({"hash":"xxh128","files":{"../empty":"99aa06d3014798d86001c324468d497f",)"
+            R"("x.json":"06b05ab6733a618578af5f94892f3950"}})");
+  Json meta = {{"mass", 1}, {"computed_from", record}};
+  EXPECT_FALSE(CheckComputedFrom(computed, Json{{"mass", 1}}).has_value());  // not ours
+  ASSERT_TRUE(CheckComputedFrom(computed, meta).has_value());
+  EXPECT_TRUE(CheckComputedFrom(computed, meta)->empty());
+
+  WriteText(tmp / "a/x.json", "abd");
+  fs::remove(tmp / "empty");
+  std::vector<std::string> problems;
+  std::optional<std::vector<Diagnostic>> check = CheckComputedFrom(computed, meta);
+  ASSERT_TRUE(check.has_value());
+  for (const Diagnostic& d : *check) problems.push_back(d.ToString());
+  const std::string c = computed.string();
+  EXPECT_THAT(
+      problems,
+      ::testing::ElementsAre(
+          c + ": /computed_from/files/..~1empty: source file not found: " +
+              (tmp / "empty").string() + " (run mlspaces index-assets --compute-metadata again)",
+          c + ": /computed_from/files/x.json: stale: " + (tmp / "a/x.json").string() +
+              " changed since this file was computed (run mlspaces index-assets "
+              "--compute-metadata again)"));
+  meta["computed_from"] = "yes";
+  EXPECT_EQ(CheckComputedFrom(computed, meta)->at(0).ToString(),
+            c + ": /computed_from: expected object, got string");
 }
 
 TEST(AssetIndexTest, MissingSourceFolderIsAnError) {

@@ -161,6 +161,23 @@ TEST(GraspIndexTest, LoadDefaultsAndErrors) {
   EXPECT_THAT(what, HasSubstr("line 2"));
 }
 
+// A grasps file that is a broken symbolic link would be an index entry pointing at nothing.
+TEST(GraspIndexTest, BrokenSymlinkIsAnErrorAndWritesNothing) {
+  TempDir tmp;
+  const fs::path root = fs::weakly_canonical(tmp.path()) / "lib";
+  WriteText(root / "u/droid/grasps.npz", "");
+  fs::create_directories(root / "v/droid");
+  fs::create_symlink(tmp / "gone.npz", root / "v/droid/joint_grasps_hinge.npz");
+  EXPECT_EQ(ErrorOf([&] { WriteGraspIndex(root, {}); }),
+            (root / "v/droid/joint_grasps_hinge.npz").string() +
+                ": broken symbolic link: its target does not exist");
+  EXPECT_FALSE(fs::exists(root / "grasps_index.json"));
+  // A symlink to an existing file is indexed as before.
+  WriteText(tmp / "gone.npz", "");
+  EXPECT_EQ(BuildGraspIndex(root, nullptr).articulated_grasp_paths.at("droid").at("v").at("hinge"),
+            "v/droid/joint_grasps_hinge.npz");
+}
+
 TEST(GraspIndexTest, WriteRefusesExistingOutput) {
   TempDir tmp;
   const fs::path root = fs::weakly_canonical(tmp.path()) / "lib";

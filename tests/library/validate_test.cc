@@ -41,6 +41,23 @@ TEST(ValidateTest, ExampleIsClean) {
   EXPECT_THAT(Strings(ValidateLibrary(ExampleLibrary())), IsEmpty());
 }
 
+// The example's computed file records its sources; a source changed after the compute makes
+// it stale, and validate names the computed file, the source and how to fix it.
+TEST(ValidateTest, StaleComputedFileIsAProblem) {
+  TempDir tmp;
+  const fs::path lib = CopyExampleLibrary(tmp.path());
+  EXPECT_THAT(Strings(ValidateLibrary(lib)), IsEmpty());
+  WriteText(lib / "red_block/red_block.xml",
+            "<mujoco><worldbody><body><geom type=\"box\" size=\"1 1 1\"/></body>"
+            "</worldbody></mujoco>");
+  const std::string computed = (lib / "red_block/red_block_computed.json").string();
+  EXPECT_THAT(Strings(ValidateLibrary(lib)),
+              ElementsAre(computed + ": /computed_from/files/red_block.xml: stale: " +
+                          (lib / "red_block/red_block.xml").string() +
+                          " changed since this file was computed (run mlspaces index-assets "
+                          "--compute-metadata again)"));
+}
+
 TEST(ValidateTest, ProblemToString) {
   EXPECT_EQ((Problem{"a.json", "/x", "bad"}).ToString(), "a.json: /x: bad");
   EXPECT_EQ((Problem{"a.json", "", "bad"}).ToString(), "a.json: bad");

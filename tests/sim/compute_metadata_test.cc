@@ -86,7 +86,15 @@ class ComputeMetadata : public ::testing::Test {
   fs::path dir_;
 };
 
-TEST_F(ComputeMetadata, WritesComputedFilesSkipsFailuresAndIndexes) {
+// Every path of the index names an existing file.
+void ExpectNoDanglingPath(const fs::path& dir) {
+  for (const auto& [uid, e] : AssetIndex::Load(dir / "assets_index.json").entries) {
+    EXPECT_TRUE(fs::is_regular_file(dir / e.object_path)) << e.object_path;
+    EXPECT_TRUE(fs::is_regular_file(dir / e.metadata_path)) << e.metadata_path;
+  }
+}
+
+TEST_F(ComputeMetadata, WritesComputedFilesLeavesFailuresOutAndIndexes) {
   ComputeMetadataOptions opts;
   opts.threads = 2;
   size_t calls = 0;
@@ -99,11 +107,13 @@ TEST_F(ComputeMetadata, WritesComputedFilesSkipsFailuresAndIndexes) {
   EXPECT_EQ(r.computed, 3u);
   ASSERT_EQ(r.failures.size(), 2u);
   EXPECT_EQ(r.failures[0].uid, "broken");
-  EXPECT_THAT(r.failures[0].message, HasSubstr("broken.xml: line 4, element <geom>"));
+  EXPECT_EQ(r.failures[0].path, (dir_ / "broken/broken.xml").string());
+  EXPECT_EQ(r.failures[0].field, "line 4, element <geom>");
   EXPECT_EQ(r.failures[1].uid, "multi");
-  EXPECT_THAT(r.failures[1].message, HasSubstr("expected a single body"));
+  EXPECT_THAT(r.failures[1].ToString(), HasSubstr("multi.xml: expected a single body"));
+  EXPECT_TRUE(r.removed.empty());
 
-  // Source keys in order, then mass, boundingBox, aabb.
+  // Source keys in order, then mass, boundingBox, aabb, and what it was computed from.
   std::string red = ReadFile(dir_ / "red_block/red_block_computed.json");
   EXPECT_THAT(red, HasSubstr("    \"synset\": \"block.n.01\",\n    \"mass\": 0.12500000000000003,\n"
                              "    \"boundingBox\": {\n        \"x\": 0.05,"));
@@ -111,14 +121,26 @@ TEST_F(ComputeMetadata, WritesComputedFilesSkipsFailuresAndIndexes) {
   EXPECT_EQ(given["mass"], 3.5);  // the user's values are kept
   EXPECT_EQ(given["boundingBox"]["z"], 3);
   EXPECT_DOUBLE_EQ(given["aabb"]["max"][0].get<double>(), 0.1);
+  // neg_tet's texture is not a source: the physics-only compile does not read it.
+  Json neg = ParseJsonFile(dir_ / "neg_tet/neg_tet_computed.json");
+  EXPECT_EQ(neg["computed_from"]["hash"], "xxh128");
+  EXPECT_EQ(neg["computed_from"]["files"],
+            (Json{{"neg_tet.json", SourceFileHash(dir_ / "neg_tet/neg_tet.json")},
+                  {"neg_tet.obj", SourceFileHash(dir_ / "neg_tet/neg_tet.obj")},
+                  {"neg_tet.xml", SourceFileHash(dir_ / "neg_tet/neg_tet.xml")}}));
 
+  // The failed assets are not in the index (no entry for them, no dangling path).
   AssetIndex index = AssetIndex::Load(dir_ / "assets_index.json");
-  EXPECT_EQ(index.entries.size(), 5u);
+  EXPECT_EQ(index.entries.size(), 3u);
+  EXPECT_EQ(r.index.count, 3u);
   EXPECT_EQ(index.entries.at("red_block").metadata_path, "red_block/red_block_computed.json");
-  EXPECT_EQ(index.entries.at("broken").metadata_path, "broken/broken.json");
+  EXPECT_FALSE(index.entries.contains("broken"));
+  EXPECT_FALSE(index.entries.contains("multi"));
+  ExpectNoDanglingPath(dir_);
 
-  // A second run refuses to replace the index; with overwrite it reuses nothing, and without
-  // overwrite (index removed) it reuses the computed files and keeps them in the index.
+  // A second run refuses to replace the index; without overwrite (index removed) it reuses
+  // the computed files that match their sources without compiling, and a computed file
+  // without a record (not ours) after checking that its asset compiles.
   EXPECT_THROW(ComputeAssetMetadata(dir_, AssetIndexOptions{}, opts), Error);
   fs::remove(dir_ / "assets_index.json");
   WriteFileAtomic(dir_ / "neg_tet/neg_tet_computed.json", "{\"assetId\": \"neg_tet\"}");
@@ -126,6 +148,7 @@ TEST_F(ComputeMetadata, WritesComputedFilesSkipsFailuresAndIndexes) {
   EXPECT_EQ(r.reused, 3u);
   EXPECT_EQ(r.computed, 0u);
   EXPECT_EQ(ReadFile(dir_ / "neg_tet/neg_tet_computed.json"), "{\"assetId\": \"neg_tet\"}");
+  EXPECT_EQ(ReadFile(dir_ / "red_block/red_block_computed.json"), red);
   index = AssetIndex::Load(dir_ / "assets_index.json");
   EXPECT_EQ(index.entries.at("neg_tet").metadata_path, "neg_tet/neg_tet_computed.json");
   AssetIndexOptions overwrite;
@@ -133,6 +156,92 @@ TEST_F(ComputeMetadata, WritesComputedFilesSkipsFailuresAndIndexes) {
   r = ComputeAssetMetadata(dir_, overwrite, opts);
   EXPECT_EQ(r.computed, 3u);
   EXPECT_TRUE(ParseJsonFile(dir_ / "neg_tet/neg_tet_computed.json").contains("mass"));
+
+  // A changed source makes a computed file of ours stale: it is computed again.
+  fs::remove(dir_ / "assets_index.json");
+  WriteFileAtomic(dir_ / "given/given.json", "{\"assetId\": \"given\", \"mass\": 4}");
+  r = ComputeAssetMetadata(dir_, AssetIndexOptions{}, opts);
+  EXPECT_EQ(r.computed, 1u);
+  EXPECT_EQ(r.reused, 2u);
+  EXPECT_EQ(ParseJsonFile(dir_ / "given/given_computed.json")["mass"], 4);
+}
+
+// Malformed metadata JSON: reported with its file and line, left out of the index.
+TEST_F(ComputeMetadata, MalformedMetadataJsonIsLeftOut) {
+  fs::remove_all(dir_ / "broken");
+  fs::remove_all(dir_ / "multi");
+  WriteFileAtomic(dir_ / "given/given.json", "{\"assetId\": \"given\",\n");
+  WriteFileAtomic(dir_ / "neg_tet/neg_tet.json", "[1, 2]");
+  ComputeMetadataReport r = ComputeAssetMetadata(dir_, AssetIndexOptions{});
+  ASSERT_EQ(r.failures.size(), 2u);
+  EXPECT_EQ(r.failures[0].path, (dir_ / "given/given.json").string());
+  EXPECT_THAT(r.failures[0].field, HasSubstr("line 2"));
+  EXPECT_THAT(r.failures[0].message, HasSubstr("invalid JSON"));
+  EXPECT_EQ(r.failures[1].ToString(),
+            (dir_ / "neg_tet/neg_tet.json").string() + ": /: expected object, got array");
+  EXPECT_FALSE(fs::exists(dir_ / "given/given_computed.json"));
+  AssetIndex index = AssetIndex::Load(dir_ / "assets_index.json");
+  EXPECT_EQ(index.entries.size(), 1u);
+  EXPECT_TRUE(index.entries.contains("red_block"));
+  ExpectNoDanglingPath(dir_);
+}
+
+// A broken mesh under a computed file of an earlier run: the old file is not kept standing in
+// for the failed compute (ours is deleted, anyone else's left alone but not indexed), and the
+// compile check of validate names the asset.
+TEST_F(ComputeMetadata, BrokenMeshWithOldComputedFile) {
+  fs::remove_all(dir_ / "broken");
+  fs::remove_all(dir_ / "multi");
+  ComputeMetadataReport r = ComputeAssetMetadata(dir_, AssetIndexOptions{});
+  ASSERT_TRUE(r.failures.empty());
+  EXPECT_THAT(CompileLibraryAssets(dir_), ::testing::IsEmpty());
+  const fs::path computed = dir_ / "neg_tet/neg_tet_computed.json";
+  ASSERT_TRUE(fs::exists(computed));
+  WriteFileAtomic(dir_ / "neg_tet/neg_tet.obj", "v 0 0 0\n");
+
+  std::vector<Diagnostic> problems = CompileLibraryAssets(dir_);
+  ASSERT_EQ(problems.size(), 1u);
+  EXPECT_EQ(problems[0].uid, "neg_tet");
+  EXPECT_EQ(problems[0].path, (dir_ / "neg_tet/neg_tet.xml").string());
+  EXPECT_THAT(problems[0].message, HasSubstr("asset 'neg_tet' does not compile: "));
+
+  for (bool overwrite : {false, true}) {
+    AssetIndexOptions options;
+    options.overwrite = overwrite;
+    fs::remove(dir_ / "assets_index.json");
+    r = ComputeAssetMetadata(dir_, options);
+    ASSERT_EQ(r.failures.size(), 1u) << overwrite;
+    EXPECT_EQ(r.failures[0].uid, "neg_tet");
+    EXPECT_FALSE(AssetIndex::Load(dir_ / "assets_index.json").entries.contains("neg_tet"));
+    ExpectNoDanglingPath(dir_);
+    if (!overwrite) {
+      EXPECT_EQ(r.removed, std::vector<fs::path>{computed});  // ours: deleted
+      EXPECT_FALSE(fs::exists(computed));
+      WriteFileAtomic(computed, "{\"mass\": 1}");  // the user's own, for the next round
+    } else {
+      EXPECT_TRUE(r.removed.empty());
+      EXPECT_EQ(ReadFile(computed), "{\"mass\": 1}");  // not ours: left alone
+    }
+  }
+  // Not ours and no --overwrite: kept only for an asset that compiles.
+  fs::remove(dir_ / "assets_index.json");
+  r = ComputeAssetMetadata(dir_, AssetIndexOptions{});
+  ASSERT_EQ(r.failures.size(), 1u);
+  EXPECT_FALSE(AssetIndex::Load(dir_ / "assets_index.json").entries.contains("neg_tet"));
+  EXPECT_EQ(ReadFile(computed), "{\"mass\": 1}");
+}
+
+// An unreadable computed file is not silently replaced or indexed without --overwrite.
+TEST_F(ComputeMetadata, CorruptComputedFileIsAFailure) {
+  fs::remove_all(dir_ / "broken");
+  fs::remove_all(dir_ / "multi");
+  WriteFileAtomic(dir_ / "given/given_computed.json", "{oops");
+  ComputeMetadataReport r = ComputeAssetMetadata(dir_, AssetIndexOptions{});
+  ASSERT_EQ(r.failures.size(), 1u);
+  EXPECT_EQ(r.failures[0].path, (dir_ / "given/given_computed.json").string());
+  EXPECT_THAT(r.failures[0].message, HasSubstr("use --overwrite"));
+  EXPECT_EQ(ReadFile(dir_ / "given/given_computed.json"), "{oops");
+  EXPECT_FALSE(AssetIndex::Load(dir_ / "assets_index.json").entries.contains("given"));
 }
 
 }  // namespace

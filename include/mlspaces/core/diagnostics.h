@@ -29,7 +29,8 @@ struct MLSPACES_API Diagnostic {
   std::string uid;  ///< the asset concerned; may be empty (not printed)
   Severity severity = Severity::kError;
 
-  /// "path: field: message", leaving out empty parts.
+  /// "path: field: message", leaving out empty parts; control characters and bytes that are
+  /// not UTF-8 written as \xNN (Printable), so it is always one line.
   std::string ToString() const;
 };
 

@@ -549,8 +549,15 @@ MLSPACES_API std::string ConfigHashHex(const ExperimentConfig& config);
 
 /// The hash of what shapes the data: ConfigHashHex of the config with the fields that only
 /// say where output goes and how a run is carried out (output_dir, log_level, num_workers,
-/// profile) reset to their defaults. Recorded with every episode; a run folder may be resumed
-/// by any config with the same data hash (e.g. with more workers or another log level).
+/// profile, libraries.assets_dir) reset to their defaults and every other path replaced by
+/// what it holds: a file by its bytes (a scene XML with its scene metadata file), a folder by
+/// its files' relative paths and bytes (hidden entries and the run folder left out), a missing
+/// path by its name.
+/// So a project moved or copied elsewhere hashes the same, and an edited library file does
+/// not. File digests are cached per process while a file's stat is unchanged. Recorded with
+/// every episode and in config.yaml's first line; a run folder may be resumed by any config
+/// with the same data hash (e.g. with more workers or another log level). @throws Error for
+/// an unreadable file.
 MLSPACES_API std::string DataConfigHashHex(const ExperimentConfig& config);
 
 }  // namespace mlspaces::datagen

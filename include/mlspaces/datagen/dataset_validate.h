@@ -28,7 +28,8 @@ struct MLSPACES_API DatasetReport {
 };
 
 /// Checks every trajectory file (*.h5, recursively; files inside `*.parts` folders are
-/// skipped) under `dir` and every video they name, and reports every problem found:
+/// skipped) under `dir` (or the one file `dir` names) and every video they name, and reports
+/// every problem found (a lone file: only its own and its videos'):
 ///
 /// - unfinished writes: `*.parts` folders (episodes not merged), `*.tmp.*` files and
 ///   `.episode_*` in-progress videos; a `*.h5` that HDF5 cannot open; no `*.h5` at all;
@@ -53,7 +54,8 @@ struct MLSPACES_API DatasetReport {
 ///
 /// Prints nothing. Problems are in a stable order (files sorted by path); HDF5 paths and
 /// messages have non-UTF-8 bytes written as \xNN.
-/// @throws Error only when `dir` is not a folder; bad data is reported, never thrown.
+/// @throws Error only when `dir` is neither a folder nor a file; bad data is reported, never
+/// thrown.
 MLSPACES_API DatasetReport ValidateDataset(const std::filesystem::path& dir);
 
 }  // namespace mlspaces::datagen

@@ -17,6 +17,7 @@
 #include <optional>
 #include <string>
 
+#include "mlspaces/core/error.h"
 #include "mlspaces/datagen/camera_recorder.h"
 #include "mlspaces/datagen/config.h"
 #include "mlspaces/datagen/env.h"
@@ -41,6 +42,10 @@ struct MLSPACES_API EpisodeResult {
   std::optional<EpisodeRecord> record;
   int64_t policy_steps = 0;
   int64_t physics_steps = 0;
+  /// Set when the attempt failed for a reason of the input files (the pickup object's
+  /// asset_id or grasp file: preflight.h) that every attempt on that object hits; it names
+  /// the file and the field.
+  std::optional<Error> input_error;
 };
 
 struct MLSPACES_API EpisodeRunnerOptions {
@@ -54,6 +59,9 @@ struct MLSPACES_API EpisodeRunnerOptions {
   /// episode is kept (see RunDatagen).
   std::filesystem::path video_dir;
   sim::GlBackend gl_backend = sim::GlBackend::kOsMesa;
+  /// The data hash recorded in provenance (DataConfigHashHex of the config, which reads the
+  /// libraries' files); empty: computed when the first episode is recorded.
+  std::string config_hash;
   /// Called once per policy step after the controller wrote ctrl, right before the physics
   /// steps (for custom logging, or replaying the exact states in a benchmark). Must not
   /// modify the data.

@@ -78,6 +78,10 @@ MLSPACES_API std::vector<WorkItem> ShardItems(const std::vector<WorkItem>& items
 MLSPACES_API std::filesystem::path JournalPath(const std::filesystem::path& folder,
                                                const Shard& shard);
 
+/// The data hash (DataConfigHashHex) a run folder's config.yaml records in its first line
+/// when the run began, or "" when it records none. Resume and merge compare it.
+MLSPACES_API std::string RecordedDataHash(const std::filesystem::path& config_file);
+
 struct MLSPACES_API RunOptions {
   /// Continue the run found in the folder. Without it a folder that already holds a run is
   /// an error (so a typo in --output never mixes two runs).
@@ -87,8 +91,8 @@ struct MLSPACES_API RunOptions {
   int workers = 0;
   /// Headless GL for the cameras (one context per worker).
   sim::GlBackend gl_backend = sim::GlBackend::kOsMesa;
-  /// Draw a progress bar (only on a terminal): episodes kept / target, success rate,
-  /// episodes per hour, ETA.
+  /// Report progress on stderr per episode: episodes kept / target, attempts, success rate,
+  /// episodes per hour, ETA; a bar on a terminal, else a line at most once a second.
   bool progress = true;
   /// Receives log lines (without newline): one per attempt at debug level, one per work item
   /// at info level, warnings.

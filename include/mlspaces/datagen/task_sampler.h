@@ -97,6 +97,10 @@ class MLSPACES_API TaskSampler {
   /// Changes the run seed later episodes derive from (an evaluation env reseeded by reset).
   void set_run_seed(uint64_t seed) { run_seed_ = seed; }
 
+  /// Candidate pickup objects: named top-level bodies with a free joint whose names do not
+  /// start with the robot prefix, by body id.
+  static std::vector<std::string> CandidateObjects(const Env& env);
+
  protected:
   // ===========================================================================================
   // Hooks (see the file comment for their order and defaults)
@@ -104,10 +108,6 @@ class MLSPACES_API TaskSampler {
   virtual void RandomizeScene(Env& env, Rng& rng);
   virtual std::string SelectPickupObject(Env& env, Rng& rng);
   virtual void SampleAndPlaceRobot(Env& env, Rng& rng, TaskDraft& draft) = 0;
-
-  /// Candidate pickup objects: named top-level bodies with a free joint whose names do not
-  /// start with the robot prefix, by body id.
-  static std::vector<std::string> CandidateObjects(const Env& env);
 
  private:
   friend class TaskSamplerRegistry;

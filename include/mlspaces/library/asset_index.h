@@ -9,7 +9,10 @@
 #include <map>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
+
+#include "mlspaces/core/json.h"
 
 namespace mlspaces {
 
@@ -59,8 +62,8 @@ MLSPACES_API std::string IndexWarningLine(const Diagnostic& warning);
 /// Scans `dir` recursively (sorted, symlinked folders not followed) for `<uid>.xml` with a
 /// sibling `<uid>.json` (and optional `<uid>.npz`), and builds the index in memory.
 /// When `<uid>_computed.json` exists and `use_computed` is set, the entry points at it.
-/// @throws Error for a missing metadata JSON (unless suppressed) or a duplicate UID,
-/// naming both files.
+/// @throws Error for a missing metadata JSON (unless suppressed), a duplicate UID (naming
+/// both files), or a `<uid>.xml` that is a broken symbolic link.
 MLSPACES_API AssetIndex BuildAssetIndex(const std::filesystem::path& dir,
                                         const AssetIndexOptions& options, IndexReport* report,
                                         bool use_computed = false);
@@ -75,5 +78,28 @@ MLSPACES_API std::filesystem::path AssetIndexOutputPath(const std::filesystem::p
 /// unless `overwrite`, builds, and writes atomically. @throws Error.
 MLSPACES_API IndexReport WriteAssetIndex(const std::filesystem::path& dir,
                                          const AssetIndexOptions& options);
+
+// ---- What a computed metadata file was computed from (docs/formats.md) --------------------
+
+/// The key of the record in each <uid>_computed.json mlspaces writes:
+/// {"hash": "xxh128", "files": {source path relative to the computed file's folder: digest}}.
+/// A computed file with this key was written by mlspaces; one without it (the original's,
+/// or hand-made) has no record to check.
+inline constexpr std::string_view kComputedFromKey = "computed_from";
+
+/// XXH3-128 of a file's bytes as 32 lowercase hex digits (what `xxh128sum` prints).
+/// @throws Error naming the file when it cannot be read.
+MLSPACES_API std::string SourceFileHash(const std::filesystem::path& file);
+
+/// The record for `sources` (absolute paths), relative to `computed_file`'s folder, sorted.
+/// @throws Error naming a source that cannot be read.
+MLSPACES_API Json ComputedFromRecord(const std::filesystem::path& computed_file,
+                                     const std::vector<std::filesystem::path>& sources);
+
+/// Checks the record of `computed` (the parsed `computed_file`) against the files now: one
+/// problem per source changed or missing, or for a malformed record (path = computed_file,
+/// field = the record's JSON pointer). nullopt when there is no record (nothing to check).
+MLSPACES_API std::optional<std::vector<Diagnostic>> CheckComputedFrom(
+    const std::filesystem::path& computed_file, const Json& computed);
 
 }  // namespace mlspaces

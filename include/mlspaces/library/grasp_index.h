@@ -38,7 +38,7 @@ struct MLSPACES_API GraspIndexOptions {
 
 /// Scans `dir` for `<uid>/<robot>/grasps.npz` and `<uid>/<robot>/joint_grasps_<joint>.npz`.
 /// A grasps file less than two folders deep, an empty joint name or the same (robot, uid)
-/// found twice is an error naming the files.
+/// found twice, or a grasps file that is a broken symbolic link, is an error naming the files.
 MLSPACES_API GraspIndex BuildGraspIndex(const std::filesystem::path& dir, IndexReport* report);
 
 /// `mlspaces index-grasps`. @throws Error (existing output without overwrite, ...).

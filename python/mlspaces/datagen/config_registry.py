@@ -5,6 +5,7 @@ from __future__ import annotations
 import warnings
 from typing import Any, Callable
 
+from .. import _validate as _v
 from ..errors import MlspacesError
 
 _CONFIGS: dict[str, type] = {}
@@ -13,7 +14,12 @@ _CONFIGS: dict[str, type] = {}
 def register_config(name: str, strict: bool = True) -> Callable[[type], type]:
     """A class decorator registering a config class under `name` (returns the class
     unchanged). A name taken raises ``ValueError`` when `strict`, else warns and replaces."""
+    name = _v.string(name, "name", "register_config", empty=False)
+    strict = _v.boolean(strict, "strict", "register_config")
+
     def decorate(cls: type) -> type:
+        if not isinstance(cls, type):
+            raise _v.type_error(f"register_config({name!r})", "cls", "a config class", cls)
         if name in _CONFIGS and _CONFIGS[name] is not cls:
             if strict:
                 raise MlspacesError(f"config {name!r} is already registered "
@@ -27,6 +33,7 @@ def register_config(name: str, strict: bool = True) -> Callable[[type], type]:
 
 def get_config_class(name: str) -> type:
     """The class registered as `name`; ``ValueError`` listing the known ones if none."""
+    name = _v.string(name, "name", "get_config_class")
     try:
         return _CONFIGS[name]
     except KeyError:

@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import Any
 
 from .. import _core
+from .. import _validate as _v
 from ..configs import to_native
 from ..errors import MlspacesError
 from .config_registry import get_config_class
@@ -29,6 +30,9 @@ def _sampler_for(config: Any):
 
 def native_config_text(config: Any) -> str:
     """The engine config of a config object, as the text the engine loads (JSON)."""
+    if not hasattr(config, "task_sampler_config") or not hasattr(config, "model_copy"):
+        raise _v.type_error("native_config_text", "config", "a datagen config (a PickBaseConfig)",
+                            config)
     return json.dumps(to_native(config))
 
 
@@ -41,6 +45,17 @@ def run_config(config: Any, *, output_dir: str | os.PathLike[str] | None = None,
     ``summary``, ...). The sampler is ``config.task_sampler_config.task_sampler_class(config)``
     when that is a Python class. Relative paths resolve against the current directory. A run
     stopped by Ctrl-C (``KeyboardInterrupt``) continues with ``resume=True``."""
+    func = "run_config"
+    if not hasattr(config, "task_sampler_config") or not hasattr(config, "model_copy"):
+        raise _v.type_error(func, "config", "a datagen config (a PickBaseConfig)", config)
+    output_dir = _v.optional_path(output_dir, "output_dir", func)
+    resume = _v.boolean(resume, "resume", func)
+    shard = _v.optional_string(shard, "shard", func)
+    workers = _v.optional_integer(workers, "workers", func, minimum=1)
+    seed = _v.optional_integer(seed, "seed", func, minimum=0)
+    progress = _v.boolean(progress, "progress", func)
+    log_level = _v.choice(log_level, "log_level", func, ("debug", "info", "warning", "error"))
+    gl = _v.optional_string(gl, "gl", func)
     if output_dir is not None:
         config = config.model_copy()
         config.output_dir = Path(output_dir)

@@ -10,8 +10,18 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
+from .. import _validate as _v
 from ..errors import MlspacesError, MlspacesKeyError
 from ..utils.pose import _as_matrix, _quat_from_rotation, _rotation_from_quat
+
+
+def _vector(value, n: int, name: str, owner: object) -> np.ndarray:
+    """``n`` finite numbers (any array-like holding exactly ``n``) for a body's setter."""
+    func = f"{type(owner).__name__}.{name}"
+    v = _v.array(value, name, func)
+    if v.size != n:
+        raise _v.value_error(func, name, f"expected {n} values, got shape {v.shape}")
+    return v.reshape(n)
 
 
 def _pose_from(pos, quat) -> np.ndarray:
@@ -26,6 +36,11 @@ class MlSpacesBody:
     (``pose`` 4x4, ``position`` (3,), ``quat`` (4,) wxyz)."""
 
     def __init__(self, data: mujoco.MjData, body_name_or_id: str | int) -> None:
+        func = type(self).__name__
+        if not isinstance(data, mujoco.MjData):
+            raise _v.type_error(func, "data", "a mujoco.MjData", data)
+        if not isinstance(body_name_or_id, str):
+            body_name_or_id = _v.integer(body_name_or_id, "body_name_or_id", func)
         self.mj_data = data
         self.mj_model = data.model
         if isinstance(body_name_or_id, str):
@@ -55,7 +70,7 @@ class MlSpacesBody:
 
     @pose.setter
     def pose(self, value) -> None:
-        m = _as_matrix(value, "pose")
+        m = _as_matrix(value, "pose", f"{type(self).__name__}.pose")
         self.position = m[:3, 3]
         self.quat = _quat_from_rotation(m[:3, :3])
 
@@ -77,7 +92,7 @@ class MlSpacesMocapBody(MlSpacesBody):
 
     @position.setter
     def position(self, value) -> None:
-        self.mj_data.mocap_pos[self._mocap] = np.asarray(value, dtype=np.float64).reshape(3)
+        self.mj_data.mocap_pos[self._mocap] = _vector(value, 3, "position", self)
 
     @property
     def quat(self) -> np.ndarray:
@@ -85,7 +100,7 @@ class MlSpacesMocapBody(MlSpacesBody):
 
     @quat.setter
     def quat(self, value) -> None:
-        self.mj_data.mocap_quat[self._mocap] = np.asarray(value, dtype=np.float64).reshape(4)
+        self.mj_data.mocap_quat[self._mocap] = _vector(value, 4, "quat", self)
 
     pose = MlSpacesBody.pose
 
@@ -103,7 +118,7 @@ class MlSpacesFreeJointBody(MlSpacesBody):
 
     @position.setter
     def position(self, value) -> None:
-        self.mj_data.qpos[self._adr:self._adr + 3] = np.asarray(value, dtype=np.float64).reshape(3)
+        self.mj_data.qpos[self._adr:self._adr + 3] = _vector(value, 3, "position", self)
 
     @property
     def quat(self) -> np.ndarray:
@@ -111,8 +126,7 @@ class MlSpacesFreeJointBody(MlSpacesBody):
 
     @quat.setter
     def quat(self, value) -> None:
-        self.mj_data.qpos[self._adr + 3:self._adr + 7] = (
-            np.asarray(value, dtype=np.float64).reshape(4))
+        self.mj_data.qpos[self._adr + 3:self._adr + 7] = _vector(value, 4, "quat", self)
 
     pose = MlSpacesBody.pose
 
@@ -128,6 +142,10 @@ class MlSpacesImmovableBody(MlSpacesBody):
 def create_mlspaces_body(data: mujoco.MjData, body_name_or_id: str | int) -> MlSpacesBody:
     """The view of a body that fits it: mocap, free joint, or immovable. ``KeyError`` for an
     unknown name, ``IndexError`` for a bad id."""
+    if not isinstance(data, mujoco.MjData):
+        raise _v.type_error("create_mlspaces_body", "data", "a mujoco.MjData", data)
+    if not isinstance(body_name_or_id, str):
+        body_name_or_id = _v.integer(body_name_or_id, "body_name_or_id", "create_mlspaces_body")
     probe = MlSpacesBody(data, body_name_or_id)
     model = probe.mj_model
     if model.body_mocapid[probe.body_id] >= 0:
@@ -138,5 +156,56 @@ def create_mlspaces_body(data: mujoco.MjData, body_name_or_id: str | int) -> MlS
     return MlSpacesImmovableBody(data, probe.body_id)
 
 
-__all__ = ["MlSpacesBody", "MlSpacesFreeJointBody", "MlSpacesImmovableBody",
-           "MlSpacesMocapBody", "create_mlspaces_body"]
+class MlSpacesObject:
+    """An object of a scene by its root body (``molmo_spaces.env.data_views.MlSpacesObject``):
+    ``name``, ``object_id`` (the root body's id), ``pose`` / ``position`` / ``quat`` as
+    ``create_mlspaces_body`` reads and writes them, and the hinge and slide joints of the
+    body's subtree (``joint_names``, ``joint_ids``, ``njoints``, ``get_joint_position``)."""
+
+    def __init__(self, object_name: str | int, data: mujoco.MjData) -> None:
+        self._body = create_mlspaces_body(data, object_name)
+        self.mj_data, self.mj_model = data, self._body.mj_model
+        self.name, self.object_id = self._body.name, self._body.body_id
+        model, root = self.mj_model, self.object_id
+        in_subtree = [b for b in range(model.nbody)
+                      if b == root or _is_descendant(model, b, root)]
+        self.joint_ids = [j for b in in_subtree
+                          for j in range(model.body_jntadr[b],
+                                         model.body_jntadr[b] + model.body_jntnum[b])
+                          if model.jnt_type[j] in (mujoco.mjtJoint.mjJNT_HINGE,
+                                                   mujoco.mjtJoint.mjJNT_SLIDE)]
+        self.joint_names = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_JOINT, j) or ""
+                            for j in self.joint_ids]
+
+    @property
+    def njoints(self) -> int:
+        return len(self.joint_ids)
+
+    def get_joint_position(self, joint_idx: int) -> float:
+        """The position (qpos) of the object's ``joint_idx``-th joint."""
+        joint_idx = _v.integer(joint_idx, "joint_idx", f"{type(self).__name__}.get_joint_position")
+        return float(self.mj_data.qpos[self.mj_model.jnt_qposadr[self.joint_ids[joint_idx]]])
+
+    pose = property(lambda self: self._body.pose,
+                    lambda self, value: setattr(self._body, "pose", value))
+    position = property(lambda self: self._body.position,
+                        lambda self, value: setattr(self._body, "position", value))
+    quat = property(lambda self: self._body.quat,
+                    lambda self, value: setattr(self._body, "quat", value))
+
+
+class MlSpacesArticulationObject(MlSpacesObject):
+    """An object with joints (``molmo_spaces.env.data_views.MlSpacesArticulationObject``)."""
+
+
+def _is_descendant(model: mujoco.MjModel, body: int, root: int) -> bool:
+    while body > 0:
+        body = int(model.body_parentid[body])
+        if body == root:
+            return True
+    return False
+
+
+__all__ = ["MlSpacesArticulationObject", "MlSpacesBody", "MlSpacesFreeJointBody",
+           "MlSpacesImmovableBody", "MlSpacesMocapBody", "MlSpacesObject",
+           "create_mlspaces_body"]

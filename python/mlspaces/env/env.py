@@ -11,7 +11,7 @@ from typing import Any
 
 import mujoco
 
-from ..errors import MlspacesError
+from .. import _validate as _v
 from .data_views import MlSpacesMocapBody
 
 
@@ -55,8 +55,10 @@ class CPUMujocoEnv:
 
     @current_batch_index.setter
     def current_batch_index(self, value: int) -> None:
-        if value != 0:
-            raise MlspacesError(f"current_batch_index must be in [0, {self.n_batch}), got {value}")
+        value = _v.integer(value, "current_batch_index", "CPUMujocoEnv")
+        if not 0 <= value < self.n_batch:
+            raise _v.value_error("CPUMujocoEnv", "current_batch_index",
+                                 f"expected an int in [0, {self.n_batch}), got {value}")
         self._batch_index = value
 
     @property

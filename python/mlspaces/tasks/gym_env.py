@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import json
 import os
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
@@ -32,6 +33,7 @@ except ImportError as e:  # pragma: no cover - depends on the install
     raise ImportError("mlspaces.tasks.gym_env needs gymnasium: pip install 'mlspaces[gym]'") from e
 
 from .. import _core
+from .. import _validate as _v
 from ..configs import to_native
 from ..datagen.config_registry import get_config_class, list_available_configs
 from ..errors import MlspacesError
@@ -41,11 +43,15 @@ _OPTIONS = {"house_index", "episode", "force_advance_scene"}
 
 
 def env_id_for_config(config_name: str, version: int = 0) -> str:
+    """``"MolmoSpaces/<config_name>-v<version>"``."""
+    config_name = _v.string(config_name, "config_name", "env_id_for_config", empty=False)
+    version = _v.integer(version, "version", "env_id_for_config", minimum=0)
     return f"{_NAMESPACE}/{config_name}-v{version}"
 
 
 def register_configs(version: int = 0) -> list[str]:
     """Registers every registered config with gymnasium (idempotent); returns the new ids."""
+    version = _v.integer(version, "version", "register_configs", minimum=0)
     added = []
     for name in list_available_configs():
         env_id = env_id_for_config(name, version)
@@ -56,6 +62,20 @@ def register_configs(version: int = 0) -> list[str]:
                      disable_env_checker=True, order_enforce=False)
         added.append(env_id)
     return added
+
+
+def _options(options: Any, func: str) -> dict[str, Any]:
+    """The sampling options (``house_index``, ``episode``: ints >= 0; ``force_advance_scene``:
+    a bool), checked."""
+    for key, value in options.items():
+        if key not in _OPTIONS:
+            raise _v.value_error(func, "options", f"unknown option {key!r}; known: "
+                                                  f"{', '.join(sorted(_OPTIONS))}")
+        if key == "force_advance_scene":
+            _v.boolean(value, key, func)
+        else:
+            _v.integer(value, key, func, minimum=0)
+    return dict(options)
 
 
 def _box(shape: tuple[int, ...], low: float = -np.inf, high: float = np.inf) -> spaces.Box:
@@ -71,17 +91,27 @@ class GymEnv(gym.Env):
                  config_overrides: dict[str, Any] | None = None, task_sampler: Any = None,
                  render_mode: str | None = None, render_camera: str | None = None,
                  **sample_task_kwargs: Any) -> None:
+        func = "GymEnv"
         if (config_name is None) == (exp_config is None):
             raise MlspacesError("GymEnv: give exactly one of config_name and exp_config")
+        if config_name is not None:
+            config_name = _v.string(config_name, "config_name", func, empty=False)
+        elif not hasattr(exp_config, "task_sampler_config") or \
+                not hasattr(exp_config, "camera_config"):
+            raise _v.type_error(func, "exp_config", "a datagen config (a PickBaseConfig)",
+                                exp_config)
+        config_overrides = _v.optional_mapping(config_overrides, "config_overrides", func)
+        render_camera = _v.optional_string(render_camera, "render_camera", func)
         if task_sampler is not None:
             raise MlspacesError("GymEnv: task_sampler is not supported; the env makes its "
                                 "sampler from the config's task_sampler_class")
         unknown = set(sample_task_kwargs) - _OPTIONS
         if unknown:
             raise MlspacesError(f"GymEnv: unknown keyword arguments {sorted(unknown)}")
+        _options(sample_task_kwargs, func)
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
-            raise MlspacesError(f"GymEnv: render_mode must be None or 'rgb_array', got "
-                                f"{render_mode!r}")
+            raise _v.value_error(func, "render_mode",
+                                 f"expected None or 'rgb_array', got {_v.describe(render_mode)}")
         cfg = get_config_class(config_name)() if exp_config is None else exp_config
         for key, value in (config_overrides or {}).items():
             if not hasattr(cfg, key):
@@ -89,6 +119,7 @@ class GymEnv(gym.Env):
                                     f"{type(cfg).__qualname__}")
             setattr(cfg, key, value)
         self.config = cfg
+        self._config_name = config_name
         self.render_mode = render_mode
         self.render_camera = render_camera
         self._defaults = dict(sample_task_kwargs)
@@ -130,11 +161,13 @@ class GymEnv(gym.Env):
     # -- gymnasium API --------------------------------------------------------------------
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
+        func = "GymEnv.reset"
+        if seed is not None:
+            seed = _v.integer(seed, "seed", func, minimum=0, maximum=2**64 - 1)
+        options = _v.optional_mapping(options, "options", func)
+        options = _options({**self._defaults, **(options or {})}, func)
+        self._open(func)
         super().reset(seed=seed)
-        options = {**self._defaults, **(options or {})}
-        unknown = set(options) - _OPTIONS
-        if unknown:
-            raise MlspacesError(f"reset: unknown options {sorted(unknown)}")
         if seed is not None:
             self._run_seed = int(seed)
             self._episode = -1
@@ -147,24 +180,40 @@ class GymEnv(gym.Env):
         return self._observation(), self._info()
 
     def step(self, action: dict[str, Any]):
+        func = "GymEnv.step"
+        self._open(func)
         if self.task is None:
             raise RuntimeError("step before reset")
-        if not isinstance(action, dict) or "arm" not in action or "gripper" not in action:
-            raise MlspacesError("step: the action must be a dict with 'arm' (7 joint targets) "
-                                "and 'gripper' (ctrl 0..255)")
-        gripper = np.asarray(action["gripper"], dtype=np.float64).reshape(-1)
+        if not isinstance(action, Mapping) or "arm" not in action or "gripper" not in action:
+            raise _v.type_error(func, "action", "a dict with 'arm' (7 joint targets) and "
+                                "'gripper' (ctrl 0..255)", action)
+        arm = _v.array(action["arm"], "action['arm']", func, (self._env.num_arm,))
+        gripper = _v.array(action["gripper"], "action['gripper']", func).reshape(-1)
         if gripper.shape != (1,):
-            raise MlspacesError(f"step: 'gripper' must hold 1 value, got {gripper.shape[0]}")
-        result = self._env.step(action["arm"], float(gripper[0]))
+            raise _v.value_error(func, "action['gripper']",
+                                 f"expected 1 value, got {gripper.shape[0]}")
+        result = self._env.step(arm, float(gripper[0]))
         terminated = bool(result["success"] and self.config.end_on_success)
         info = self._info()
         info["lift"] = result["lift"]
         return (self._observation(), float(result["reward"]), terminated,
                 bool(result["truncated"]), info)
 
-    def render(self) -> np.ndarray | None:
+    def render(self) -> np.ndarray:
+        """The frame of ``render_camera`` (default: the first camera), ``(H, W, 3)`` uint8.
+        Without a render mode there are no frames: a ``ValueError`` says how to ask for them
+        (gymnasium's own envs return ``None`` with a warning, easy to miss)."""
         if self.render_mode is None:
-            return None
+            env_id = (self.spec.id if self.spec is not None else
+                      env_id_for_config(self._config_name) if self._config_name else None)
+            make = (f'gymnasium.make("{env_id}", render_mode="rgb_array")' if env_id else
+                    'gymnasium.make(..., render_mode="rgb_array")')
+            raise _v.value_error("GymEnv.render", "render_mode",
+                                 'the env was made without a render mode, so it renders no '
+                                 'frames: pass render_mode="rgb_array" to GymEnv(...) or '
+                                 f'{make} (camera frames are also in every observation, '
+                                 'obs["sensor_data"])')
+        self._open("GymEnv.render")
         if self.task is None:
             raise RuntimeError("render before reset")
         if not self._cameras:
@@ -173,7 +222,16 @@ class GymEnv(gym.Env):
         return self._env.render(self._cameras.index(camera))
 
     def close(self) -> None:
+        """Frees the scene, its renderer and the sampler's env (idempotent); the env cannot
+        be used after."""
         self.task = None
+        env = getattr(self, "_env", None)  # None when __init__ failed
+        if env is not None:
+            env.close()
+
+    def _open(self, func: str) -> None:
+        if self._env.closed:
+            raise RuntimeError(f"{func}: the env is closed (close() was called)")
 
     # -- helpers --------------------------------------------------------------------------
 

@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from .. import _validate as _v
 from ..env.env import CPUMujocoEnv
 
 
@@ -27,6 +28,9 @@ class BaseMujocoTaskSampler:
     (``self.env``, ``None`` until the engine loads a scene)."""
 
     def __init__(self, config: Any) -> None:
+        if not hasattr(getattr(config, "task_config", None), "model_copy"):
+            raise _v.type_error(type(self).__name__, "config",
+                                "a datagen config (a PickBaseConfig)", config)
         self.config = config
         self._task_config_preset = config.task_config.model_copy(deep=True)
         self.env: CPUMujocoEnv | None = None
@@ -39,6 +43,7 @@ class BaseMujocoTaskSampler:
 
     def seed_task_sampling(self, seed: int) -> None:
         """Seeds ``random``, ``np.random``, ``torch`` (when imported) and ``self.rng``."""
+        seed = _v.integer(seed, "seed", "seed_task_sampling", minimum=0)
         random.seed(seed)
         np.random.seed(seed % 2**32)
         torch = sys.modules.get("torch")

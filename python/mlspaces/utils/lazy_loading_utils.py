@@ -10,7 +10,10 @@ import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from pydantic import TypeAdapter
+
 from .. import _core
+from .. import _validate as _v
 from .._registry import install_uid, locate_uid_package
 
 
@@ -21,6 +24,11 @@ class UserAssetLibraryIndexEntry:
     object_path: Path
     metadata_path: Path
     metadata_npz_path: Path | None = None
+
+
+#: The schema of a whole ``assets_index.json`` (uid -> entry), as the original's pydantic
+#: ``TypeAdapter``: ``UserAssetLibraryIndex.validate_json(text)``, ``.dump_json(index)``.
+UserAssetLibraryIndex = TypeAdapter(dict[str, UserAssetLibraryIndexEntry])
 
 
 @dataclass(frozen=True)
@@ -45,13 +53,31 @@ def _paths(file: Path, key: str, value, depth: int):
     return {k: _paths(file, f"{key}/{k}", v, depth - 1) for k, v in value.items()}
 
 
-@functools.cache
+def _cached_per_path(func):
+    """``func(path)`` cached per path (``functools.cache``, as the original's, with its
+    ``cache_clear``), the argument checked first (a path, named in the error)."""
+    cached = functools.cache(func)
+
+    @functools.wraps(func)
+    def checked(path):
+        return cached(Path(_v.path(path, "path", func.__name__)))
+    checked.cache_clear = cached.cache_clear
+    checked.cache_info = cached.cache_info
+    return checked
+
+
+def _read_json(file: Path):
+    with _v.reading(file, "not a JSON file"):  # a missing file: FileNotFoundError naming it
+        return json.loads(file.read_text())
+
+
+@_cached_per_path
 def get_user_library_index(path: Path) -> dict[str, UserAssetLibraryIndexEntry]:
     """The parsed ``assets_index.json`` of a user library dir (cached per path, as the
     original). Raises ``OSError`` when unreadable, ``ValueError`` naming the field when
     malformed."""
     file = Path(path) / "assets_index.json"
-    doc = json.loads(file.read_text())
+    doc = _read_json(file)
     if not isinstance(doc, dict):
         raise _index_error(file, "", "expected an object")
     out = {}
@@ -70,12 +96,12 @@ def get_user_library_index(path: Path) -> dict[str, UserAssetLibraryIndexEntry]:
     return out
 
 
-@functools.cache
+@_cached_per_path
 def get_user_grasp_library_index(path: Path) -> UserGraspLibraryIndex:
     """The parsed ``grasps_index.json`` of a user grasp library dir (cached per path).
     Raises ``OSError`` when unreadable, ``ValueError`` naming the field when malformed."""
     file = Path(path) / "grasps_index.json"
-    doc = json.loads(file.read_text())
+    doc = _read_json(file)
     if not isinstance(doc, dict):
         raise _index_error(file, "", "expected an object")
     return UserGraspLibraryIndex(
@@ -92,18 +118,28 @@ def install_scene_with_objects_and_grasps_from_path(
     ``<assets>/scenes``, a scene number, or ``{"base": path}``), then the objects and grasps
     its MJCFs reference through ``../objects/...``. Returns ``{"scenes": {source: [archives]},
     "objects": {...}, "grasps": {...}}``: every archive asked for, installed now or before."""
+    func = "install_scene_with_objects_and_grasps_from_path"
     if isinstance(xml_path, dict):
+        if "base" not in xml_path:
+            raise _v.value_error(func, "xml_path", f"a dict needs the key 'base', got keys "
+                                                   f"{sorted(map(str, xml_path))}")
         xml_path = xml_path["base"]
+    if isinstance(xml_path, int) and not isinstance(xml_path, bool):
+        scene = str(_v.integer(xml_path, "xml_path", func, minimum=0))
+    else:
+        scene = _v.path(xml_path, "xml_path", func)
     return _core.install_scene_with_objects_and_grasps_from_path(
-        str(xml_path) if isinstance(xml_path, int) else os.fspath(xml_path), list(grasp_sources),
-        exclude_thor)
+        scene, _v.strings(grasp_sources, "grasp_sources", func),
+        _v.boolean(exclude_thor, "exclude_thor", func))
 
 
 def install_objects_for_scene(xml_path: str | os.PathLike, exclude_thor: bool = True
                               ) -> dict[str, list[str]]:
     """Installs the object archives an installed scene MJCF (under ``<assets>/scenes/<source>/``)
     references; returns ``{source: [archives]}``, ``{}`` unless objaverse is configured."""
-    return _core.install_objects_for_scene(Path(xml_path), exclude_thor)
+    func = "install_objects_for_scene"
+    return _core.install_objects_for_scene(Path(_v.path(xml_path, "xml_path", func)),
+                                           _v.boolean(exclude_thor, "exclude_thor", func))
 
 
 def install_grasps_for_scene(xml_path: str | os.PathLike, grasp_source: str = "droid_objaverse",
@@ -111,16 +147,24 @@ def install_grasps_for_scene(xml_path: str | os.PathLike, grasp_source: str = "d
     """Installs the archives of ``grasp_source`` matching the name tokens of each file the scene
     MJCF references; returns ``{grasp_source: [archives]}``, or ``{}`` for THOR's grasp sources
     (droid, rum) when THOR is excluded or when ``grasp_source`` is not configured."""
-    return _core.install_grasps_for_scene(Path(xml_path), grasp_source, exclude_thor)
+    func = "install_grasps_for_scene"
+    return _core.install_grasps_for_scene(
+        Path(_v.path(xml_path, "xml_path", func)),
+        _v.string(grasp_source, "grasp_source", func, empty=False),
+        _v.boolean(exclude_thor, "exclude_thor", func))
 
 
 def find_object_paths(scene_xml: str | os.PathLike, exclude_thor: bool = True):
     """Yields ``(source, path relative to the source)`` for each ``../objects/...`` file the
     scene MJCF references (mesh, texture, material, hfield, skin under ``<asset>``)."""
-    yield from (tuple(p) for p in _core.find_object_paths(Path(scene_xml), exclude_thor))
+    func = "find_object_paths"
+    found = _core.find_object_paths(Path(_v.path(scene_xml, "scene_xml", func)),
+                                    _v.boolean(exclude_thor, "exclude_thor", func))
+    return (tuple(p) for p in found)
 
 
 __all__ = [
+    "UserAssetLibraryIndex",
     "UserAssetLibraryIndexEntry",
     "UserGraspLibraryIndex",
     "get_user_grasp_library_index",

@@ -10,14 +10,19 @@ from typing import Any
 import numpy as np
 
 from .. import _registry
+from .. import _validate as _v
 from .._registry import default_registry
 from ..errors import MlspacesKeyError
 
 
 class _Annotations(Mapping):
-    """The read-only mapping UID -> annotation over every registered library."""
+    """The read-only mapping UID -> annotation over every registered library: what
+    ``ObjectMeta.annotation()`` (no argument, or ``None``) returns, as MolmoSpaces' does."""
 
     def __getitem__(self, uid: str) -> dict[str, Any]:
+        if not isinstance(uid, str):
+            raise MlspacesKeyError(f"ObjectMeta.annotation(): the keys are UIDs (str), got "
+                                   f"{_v.describe(uid)}")
         found = default_registry().annotation(uid)
         if found is None:
             raise MlspacesKeyError(f"{uid}: no annotation in the registered libraries", uid=uid)
@@ -32,6 +37,18 @@ class _Annotations(Mapping):
     def __contains__(self, uid: object) -> bool:
         return isinstance(uid, str) and default_registry().annotation(uid) is not None
 
+    def __repr__(self) -> str:
+        return (f"<every annotation of the registered libraries: a read-only mapping of "
+                f"{len(self)} UIDs (ObjectMeta.annotation() with no UID)>")
+
+
+def _uids(asset_ids: Any, func: str, expected: str = "a UID (str) or a list of UIDs"
+          ) -> list[str]:
+    """A list of UIDs (the list form of an ``asset_ids`` argument)."""
+    if isinstance(asset_ids, (bytes, Mapping)) or not hasattr(asset_ids, "__iter__"):
+        raise _v.type_error(func, "asset_ids", expected, asset_ids)
+    return _v.strings(asset_ids, "asset_ids", func)
+
 
 def _short(annotation: dict[str, Any] | None, uid: str) -> list[str]:
     if annotation is None:
@@ -45,15 +62,18 @@ class ObjectMeta:
 
     @staticmethod
     def annotation(asset_ids: str | list[str] | None = None):
-        """``None``: the whole mapping; a UID: its dict or ``None``; a list: a list of those."""
+        """``None`` (or no argument): the whole mapping UID -> annotation, as MolmoSpaces;
+        a UID: its dict or ``None``; a list of UIDs: a list of those. Another type is a
+        ``TypeError`` naming ``asset_ids``."""
         reg = _registry._default or default_registry()
         if type(asset_ids) is str:  # the hot path: one UID
             return reg.annotation(asset_ids)
         if asset_ids is None:
             return _Annotations()
         if isinstance(asset_ids, str):
-            return reg.annotation(asset_ids)
-        return [reg.annotation(uid) for uid in asset_ids]
+            return reg.annotation(str(asset_ids))
+        return [reg.annotation(uid) for uid in _uids(asset_ids, "ObjectMeta.annotation",
+                                                        "a UID (str), a list of UIDs or None")]
 
     @staticmethod
     def all_uids() -> list[str]:
@@ -65,9 +85,9 @@ class ObjectMeta:
         those for a list of UIDs."""
         reg = default_registry()
         if isinstance(asset_ids, str):
-            return _short(reg.annotation(asset_ids), asset_ids)
+            return _short(reg.annotation(str(asset_ids)), asset_ids)
         out = []
-        for uid in asset_ids:
+        for uid in _uids(asset_ids, "ObjectMeta.short_descriptions"):
             found = reg.annotation(uid)
             if found is None:
                 raise TypeError(f"short_descriptions: no annotation for {uid!r}")
@@ -76,6 +96,7 @@ class ObjectMeta:
 
     @staticmethod
     def get_short_description(object_uid: str) -> list[str]:
+        object_uid = _v.string(object_uid, "object_uid", "ObjectMeta.get_short_description")
         found = default_registry().annotation(object_uid)
         if found is not None and found.get("description_short"):
             return _short(found, object_uid)
@@ -90,17 +111,20 @@ class ObjectMeta:
                 raise TypeError(f"all_descriptions: no annotation for {uid!r}")
             return _short(found, uid) + [found["description"], found["description_long"]]
         if isinstance(asset_ids, str):
-            return one(asset_ids)
-        return [one(uid) for uid in asset_ids]
+            return one(str(asset_ids))
+        return [one(uid) for uid in _uids(asset_ids, "ObjectMeta.all_descriptions")]
 
     @staticmethod
     def get_features(feature_type_str: str, asset_ids: str | list[str] | None = None
                      ) -> np.ndarray:
         """A feature array of each UID stacked: ``(1, *feat)`` for one UID, ``(n, *feat)`` for
         a list, every annotated UID for ``None``. ``KeyError`` for a UID or feature missing."""
+        func = "ObjectMeta.get_features"
+        feature_type_str = _v.string(feature_type_str, "feature_type_str", func)
         reg = default_registry()
         uids = (reg.all_uids() if asset_ids is None
-                else [asset_ids] if isinstance(asset_ids, str) else list(asset_ids))
+                else [str(asset_ids)] if isinstance(asset_ids, str)
+                else _uids(asset_ids, func, "a UID (str), a list of UIDs or None"))
         rows = []
         for uid in uids:
             found = reg.annotation(uid)
@@ -122,11 +146,17 @@ class ObjectMeta:
 
     @staticmethod
     def get_target_object_uid(task: Any) -> str:
+        if not hasattr(task, "config") or not hasattr(task, "env"):
+            raise _v.type_error("ObjectMeta.get_target_object_uid", "task",
+                                "a task (with .config and .env)", task)
         name = task.config.task_config.pickup_obj_name
         return task.env.current_scene_metadata["objects"][name]["asset_id"]
 
     @classmethod
     def clean_object_name(cls, task: Any) -> str:
+        if not hasattr(task, "config"):
+            raise _v.type_error("ObjectMeta.clean_object_name", "task",
+                                "a task (with .config and .env)", task)
         custom = getattr(task.config.task_config, "eval_object_name", None)
         if custom:
             return custom

@@ -24,6 +24,7 @@ from typing import Any
 import numpy as np
 
 from .. import _core
+from .. import _validate as _v
 from .._registry import Registry, default_registry
 from ..errors import MlspacesError
 
@@ -56,13 +57,20 @@ class ObjectRetriever:
                  license_policy: Any = None, *, registry: Registry | None = None,
                  clip_store: str | os.PathLike[str] | None = None,
                  approximate: bool = False) -> None:
-        self.thres = float(sim_thres)
-        self.max_results = int(max_results)
+        func = "ObjectRetriever"
+        self.thres = _v.number(sim_thres, "sim_thres", func)
+        self.max_results = _v.count(max_results, "max_results", func)
+        if license_policy is not None and not isinstance(license_policy, str) \
+                and not isinstance(getattr(license_policy, "name", None), str):
+            raise _v.type_error(func, "license_policy", "None, a policy name or an enum member",
+                                license_policy)
         self.license_policy = license_policy
-        self.approximate = bool(approximate)
+        self.approximate = _v.boolean(approximate, "approximate", func)
+        if registry is not None and not isinstance(registry, Registry):
+            raise _v.type_error(func, "registry", "a mlspaces.Registry or None", registry)
         reg = registry if registry is not None else default_registry()
         assets = None if reg.assets_dir is None else os.fspath(reg.assets_dir)
-        store = None if clip_store is None else os.fspath(clip_store)
+        store = _v.optional_path(clip_store, "clip_store", func)
         self._search = _core.ObjectSearch(reg._r, assets, store)
 
     def __len__(self) -> int:
@@ -77,10 +85,16 @@ class ObjectRetriever:
         dim = self._search.dim or 768
         if isinstance(query, (str, bytes)):
             raise MlspacesError(_NO_MODEL.format(dim=dim))
+        if query is None:
+            raise _v.type_error("ObjectRetriever.query", "text", f"a CLIP embedding ({dim} "
+                                "floats)", query)
         q = np.asarray(query)
         if q.dtype.kind != "f":
             raise MlspacesError(f"ObjectRetriever.query: the embedding must be a float array, "
                                 f"got dtype {q.dtype}")
+        if not np.isfinite(q).all():
+            raise _v.value_error("ObjectRetriever.query", "text",
+                                 "the embedding holds NaN or infinity")
         if not (q.ndim == 1 or (q.ndim == 2 and q.shape[0] == 1)) or q.size != dim:
             raise MlspacesError(f"ObjectRetriever.query: the embedding must have shape ({dim},) "
                                 f"or (1, {dim}), got {q.shape}")
@@ -94,11 +108,13 @@ class ObjectRetriever:
 
     def query_uid(self, uid: str) -> tuple[np.ndarray, np.ndarray]:
         """"More like this": searches with the stored text feature of ``uid``."""
-        return self.query(self._search.uid_embedding(uid))
+        return self.query(self._search.uid_embedding(
+            _v.string(uid, "uid", "ObjectRetriever.query_uid")))
 
     def text_search(self, words: str) -> tuple[np.ndarray, np.ndarray]:
         """Word search over category, synset and descriptions: ``(uids, scores)``, scores in
         (0, 1] (2 points per word in category/synset, 1 in a description, over 2 per word)."""
-        uids, scores = self._search.text_search(str(words), self.max_results,
+        words = _v.string(words, "words", "ObjectRetriever.text_search")
+        uids, scores = self._search.text_search(words, self.max_results,
                                                 _policy_name(self.license_policy))
         return np.array(uids, dtype=str), scores

@@ -10,16 +10,16 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import MlspacesError
+from .. import _validate as _v
 
 
-def _as_matrix(pose_matrix, what: str = "pose_matrix") -> np.ndarray:
-    if pose_matrix is None:
-        raise MlspacesError(f"{what}: expected a (4, 4) array, got None")
-    m = np.asarray(pose_matrix, dtype=np.float64)
-    if m.shape != (4, 4):
-        raise MlspacesError(f"{what}: expected shape (4, 4), got {m.shape}")
-    return m
+def _as_matrix(pose_matrix, what: str = "pose_matrix", func: str = "pose_mat_to_7d"
+               ) -> np.ndarray:
+    """A finite (4, 4) float64 matrix; ``TypeError`` / ``ValueError`` naming ``what``."""
+    if type(pose_matrix) is np.ndarray and pose_matrix.shape == (4, 4) \
+            and pose_matrix.dtype == np.float64 and np.isfinite(pose_matrix).all():
+        return pose_matrix
+    return _v.array(pose_matrix, what, func, (4, 4))
 
 
 def _quat_from_rotation(r: np.ndarray) -> np.ndarray:
@@ -66,16 +66,18 @@ def pose_mat_to_7d(pose_matrix) -> np.ndarray:
 def pos_quat_to_pose_mat(pos, quat=None) -> np.ndarray:
     """A 4x4 pose from a position and a ``[w, x, y, z]`` quaternion, or from one 7-vector
     when ``quat`` is ``None``."""
-    pos = np.asarray(pos, dtype=np.float64).reshape(-1)
+    func = "pos_quat_to_pose_mat"
     if quat is None:
+        pos = _v.array(pos, "pos", func).reshape(-1)
         if pos.shape != (7,):
-            raise MlspacesError(f"pos: expected 7 values (xyz + wxyz) when quat is None, got "
-                                f"{pos.shape[0]}")
+            raise _v.value_error(func, "pos", f"expected 7 values (xyz + wxyz) when quat is "
+                                              f"None, got {pos.shape[0]}")
         pos, quat = pos[:3], pos[3:]
-    quat = np.asarray(quat, dtype=np.float64).reshape(-1)
-    if pos.shape != (3,) or quat.shape != (4,):
-        raise MlspacesError(f"expected a 3-vector and a 4-vector, got {pos.shape} and "
-                            f"{quat.shape}")
+    else:
+        pos = _v.array(pos, "pos", func, (3,))
+        quat = _v.array(quat, "quat", func, (4,))
+    if not np.any(quat):
+        raise _v.value_error(func, "quat", "expected a non-zero quaternion, got [0, 0, 0, 0]")
     out = np.eye(4)
     out[:3, :3] = _rotation_from_quat(quat)
     out[:3, 3] = pos
@@ -84,7 +86,9 @@ def pos_quat_to_pose_mat(pos, quat=None) -> np.ndarray:
 
 def pose_mat_to_pos_quat(pose) -> tuple[np.ndarray, np.ndarray]:
     """``(pos, quat)`` of a 4x4 pose; ``pos`` is a view into ``pose`` (as MolmoSpaces)."""
-    m = pose if isinstance(pose, np.ndarray) and pose.shape == (4, 4) else _as_matrix(pose)
+    m = (pose if isinstance(pose, np.ndarray) and pose.shape == (4, 4)
+         and pose.dtype.kind == "f" and np.isfinite(pose).all()
+         else _as_matrix(pose, "pose", "pose_mat_to_pos_quat"))
     return m[:3, 3], _quat_from_rotation(np.asarray(m[:3, :3], dtype=np.float64))
 
 

@@ -1,0 +1,1 @@
+"""Robots (``molmo_spaces.robots``): the robot of an env and its view."""

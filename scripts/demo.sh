@@ -4,7 +4,8 @@
 # validate them, look the red block's asset, metadata and grasps up, publish the library as a
 # package and install the red block from it (file:// remote), then generate pick
 # demonstrations with camera videos from the tutorial's datagen config, validate the dataset
-# and load it with h5py; then run the tutorial's datagen.py with `python -m mlspaces.datagen`.
+# and load it with h5py; then run the tutorial's datagen.py with `python -m mlspaces.datagen`,
+# and show a broken grasp file stopping a run before it simulates.
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 "$ROOT/scripts/install-deps.sh"
@@ -19,6 +20,12 @@ set -x
 "$ML" index-assets asset_library --compute-metadata --overwrite
 "$ML" index-grasps asset_library --overwrite
 "$ML" validate asset_library
+# The same two steps as the tutorial writes them (MolmoSpaces' module names, the import renamed):
+# the same code as index-assets / index-grasps.
+PYTHONPATH="$ROOT/build/python" "$PY" -m mlspaces.resources.generate_user_asset_library_index \
+  asset_library --compute-metadata --overwrite
+PYTHONPATH="$ROOT/build/python" "$PY" -m mlspaces.resources.generate_user_grasp_library_index \
+  asset_library --overwrite
 "$ML" inspect scene.xml
 "$ML" locate red_block --libraries libraries.yaml
 "$ML" meta red_block --libraries libraries.yaml
@@ -54,6 +61,14 @@ PY
 PYTHONPATH="$ROOT/build/python" "$PY" -m mlspaces.datagen datagen:CustomAssetsDataGenConfig \
   --output python_output --seed 0 -q
 "$ML" validate-dataset python_output
+# Broken input is never a "successful" run: a NaN in the grasp file stops datagen before it
+# simulates anything, with one line naming the file and the field (exit 1).
+mkdir -p broken && cp -r asset_library scene.xml scene_metadata.json datagen.yaml broken/
+"$PY" -c "import numpy as np; g = np.load('broken/asset_library/red_block/droid/grasps.npz')['transforms'].copy(); g[0, 0, 3] = np.nan; np.savez('broken/asset_library/red_block/droid/grasps.npz', transforms=g)"
+if "$ML" datagen broken/datagen.yaml --output broken/run -q; then
+  echo "demo: datagen accepted a grasp file with a NaN" >&2
+  exit 1
+fi
 # MolmoSpaces' own data (built-in remotes, objathor metadata, CLIP search, licences). The
 # public bucket is not reachable from here, so the test generator writes a small remote in the
 # same format (objects, grasps, scenes, robots, benchmarks, objathor metadata with CLIP

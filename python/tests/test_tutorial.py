@@ -408,6 +408,14 @@ def test_index_modules_errors_are_the_cli_lines_and_codes(tmp_path):
     _ok(_python(tmp_path, "-m", GRASP_MODULE, "lib", "--overwrite", "--output", "g.json"))
     assert json.loads((tmp_path / "g.json").read_text())["grasp_paths"] == {
         "droid": {"red_block": "red_block/droid/grasps.npz"}}
+    # The CLI's own parse-error handling (apps/mlspaces/cli_app.cc): the misspelled flag typed
+    # first, with the flag it was meant to be, control characters escaped.
+    line = _one_error_line(
+        _python(tmp_path, "-m", ASSET_MODULE, "lib", "--compute-metdata", "--overwirte"), 2)
+    assert "--compute-metdata: unknown flag" in line
+    assert "did you mean '--compute-metadata'?" in line
+    line = _one_error_line(_python(tmp_path, "-m", GRASP_MODULE, "mi\x1bss\ning"), 1)
+    assert "mi\\x1bss\\x0aing" in line
     usage = _ok(_python(tmp_path, "-m", ASSET_MODULE, "--help"))
     assert f"python -m {ASSET_MODULE} [OPTIONS] DIR" in usage
     for flag in ("--output", "--overwrite", "--compute-metadata", "--suppress-missing-metadata"):

@@ -225,7 +225,7 @@ std::string ConfigHashHex(const ExperimentConfig& config) {
   return buf;
 }
 
-std::string DataConfigHashHex(const ExperimentConfig& config) {
+ExperimentConfig DataFields(const ExperimentConfig& config, bool paths_by_content) {
   ExperimentConfig data = config;
   const ExperimentConfig defaults;
   data.output_dir = defaults.output_dir;
@@ -237,10 +237,15 @@ std::string DataConfigHashHex(const ExperimentConfig& config) {
   // Every other path by what it holds: the same project in another folder, the same hash.
   // A library folder holding the run's own output does not count that output.
   const fs::path run_folder = fs::absolute(RunFolder(config)).lexically_normal();
-  MapPaths(data, std::function<fs::path(const fs::path&)>([&run_folder](const fs::path& p) {
-             return fs::path(PathDigest(p, run_folder));
-           }));
-  return ConfigHashHex(data);
+  MapPaths(data, std::function<fs::path(const fs::path&)>(
+                     [&run_folder, paths_by_content](const fs::path& p) {
+                       return fs::path(paths_by_content ? PathDigest(p, run_folder) : "<path>");
+                     }));
+  return data;
+}
+
+std::string DataConfigHashHex(const ExperimentConfig& config) {
+  return ConfigHashHex(DataFields(config, true));
 }
 
 }  // namespace mlspaces::datagen

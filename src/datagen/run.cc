@@ -53,17 +53,13 @@ uint64_t DrawSeed() {
   return (static_cast<uint64_t>(device()) << 32) ^ device();
 }
 
-// What differs between two configs in the fields that shape the data (DataConfigHashHex's),
-// as "seed 0 -> 1, task_sampler_config.samples_per_house 4 -> 8" (at most 6, then "and N
-// more"); empty when the canonical YAML of those fields is the same.
+// What differs between two configs in the values that shape the data (DataFields, paths left
+// out), as "seed 0 -> 1, task_sampler_config.samples_per_house 4 -> 8" (at most 6, then "and
+// N more"); empty when those values are the same.
 std::string ConfigChanges(const ExperimentConfig& before, const ExperimentConfig& after) {
-  auto data_yaml = [](ExperimentConfig c) {
-    const ExperimentConfig defaults;
-    c.output_dir = defaults.output_dir;
-    c.log_level = defaults.log_level;
-    c.num_workers = defaults.num_workers;
-    c.profile = defaults.profile;
-    return YAML::Load(DumpConfig(c));
+  // Paths compare by content (the data hash), not by location: a moved project is the same.
+  auto data_yaml = [](const ExperimentConfig& c) {
+    return YAML::Load(DumpConfig(DataFields(c, false)));
   };
   auto text = [](const YAML::Node& node) {
     if (!node.IsDefined()) return std::string("(none)");
@@ -130,7 +126,12 @@ ExperimentConfig SettleRunConfig(const ExperimentConfig& config, const fs::path&
   if (const std::string run_hash = DataConfigHashHex(run); stored_hash != run_hash) {
     // Which fields changed (seed, episodes, ...); the hashes when the fields say nothing.
     std::string changes = ConfigChanges(stored, run);
-    if (changes.empty()) changes = "data hash " + stored_hash + ", this one " + run_hash;
+    if (changes.empty()) {
+      changes =
+          "the same fields, but a library, scene or robot file they name changed since "
+          "the run began: data hash " +
+          stored_hash + ", now " + run_hash;
+    }
     throw Error("the folder holds a run of another config (" + changes +
                     "); --resume continues a run only with its own config: choose another "
                     "output folder (--output), or remove this one to start over",

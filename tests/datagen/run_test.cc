@@ -756,8 +756,10 @@ TEST(RunDatagenTest, TheDataHashFollowsContentsNotTheProjectFolder) {
         << '\0';
   }
   EXPECT_NE(DataConfigHashHex(moved), hash);
+  // The paths differ from the stored run's as text, but only what they hold counts.
   testing::ExpectError([&] { RunDatagen(moved, TaskSamplerRegistry::WithBuiltins(), resume); },
-                       {"another config"});
+                       {"another config", "the same fields, but a library, scene or robot file",
+                        "changed since the run began"});
 }
 
 }  // namespace

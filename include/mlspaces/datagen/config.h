@@ -560,4 +560,10 @@ MLSPACES_API std::string ConfigHashHex(const ExperimentConfig& config);
 /// an unreadable file.
 MLSPACES_API std::string DataConfigHashHex(const ExperimentConfig& config);
 
+/// The fields DataConfigHashHex hashes: `config` with output_dir, log_level, num_workers,
+/// profile and libraries.assets_dir reset to their defaults; with `paths_by_content` every
+/// other path replaced by what it holds (as DataConfigHashHex), else by "<path>" (what
+/// differs then is a value, never a location). @throws Error for an unreadable file.
+MLSPACES_API ExperimentConfig DataFields(const ExperimentConfig& config, bool paths_by_content);
+
 }  // namespace mlspaces::datagen

@@ -412,4 +412,3 @@ struct Registry::Impl {
 };
 
 }  // namespace mlspaces
-

@@ -114,8 +114,13 @@ nb::object PythonTaskSampler::CallHook(const char* hook, const nb::tuple& args,
     if (result == nullptr) throw nb::python_error();
     return nb::steal(result);
   } catch (nb::python_error& e) {
-    if (e.matches(nb::module_::import_("mlspaces.errors").attr("RobotPlacementError")) ||
-        (value_error_rejects && e.matches(PyExc_ValueError))) {
+    // A ValueError rejects the candidate (the original's rule), except mlspaces' UsageError:
+    // an mlspaces function called with a bad argument is a bug in the hook, and a bug that
+    // rejected every candidate would end the run as a quiet "0 episodes".
+    nb::module_ errors = nb::module_::import_("mlspaces.errors");
+    if (e.matches(errors.attr("RobotPlacementError")) ||
+        (value_error_rejects && e.matches(PyExc_ValueError) &&
+         !e.matches(errors.attr("UsageError")))) {
       throw dg::TaskRejected(Who(hook) + ": " + std::string(e.what()));
     }
     throw;

@@ -180,8 +180,18 @@ def test_hook_rejections_and_errors(libraries, project):
         def _sample_and_place_robot(self, env):
             self.config.task_config.robot_base_pose = [0, 0, 0]
 
+    class MisCalled(PickTaskSampler):
+        def _on_candidate_selected(self, env, reference_obj_name, reference_obj_id,
+                                   supporting_geom_id):
+            # A ValueError here rejects the candidate, but not a mis-called API: that is a
+            # bug in the hook, raised, not every candidate quietly rejected.
+            from mlspaces.utils.grasps import load_pickup_grasps
+            load_pickup_grasps(None)
+            return True
+
     for cls, exc, match in ((Broken, ZeroDivisionError, "bug in the hook"),
-                            (Unset, mlspaces.MlspacesError, "robot_base_pose")):
+                            (Unset, mlspaces.MlspacesError, "robot_base_pose"),
+                            (MisCalled, mlspaces.UsageError, "load_pickup_grasps: uid")):
         cfg = FastConfig()
         cfg.task_sampler_config.task_sampler_class = cls
         with pytest.raises(exc, match=match):

@@ -84,7 +84,8 @@ class BaseMujocoTaskSampler:
     def _on_candidate_selected(self, env: CPUMujocoEnv, reference_obj_name: str,
                                reference_obj_id: int, supporting_geom_id: int) -> bool:
         """Whether to use the chosen pickup object; False (or a ValueError) skips the
-        episode (journaled as a sampler rejection)."""
+        episode (journaled as a sampler rejection). mlspaces' ``UsageError`` (an mlspaces
+        function called with a bad argument) is a bug in the hook and stops the run."""
         return True
 
 

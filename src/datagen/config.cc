@@ -4,12 +4,9 @@
 #include "mlspaces/datagen/config.h"
 
 #include <sys/stat.h>
-#include <xxhash.h>
 
 #include <algorithm>
 #include <cstdio>
-#include <fstream>
-#include <memory>
 #include <mutex>
 #include <tuple>
 
@@ -17,6 +14,7 @@
 #include "mlspaces/core/rng.h"
 #include "mlspaces/core/yaml_archive.h"
 #include "mlspaces/datagen/run.h"
+#include "mlspaces/library/asset_index.h"
 #include "mlspaces/library/scene_metadata.h"
 
 namespace mlspaces::datagen {
@@ -50,27 +48,19 @@ ExperimentConfig ReadConfig(const YAML::Node& root, const std::string& origin,
 // ---------------------------------------------------------------------------------------
 // Content digests for the data hash: what a path holds, not where it is.
 
-constexpr uint64_t kFnvBasis = 0xcbf29ce484222325ULL;
-
-void FnvAdd(uint64_t& h, std::string_view bytes) {
-  for (const unsigned char c : bytes) {
-    h ^= c;
-    h *= 0x100000001b3ULL;
-  }
-}
-
 std::string Hex64(uint64_t v) {
   char buf[17];
   std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(v));
   return buf;
 }
 
-// XXH3-64 of a file's bytes, cached per process while the file's stat is unchanged (a run
-// hashes its config several times: config.yaml, resume, every episode's provenance).
-uint64_t FileDigest(const fs::path& file) {
+// SourceFileHash of a file (XXH3-128 hex), cached per process while the file's stat is
+// unchanged (a run hashes its config several times: config.yaml, resume, every episode's
+// provenance).
+std::string FileDigest(const fs::path& file) {
   using Stamp = std::tuple<dev_t, ino_t, off_t, int64_t, int64_t, int64_t, int64_t>;
   static std::mutex mutex;
-  static std::map<std::string, std::pair<Stamp, uint64_t>> cache;
+  static std::map<std::string, std::pair<Stamp, std::string>> cache;
   struct stat st {};
   if (::stat(file.c_str(), &st) != 0) throw Error("cannot stat", file.string());
   const Stamp stamp{st.st_dev,          st.st_ino,         st.st_size,        st.st_mtim.tv_sec,
@@ -81,18 +71,7 @@ uint64_t FileDigest(const fs::path& file) {
       return it->second.second;
     }
   }
-  std::ifstream in(file, std::ios::binary);
-  if (!in) throw Error("cannot read", file.string());
-  const std::unique_ptr<XXH3_state_t, decltype(&XXH3_freeState)> state(XXH3_createState(),
-                                                                       &XXH3_freeState);
-  if (!state || XXH3_64bits_reset(state.get()) != XXH_OK) throw Error("out of memory");
-  std::string buf(1 << 20, '\0');
-  while (in) {
-    in.read(buf.data(), static_cast<std::streamsize>(buf.size()));
-    XXH3_64bits_update(state.get(), buf.data(), static_cast<size_t>(in.gcount()));
-  }
-  if (in.bad()) throw Error("cannot read", file.string());
-  const uint64_t h = XXH3_64bits_digest(state.get());
+  std::string h = SourceFileHash(file);
   const std::lock_guard lock(mutex);
   cache[file.string()] = {stamp, h};
   return h;
@@ -104,10 +83,10 @@ uint64_t FileDigest(const fs::path& file) {
 std::string PathDigest(const fs::path& path, const fs::path& run_folder) {
   std::error_code ec;
   if (fs::is_regular_file(path, ec)) {
-    std::string out = "file:" + Hex64(FileDigest(path));
+    std::string out = "file:" + FileDigest(path);
     if (path.extension() == ".xml") {
       if (const std::optional<fs::path> meta = FindSceneMetadataFile(path)) {
-        out += "+" + meta->filename().string() + ":" + Hex64(FileDigest(*meta));
+        out += "+" + meta->filename().string() + ":" + FileDigest(*meta);
       }
     }
     return out;
@@ -127,45 +106,15 @@ std::string PathDigest(const fs::path& path, const fs::path& run_folder) {
         files.emplace_back(p.lexically_relative(path).generic_string(), p);
     }
     std::sort(files.begin(), files.end());
-    uint64_t h = kFnvBasis;
+    std::string listing;  // "<relative path>\0<digest>\n" per file
     for (const auto& [rel, file] : files) {
-      FnvAdd(h, rel);
-      FnvAdd(h, std::string_view("\0", 1));
-      FnvAdd(h, Hex64(FileDigest(file)));
-      FnvAdd(h, "\n");
+      listing += rel;
+      listing += '\0';
+      listing += FileDigest(file) + "\n";
     }
-    return "dir:" + Hex64(h);
+    return "dir:" + Hex64(HashString(listing));
   }
   return "missing:" + path.filename().string();
-}
-
-// Applies `map` to every non-empty path of a config struct (as ResolveYamlPaths walks them).
-template <class T>
-void MapPaths(T& value, const std::function<fs::path(const fs::path&)>& map);
-
-struct PathMapper {
-  const std::function<fs::path(const fs::path&)>* map;
-  template <class T>
-  void Visit(const char*, T& field) {
-    MapPaths(field, *map);
-  }
-};
-
-template <class T>
-void MapPaths(T& value, const std::function<fs::path(const fs::path&)>& map) {
-  using namespace yaml_internal;
-  if constexpr (std::is_same_v<T, fs::path>) {
-    if (!value.empty()) value = map(value);
-  } else if constexpr (IsOptional<T>::value) {
-    if (value.has_value()) MapPaths(*value, map);
-  } else if constexpr (IsVector<T>::value || IsArray<T>::value) {
-    for (auto& item : value) MapPaths(item, map);
-  } else if constexpr (IsMap<T>::value) {
-    for (auto& [k, v] : value) MapPaths(v, map);
-  } else if constexpr (YamlStruct<T>) {
-    PathMapper mapper{&map};
-    VisitYamlFields(&mapper, value);
-  }
 }
 
 }  // namespace
@@ -219,11 +168,7 @@ std::string DumpConfig(const ExperimentConfig& config) { return DumpYaml(config)
 
 uint64_t ConfigHash(const ExperimentConfig& config) { return HashString(DumpConfig(config)); }
 
-std::string ConfigHashHex(const ExperimentConfig& config) {
-  char buf[17];
-  std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(ConfigHash(config)));
-  return buf;
-}
+std::string ConfigHashHex(const ExperimentConfig& config) { return Hex64(ConfigHash(config)); }
 
 ExperimentConfig DataFields(const ExperimentConfig& config, bool paths_by_content) {
   ExperimentConfig data = config;
@@ -237,10 +182,9 @@ ExperimentConfig DataFields(const ExperimentConfig& config, bool paths_by_conten
   // Every other path by what it holds: the same project in another folder, the same hash.
   // A library folder holding the run's own output does not count that output.
   const fs::path run_folder = fs::absolute(RunFolder(config)).lexically_normal();
-  MapPaths(data, std::function<fs::path(const fs::path&)>(
-                     [&run_folder, paths_by_content](const fs::path& p) {
-                       return fs::path(paths_by_content ? PathDigest(p, run_folder) : "<path>");
-                     }));
+  MapYamlPaths(data, [&run_folder, paths_by_content](const fs::path& p) {
+    return fs::path(paths_by_content ? PathDigest(p, run_folder) : "<path>");
+  });
   return data;
 }
 

@@ -496,36 +496,46 @@ std::string DumpYaml(const T& value) {
 // ---------------------------------------------------------------------------------------
 // Path resolution.
 
-/// Makes every non-empty relative std::filesystem::path inside `value` absolute against
-/// `base` (lexically normalised).
-template <class T>
-void ResolveYamlPaths(T& value, const std::filesystem::path& base);
+/// Replaces every non-empty std::filesystem::path inside `value` (struct fields, optionals,
+/// vectors, arrays and map values, recursively) by `map(path)`.
+template <class T, class F>
+void MapYamlPaths(T& value, const F& map);
 
 namespace yaml_internal {
-struct MLSPACES_API PathResolver {
-  const std::filesystem::path* base;
+template <class F>
+struct PathMapper {
+  const F* map;
   template <class T>
   void Visit(const char*, T& field) {
-    ResolveYamlPaths(field, *base);
+    MapYamlPaths(field, *map);
   }
 };
 }  // namespace yaml_internal
 
-template <class T>
-void ResolveYamlPaths(T& value, const std::filesystem::path& base) {
+template <class T, class F>
+void MapYamlPaths(T& value, const F& map) {
   using namespace yaml_internal;
   if constexpr (std::is_same_v<T, std::filesystem::path>) {
-    if (!value.empty() && value.is_relative()) value = (base / value).lexically_normal();
+    if (!value.empty()) value = map(std::as_const(value));
   } else if constexpr (IsOptional<T>::value) {
-    if (value.has_value()) ResolveYamlPaths(*value, base);
+    if (value.has_value()) MapYamlPaths(*value, map);
   } else if constexpr (IsVector<T>::value || IsArray<T>::value) {
-    for (auto& item : value) ResolveYamlPaths(item, base);
+    for (auto& item : value) MapYamlPaths(item, map);
   } else if constexpr (IsMap<T>::value) {
-    for (auto& [k, v] : value) ResolveYamlPaths(v, base);
+    for (auto& [k, v] : value) MapYamlPaths(v, map);
   } else if constexpr (YamlStruct<T>) {
-    PathResolver r{&base};
-    VisitYamlFields(&r, value);
+    PathMapper<F> mapper{&map};
+    VisitYamlFields(&mapper, value);
   }
+}
+
+/// Makes every non-empty relative std::filesystem::path inside `value` absolute against
+/// `base` (lexically normalised).
+template <class T>
+void ResolveYamlPaths(T& value, const std::filesystem::path& base) {
+  MapYamlPaths(value, [&base](const std::filesystem::path& p) {
+    return p.is_relative() ? (base / p).lexically_normal() : p;
+  });
 }
 
 }  // namespace mlspaces

@@ -3,6 +3,7 @@
 
 #include <limits>
 
+#include "mlspaces/core/yaml_archive.h"
 #include "mlspaces/datagen/task_sampler.h"
 #include "mlspaces/library/scene_metadata.h"
 
@@ -14,10 +15,8 @@ std::string AssetIdField(std::string_view body) {
   return "objects." + std::string(body) + ".asset_id";
 }
 
-std::string JoinNames(const std::vector<std::string>& names) {
-  std::string out;
-  for (const std::string& n : names) out += (out.empty() ? "" : ", ") + n;
-  return out.empty() ? "none" : out;
+std::string NamesOrNone(const std::vector<std::string>& names) {
+  return names.empty() ? "none" : JoinNames(names);
 }
 
 }  // namespace
@@ -54,7 +53,7 @@ GraspSet LoadPickupGrasps(const Registry& registry, const std::string& uid, std:
   if (!registry.Locate(uid) && !registry.GetAnnotation(uid)) {
     throw Error(
         "asset_id '" + uid + "' of pickup object " + std::string(body) +
-            " is in no asset library (registered: " + JoinNames(registry.asset_libraries()) + ")",
+            " is in no asset library (registered: " + NamesOrNone(registry.asset_libraries()) + ")",
         metadata_file.string(), field, uid);
   }
   try {
@@ -64,9 +63,9 @@ GraspSet LoadPickupGrasps(const Registry& registry, const std::string& uid, std:
     const std::vector<std::string> libraries = registry.GraspLibrariesFor(uid, filter);
     throw Error(
         e.message() + " (pickup object " + std::string(body) +
-            "; grasp libraries asked: " + JoinNames(libraries) +
+            "; grasp libraries asked: " + NamesOrNone(libraries) +
             (filter.empty() ? std::string()
-                            : ", of policy_config.grasp_libraries [" + JoinNames(filter) + "]") +
+                            : ", of policy_config.grasp_libraries [" + NamesOrNone(filter) + "]") +
             ")",
         metadata_file.string(), field, uid);
   }

@@ -393,12 +393,14 @@ std::vector<WorkItem> ShardItems(const std::vector<WorkItem>& items, const Shard
   return out;
 }
 
+// config.yaml's first line, before the hash: written by RunDatagen, read by RecordedDataHash.
+constexpr std::string_view kDataHashLine = "# mlspaces datagen run; data hash ";
+
 std::string RecordedDataHash(const fs::path& config_file) {
-  static constexpr std::string_view kPrefix = "# mlspaces datagen run; data hash ";
   std::string first;
   if (std::ifstream in(config_file); !std::getline(in, first)) return "";
-  if (!first.starts_with(kPrefix)) return "";
-  return first.substr(kPrefix.size());
+  if (!first.starts_with(kDataHashLine)) return "";
+  return first.substr(kDataHashLine.size());
 }
 
 fs::path JournalPath(const fs::path& folder, const Shard& shard) {
@@ -476,8 +478,7 @@ RunReport RunDatagen(const ExperimentConfig& input, const TaskSamplerRegistry& s
   report.seed = *config.seed;
   const std::string hash = DataConfigHashHex(config);
   if (!IsFile(config_file)) {
-    WriteFileAtomic(config_file,
-                    "# mlspaces datagen run; data hash " + hash + "\n" + DumpConfig(config));
+    WriteFileAtomic(config_file, std::string(kDataHashLine) + hash + "\n" + DumpConfig(config));
   }
   const std::vector<WorkItem> items = ShardItems(PlanWorkItems(config), options.shard);
   // The libraries and the sampler, before any worker starts (a bad sampler name or library

@@ -11,16 +11,14 @@ import sys
 from collections.abc import Sequence
 
 from .. import _core
+from .. import _validate as _v
 
 
 def run_index_command(command: str, prog: str, argv: Sequence[str] | None = None) -> int:
     """Runs ``mlspaces COMMAND ARGV...`` (``index-assets`` or ``index-grasps``) in this
     process, with ``prog`` as the program name in ``--help``; returns its exit code. Output and
     error lines go to the process's stdout and stderr, as the CLI prints them."""
-    args = list(sys.argv[1:] if argv is None else argv)
-    for i, a in enumerate(args):
-        if not isinstance(a, str):
-            raise TypeError(f"argv[{i}]: expected a str, got {type(a).__name__}")
+    args = _v.strings(sys.argv[1:] if argv is None else argv, "argv", "run_index_command")
     sys.stdout.flush()
     sys.stderr.flush()
     return _core.run_index_command(command, prog, args)

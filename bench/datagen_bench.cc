@@ -32,9 +32,9 @@
 #include "mlspaces/datagen/env.h"
 #include "mlspaces/datagen/episode_runner.h"
 #include "mlspaces/datagen/recorder.h"
-#include "mlspaces/datagen/robot_view.h"
 #include "mlspaces/datagen/task_sampler.h"
 #include "mlspaces/library/registry.h"
+#include "mlspaces/robots/robot_view.h"
 #include "mlspaces/sim/scene.h"
 
 namespace {
@@ -222,7 +222,7 @@ void BM_DatagenOverhead(benchmark::State& state) {
   dgn->runner.emplace(dgn->env, *dgn->sampler, dgn->registry, dgn->config, hooked);
   int64_t same_steps = 0;
   double same_s = 0;
-  const dg::RobotView& robot = dgn->runner->robot();
+  const mlspaces::robots::RobotView& robot = dgn->runner->robot();
   try {
     for (auto _ : state) {
       dgn->env.Reset();

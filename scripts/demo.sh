@@ -56,6 +56,13 @@ for k in sorted(f):
     print(k, "steps", t["success"].shape[0], "success", bool(t["success"][-1]),
           "lift %.3f m" % t["rewards"][-1], "videos", videos)
 PY
+# Robots are data (docs/robots.md): check and measure the second robot, a UFactory xArm7 built
+# from its published DH table, then run the same tutorial config with it, changing only the
+# robot's name (its aliases map the DROID camera names to its own).
+"$ML" inspect-robot xarm7
+"$ML" datagen datagen.yaml --set robot_config.name=xarm7 --output xarm7_output --seed 0 --episodes 2
+"$ML" validate-dataset xarm7_output
+"$PY" -c "import h5py, json; f = h5py.File('xarm7_output/house_0/trajectories_batch_1_of_1.h5'); print({k: (json.loads(f[k].attrs['provenance'])['robot'], bool(f[k]['success'][-1])) for k in sorted(f)})"
 # The same tutorial step as MolmoSpaces users run it: datagen.py (the seed tutorial's code,
 # imports renamed to mlspaces) through the Python package the build made (build/python).
 PYTHONPATH="$ROOT/build/python" "$PY" -m mlspaces.datagen datagen:CustomAssetsDataGenConfig \

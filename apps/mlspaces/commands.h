@@ -60,6 +60,11 @@ void AddLicense(CLI::App& app, Action& action);
 /// `search`: CLIP and word search over the asset libraries (search.cc).
 void AddSearch(CLI::App& app, Action& action);
 
+#ifdef MLSPACES_HAVE_ROBOTS
+/// `inspect-robot`: checks a robot description and measures it (robots_inspect.cc).
+void AddInspectRobot(CLI::App& app, Action& action);
+#endif
+
 #ifdef MLSPACES_HAVE_DATAGEN
 /// The flags that choose and adjust a datagen config, shared by `config` and `datagen`:
 /// CONFIG (a YAML file, or a registered config name) [--set KEY=VALUE]... [--seed S]

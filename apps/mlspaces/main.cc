@@ -43,6 +43,9 @@ int Run(int argc, char** argv) {
 #ifdef MLSPACES_HAVE_SIM
   cli::AddInspect(app, action);
 #endif
+#ifdef MLSPACES_HAVE_ROBOTS
+  cli::AddInspectRobot(app, action);
+#endif
 #ifdef MLSPACES_HAVE_DATAGEN
   cli::AddConfig(app, action);
   cli::AddDatagen(app, action);

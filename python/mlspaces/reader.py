@@ -131,6 +131,14 @@ class Episode(Mapping):
         data.setdefault("obs", {})["sensor_data"] = CameraFrames(self)
 
     @property
+    def robot(self) -> dict[str, str] | None:
+        """The robot that recorded the episode, ``{"name", "description_hash"}`` from the
+        provenance (the hash is :func:`mlspaces.robots.load_robot_description`'s ``hash``);
+        ``None`` for a run written before robots were recorded."""
+        robot = (self.provenance or {}).get("robot")
+        return dict(robot) if isinstance(robot, dict) else None
+
+    @property
     def cameras(self) -> list[str]:
         """The camera names of ``obs/sensor_data``, in file order (``<cam>_depth`` included)."""
         return list(self.video_files)

@@ -29,5 +29,9 @@ void BindEval(nb::module_& m);
 void BindSearch(nb::module_& m);
 /// The CLI's index-assets / index-grasps (index.cc).
 void BindIndex(nb::module_& m);
+/// mlspaces.robots.inspect_robot (robots_inspect.cc).
+void BindRobotsInspect(nb::module_& m);
+/// Robots as data: bundled robots, robot.yaml loading and checking (robots.cc).
+void BindRobots(nb::module_& m);
 
 }  // namespace mlspaces::python

@@ -82,7 +82,7 @@ class PyEvalEnv {
   /// The observation in the dataset's layout (docs/dataset.md): agent joint state per move
   /// group and the extra poses (tcp_pose in the robot base frame).
   nb::dict Observation() const {
-    const dg::RobotView& robot = env().robot();
+    const robots::RobotView& robot = env().robot();
     const mjData* d = env().env().data();
     nb::dict qpos, qvel;
     qpos["arm"] = Vector(robot.ArmQpos(d));
@@ -203,6 +203,13 @@ void BindEval(nb::module_& m) {
                    [](PyEvalEnv& e) {
                      return nb::make_tuple(Vector(e.env().robot().arm_lower()),
                                            Vector(e.env().robot().arm_upper()));
+                   })
+      // The gripper actuator's ctrl when open and when closed (robot.yaml gripper.open_ctrl /
+      // closed_ctrl).
+      .def_prop_ro("gripper_ctrl",
+                   [](PyEvalEnv& e) {
+                     const robots::RobotSpec& r = e.env().env().robot();
+                     return nb::make_tuple(r.gripper_open_ctrl, r.gripper_closed_ctrl);
                    })
       .def_prop_ro("started", [](PyEvalEnv& e) { return e.env().started(); })
       .def_prop_ro("task_horizon", [](PyEvalEnv& e) { return e.env().config().task_horizon; })

@@ -22,4 +22,6 @@ NB_MODULE(_core, m) {
   mlspaces::python::BindEval(m);
   mlspaces::python::BindVideo(m);
   mlspaces::python::BindIndex(m);
+  mlspaces::python::BindRobotsInspect(m);
+  mlspaces::python::BindRobots(m);
 }

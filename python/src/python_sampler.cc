@@ -95,7 +95,8 @@ void PythonTaskSampler::PrepareEnv(dg::Env& env) {
                         std::shared_ptr<mjData>(data, PyOwner{py_data.inc_ref().ptr()}));
   env_ = sampler_.attr("_attach_env")(
       py_model, py_data, JsonToPython(env.metadata()), nb::str(env.scene_key().c_str()),
-      nb::str(env.robot().prefix.c_str()), nb::str(env.robot_base_body().c_str()));
+      nb::str(env.robot().prefix.c_str()), nb::str(env.robot_base_body().c_str()),
+      nb::str(env.robot().name.c_str()));
   if (overrides_init_scene_) sampler_.attr("init_scene")(env_);
 }
 

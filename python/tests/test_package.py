@@ -206,6 +206,9 @@ ORIGINAL_NAMES = {
     "env.data_views": "create_mlspaces_body MlSpacesMocapBody MlSpacesFreeJointBody "
                       "MlSpacesImmovableBody MlSpacesObject MlSpacesArticulationObject",
     "robots.franka": "FrankaRobot",
+    "robots.abstract": "Robot",
+    "robots.robot_views.abstract": "RobotViewFactory MocapRobotBaseGroup "
+                                   "HoloJointsRobotBaseGroup",
     "tasks.pick_task_sampler": "PickTaskSampler",
     "tasks.task_sampler": "BaseMujocoTaskSampler",
     "tasks.task_sampler_errors": "RobotPlacementError HouseInvalidForTask",
@@ -213,7 +216,7 @@ ORIGINAL_NAMES = {
                "PickTaskConfig MlSpacesExpConfig",
     "configs.base_pick_config": "PickBaseConfig",
     "configs.camera_configs": "FrankaDroidCameraSystem",
-    "configs.robot_configs": "FrankaRobotConfig",
+    "configs.robot_configs": "FrankaRobotConfig BaseRobotConfig",
     "configs.task_configs": "PickTaskConfig",
     "configs.task_sampler_configs": "PickTaskSamplerConfig",
     "data_generation.config_registry": "register_config get_config_class list_available_configs",

@@ -5,7 +5,7 @@
 #include <cmath>
 #include <stdexcept>
 
-#include "mlspaces/datagen/ik.h"
+#include "mlspaces/robots/ik.h"
 
 namespace mlspaces::datagen {
 
@@ -34,7 +34,7 @@ std::vector<double> NoisyArmTarget(std::span<const double> q_cmd, std::span<cons
     for (int i = 3; i < 6; ++i)
       noise[i] = rng.TruncatedNormal(sigma_r, config.max_tcp_rotation_noise);
     if (sigma_p > 0) {
-      const std::vector<double> dq = DampedLeastSquares(jac, n, noise, 1e-6);
+      const std::vector<double> dq = robots::DampedLeastSquares(jac, n, noise, 1e-6);
       for (size_t k = 0; k < n; ++k) q[k] += dq[k];
     }
   }

@@ -24,6 +24,40 @@ Rot3 QuatToMat(const Quat& q) { return QuatToRotation(QuatNormalized(q)); }
 
 }  // namespace
 
+CameraSystemConfig CamerasForRobot(const CameraSystemConfig& config, const RobotSpec& robot) {
+  CameraSystemConfig out = config;
+  if (config.name == "RobotCameraSystem") {
+    out.cameras.clear();
+    for (const robots::RobotCamera& rc : robot.cameras) {
+      CameraConfig c;
+      c.name = rc.name;
+      c.fov = rc.fov;
+      if (rc.type == "mjcf") {
+        c.type = CameraType::kMjcf;
+        c.mjcf_name = rc.mjcf_name.value_or("");
+        c.robot_namespace = robot.prefix;
+      } else {
+        c.type = CameraType::kRobotMounted;
+        c.reference_body_names = {robot.prefix + rc.reference_body.value_or("")};
+        c.camera_offset = rc.offset;
+        c.camera_quaternion = rc.quaternion;
+      }
+      out.cameras.push_back(std::move(c));
+    }
+  }
+  for (CameraConfig& c : out.cameras) {
+    if (c.type == CameraType::kMjcf && c.robot_namespace == robot.prefix) {
+      c.mjcf_name = robot.Resolve(c.mjcf_name);
+    }
+    for (std::string& body : c.reference_body_names) {
+      if (body.starts_with(robot.prefix)) {
+        body = robot.prefix + robot.Resolve(body.substr(robot.prefix.size()));
+      }
+    }
+  }
+  return out;
+}
+
 CameraSystem::CameraSystem(const mjModel* m, const CameraSystemConfig& config)
     : width_(static_cast<int>(config.img_resolution[0])),
       height_(static_cast<int>(config.img_resolution[1])) {

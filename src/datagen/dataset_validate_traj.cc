@@ -280,6 +280,15 @@ void Validator::Provenance(const Traj& t) {
       }
     }
   }
+  // Optional (older runs lack it): the robot, {"name", "description_hash"}.
+  if (auto it = p->find("robot"); it != p->end()) {
+    if (!it->is_object()) {
+      Add(path + "/robot", "expected an object, got " + JsonTypeName(*it));
+    } else {
+      non_empty_string(*it, "name", path + "/robot");
+      non_empty_string(*it, "description_hash", path + "/robot");
+    }
+  }
   // Optional fields, when present, must agree with the datasets.
   if (auto it = p->find("episode_index"); it != p->end() && *it != FlatJson(t.k)) {
     Add(path + "/episode_index",

@@ -4,11 +4,16 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <optional>
 #include <string>
+#include <tuple>
 #include <utility>
+#include <vector>
 
 #include "mlspaces/core/error.h"
+#include "mlspaces/core/yaml_archive.h"
 #include "mlspaces/datagen/config.h"
+#include "mlspaces/library/assets_dir.h"
 #include "mlspaces/sim/mj_pose.h"
 
 namespace mlspaces::datagen {
@@ -31,59 +36,95 @@ int JointQposAdr(const mjModel* m, const std::string& name, const std::string& w
   return m->jnt_qposadr[j];
 }
 
-std::vector<double> Numeric(const mjModel* m, const std::string& name, size_t size) {
-  const int id = NameToId(m, mjOBJ_NUMERIC, name);
-  if (id < 0) throw Error("the model has no custom numeric " + name + " (the robot's home pose)");
-  if (static_cast<size_t>(m->numeric_size[id]) != size) {
-    throw Error("custom numeric " + name + " has " + std::to_string(m->numeric_size[id]) +
-                " values, the robot spec lists " + std::to_string(size) + " joints");
+// robot_files molmospaces: our description of MolmoSpaces' model files for robot `name`
+// (RobotsDir()/<name>/molmospaces.yaml) and the installed folder its `mjcf` lives in
+// (<assets>/robots/<name>/, spec 2.3).
+std::pair<std::filesystem::path, std::filesystem::path> MolmoSpacesRobot(
+    const RobotConfig& config, const std::optional<std::filesystem::path>& assets_dir) {
+  namespace fs = std::filesystem;
+  constexpr char kField[] = "robot_config.robot_files";
+  constexpr char kYaml[] = "molmospaces.yaml";
+  std::error_code ec;
+  if (config.robot_dir || config.name.find('/') != std::string::npos ||
+      config.name.ends_with(".yaml")) {
+    throw Error(
+        "molmospaces uses MolmoSpaces' files of a bundled robot named by "
+        "robot_config.name, not a robot.yaml path or robot_dir",
+        "", kField);
   }
-  const mjtNum* data = m->numeric_data + m->numeric_adr[id];
-  return std::vector<double>(data, data + size);
+  const fs::path yaml = RobotsDir() / config.name / kYaml;
+  if (!fs::is_regular_file(yaml, ec)) {
+    std::vector<std::string> with;
+    for (const std::string& robot : robots::BundledRobots()) {
+      if (fs::is_regular_file(RobotsDir() / robot / kYaml, ec)) with.push_back(robot);
+    }
+    throw Error(
+        "robot '" + config.name + "' has no description of MolmoSpaces' files (" + yaml.string() +
+            "); robots that have one: " + (with.empty() ? std::string("none") : JoinNames(with)),
+        "", kField);
+  }
+  const AssetsDirChoice assets = ResolveAssetsDir(assets_dir);
+  const fs::path installed = fs::absolute(assets.dir / "robots" / config.name).lexically_normal();
+  if (!fs::is_directory(installed, ec)) {
+    const char* from = assets.origin == AssetsDirOrigin::kGiven         ? "libraries.assets_dir"
+                       : assets.origin == AssetsDirOrigin::kEnvironment ? "MLSPACES_ASSETS_DIR"
+                                                                        : "the default";
+    throw Error("molmospaces: MolmoSpaces' robot files are not installed: no folder " +
+                    installed.string() + " (assets dir from " + from +
+                    "); install them with `mlspaces install --library robots/" + config.name +
+                    " --pins FILE` (FILE pins the version, docs/robots.md), or use bundled",
+                "", kField);
+  }
+  return {yaml, installed};
 }
 
 }  // namespace
 
 RobotSpec FrankaDroidSpec(const std::filesystem::path& source_dir, const Pose& base,
                           std::string prefix) {
-  RobotSpec spec;
-  spec.xml = source_dir / "assets/robots/franka_droid/franka_droid.xml";
-  spec.prefix = std::move(prefix);
+  const std::filesystem::path dir =
+      source_dir.empty() ? RobotsDir() / "franka_droid" : source_dir / "assets/robots/franka_droid";
+  RobotSpec spec = robots::MakeRobotSpec(robots::LoadRobotDescription(dir), std::move(prefix));
   spec.base = base;
-  for (int i = 1; i <= 7; ++i) spec.arm_joints.push_back("fr3_joint" + std::to_string(i));
-  spec.gripper_joints = {"gripper/left_driver_joint", "gripper/right_driver_joint"};
-  spec.mirrored_joints = {{"gripper/left_follower_joint", "gripper/left_driver_joint"},
-                          {"gripper/right_follower_joint", "gripper/right_driver_joint"}};
   return spec;
 }
 
-std::filesystem::path RobotsDir() {
-  if (const char* dir = std::getenv("MLSPACES_ROBOTS_DIR"); dir != nullptr && *dir != 0) {
-    return dir;
+RobotSpec RobotSpecFromConfig(const RobotConfig& config, const std::filesystem::path& base_dir,
+                              const std::optional<std::filesystem::path>& assets_dir) {
+  std::filesystem::path file, mjcf_dir;
+  if (config.robot_files == RobotFiles::kMolmoSpaces) {
+    std::tie(file, mjcf_dir) = MolmoSpacesRobot(config, assets_dir);
+  } else {
+    file = config.robot_dir ? robots::FindRobot((*config.robot_dir / "robot.yaml").string(),
+                                                base_dir, "robot_config.robot_dir")
+                            : robots::FindRobot(config.name, base_dir);
   }
-  // The source tree's copy while it exists (a build tree); an installed package's copy
-  // (`cmake --install`: <prefix>/share/mlspaces/robots) once the sources are gone.
-  std::filesystem::path source = MLSPACES_DEFAULT_ROBOTS_DIR;
-  if (std::error_code ec; std::filesystem::is_directory(source, ec)) return source;
-  return MLSPACES_INSTALLED_ROBOTS_DIR;
-}
-
-RobotSpec RobotSpecFromConfig(const RobotConfig& config) {
-  if (config.name != "franka_droid") {
-    throw Error("unknown robot '" + config.name + "' (mlspaces has: franka_droid)", "",
-                "robot_config.name");
+  RobotSpec spec =
+      robots::MakeRobotSpec(robots::LoadRobotDescription(file, mjcf_dir), config.robot_namespace);
+  if (config.robot_xml_path) {
+    spec.xml = *config.robot_xml_path;
+    if (std::error_code ec; !std::filesystem::is_regular_file(spec.xml, ec)) {
+      throw Error("robot model not found", spec.xml.string(), "robot_config.robot_xml_path");
+    }
   }
-  RobotSpec spec = FrankaDroidSpec({}, {}, config.robot_namespace);
-  spec.xml = config.robot_xml_path ? *config.robot_xml_path
-                                   : RobotsDir() / config.name / (config.name + ".xml");
-  if (std::error_code ec; !std::filesystem::is_regular_file(spec.xml, ec)) {
-    throw Error("robot model not found (set MLSPACES_ROBOTS_DIR or robot_config.robot_xml_path)",
-                spec.xml.string(), "robot_config.robot_xml_path");
-  }
+  auto take = [](const std::vector<double>& given, std::vector<double>& into, size_t size,
+                 const char* key, const char* what) {
+    if (given.empty()) return;
+    if (given.size() != size) {
+      throw Error(
+          std::to_string(given.size()) + " values, robot has " + std::to_string(size) + " " + what,
+          "", key);
+    }
+    into = given;
+  };
+  take(config.init_qpos.arm, spec.home_arm, spec.arm_joints.size(), "robot_config.init_qpos.arm",
+       "arm joints");
+  take(config.init_qpos.gripper, spec.home_gripper, spec.gripper_joints.size(),
+       "robot_config.init_qpos.gripper", "gripper joints");
+  take(config.init_qpos_noise_range.arm, spec.home_noise, spec.arm_joints.size(),
+       "robot_config.init_qpos_noise_range.arm", "arm joints");
   spec.pedestal_size = config.base_size;
   spec.gravcomp = config.gravcomp;
-  spec.home_arm.assign(config.init_qpos.arm.begin(), config.init_qpos.arm.end());
-  spec.home_gripper.assign(config.init_qpos.gripper.begin(), config.init_qpos.gripper.end());
   return spec;
 }
 
@@ -91,72 +132,11 @@ Env Env::Load(const std::filesystem::path& scene_xml, const RobotSpec& robot) {
   return Create(sim::Scene::Load(scene_xml), robot, scene_xml.generic_string());
 }
 
-namespace {
-
-// The robot standing on a box pedestal: a wrapper model whose mocap base holds the box and
-// the robot's arm subtree mounted on top (MuJoCo's <attach> of the robot's <model>).
-void InsertRobotOnPedestal(sim::Scene& scene, const RobotSpec& robot) {
-  const std::array<double, 3>& size = *robot.pedestal_size;
-  char buf[128];
-  auto num = [&](double v) {
-    std::snprintf(buf, sizeof buf, "%.17g", v);
-    return std::string(buf);
-  };
-  const std::string xml =
-      "<mujoco model=\"robot_on_pedestal\">\n"
-      "  <asset><model name=\"robot\" file=\"" +
-      std::filesystem::absolute(robot.xml).string() +
-      "\"/></asset>\n"
-      "  <worldbody>\n"
-      "    <body name=\"" +
-      robot.base_body +
-      "\" mocap=\"true\">\n"
-      "      <geom name=\"pedestal\" type=\"box\" size=\"" +
-      num(size[0] / 2) + " " + num(size[1] / 2) + " " + num(size[2] / 2) + "\" pos=\"0 0 " +
-      num(size[2] / 2) +
-      "\" group=\"0\" rgba=\"0.35 0.25 0.18 1\" mass=\"20\"/>\n"
-      "      <frame pos=\"0 0 " +
-      num(size[2]) +
-      "\">\n"
-      "        <attach model=\"robot\" body=\"" +
-      robot.arm_root_body +
-      "\" prefix=\"\"/>\n"
-      "      </frame>\n"
-      "    </body>\n"
-      "  </worldbody>\n"
-      "</mujoco>\n";
-  scene.InsertRobotString(
-      xml, std::filesystem::absolute(robot.xml).parent_path() / "robot_on_pedestal.xml",
-      robot.prefix, robot.base);
-}
-
-// robot_config.gravcomp on the compiled model: body_gravcomp 1 (or 0) on the arm root's
-// subtree, and ngravcomp recounted (MuJoCo skips gravity compensation when it is 0).
-void SetRobotGravcomp(mjModel* m, const RobotSpec& robot) {
-  const std::string root_name = robot.prefix + robot.arm_root_body;
-  const int root = NameToId(m, mjOBJ_BODY, root_name);
-  if (root < 0)
-    throw Error("robot arm root body " + root_name + " is not in the model", robot.xml.string());
-  for (int b = 1; b < m->nbody; ++b) {
-    int a = b;
-    while (a > 0 && a != root) a = m->body_parentid[a];
-    if (a == root) m->body_gravcomp[b] = robot.gravcomp ? 1 : 0;
-  }
-  m->ngravcomp = 0;
-  for (int b = 0; b < m->nbody; ++b) m->ngravcomp += m->body_gravcomp[b] != 0;
-}
-
-}  // namespace
-
 Env Env::Create(sim::Scene scene, const RobotSpec& robot, std::string scene_key) {
-  if (robot.pedestal_size) {
-    InsertRobotOnPedestal(scene, robot);
-  } else {
-    scene.InsertRobot(robot.xml, robot.prefix, robot.base);
-  }
+  robots::InsertRobot(scene, robot);
   Env env;
   sim::ModelPtr compiled = scene.Compile();
-  SetRobotGravcomp(compiled.get(), robot);
+  robots::ApplyRobotSettings(compiled.get(), robot);
   env.model_ = std::shared_ptr<const mjModel>(compiled.release(), sim::ModelDeleter{});
   env.data_ =
       std::shared_ptr<mjData>(sim::MakeData(env.model_.get()).release(), sim::DataDeleter{});
@@ -167,31 +147,28 @@ Env Env::Create(sim::Scene scene, const RobotSpec& robot, std::string scene_key)
   env.scene_ = std::make_shared<const sim::Scene>(std::move(scene));
 
   const mjModel* m = env.model_.get();
-  const int base = NameToId(m, mjOBJ_BODY, env.robot_base_body_);
-  if (base < 0 || m->body_mocapid[base] < 0) {
-    throw Error("robot base " + env.robot_base_body_ + " is not a mocap body of the model",
-                robot.xml.string());
-  }
-  auto home = [&](const std::vector<double>& given, const std::string& numeric, size_t size,
-                  const char* what) {
-    if (given.empty()) return Numeric(m, robot.prefix + numeric, size);
+  env.base_ = std::make_shared<const robots::RobotBase>(m, robot);
+  auto check = [&](const std::vector<double>& given, size_t size, const char* what) {
     if (given.size() != size) {
       throw Error(std::string("home ") + what + " pose has " + std::to_string(given.size()) +
-                  " values, the robot has " + std::to_string(size) + " joints");
+                      " values, the robot has " + std::to_string(size) + " joints",
+                  robot.description_file.string());
     }
     return given;
   };
-  const std::vector<double> arm =
-      home(robot.home_arm, robot.home_arm_numeric, robot.arm_joints.size(), "arm");
+  const std::vector<double> arm = check(robot.home_arm, robot.arm_joints.size(), "arm");
   const std::vector<double> gripper =
-      home(robot.home_gripper, robot.home_gripper_numeric, robot.gripper_joints.size(), "gripper");
+      check(robot.home_gripper, robot.gripper_joints.size(), "gripper");
   for (size_t i = 0; i < robot.arm_joints.size(); ++i) {
     const std::string name = robot.prefix + robot.arm_joints[i];
     const int adr = JointQposAdr(m, name, "arm");
     env.arm_qpos_adr_.push_back(adr);
     env.home_qpos_adr_.push_back(adr);
     env.home_values_.push_back(arm[i]);
-    env.arm_actuators_.push_back(NameToId(m, mjOBJ_ACTUATOR, name));
+    const std::string servo =
+        robot.prefix +
+        (i < robot.arm_actuators.size() ? robot.arm_actuators[i] : robot.arm_joints[i]);
+    env.arm_actuators_.push_back(NameToId(m, mjOBJ_ACTUATOR, servo));
   }
   for (size_t i = 0; i < robot.gripper_joints.size(); ++i) {
     env.home_qpos_adr_.push_back(

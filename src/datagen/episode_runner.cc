@@ -15,7 +15,7 @@
 #include "mlspaces/core/version.h"
 #include "mlspaces/datagen/policy_step.h"
 #include "mlspaces/datagen/preflight.h"
-#include "mlspaces/datagen/success.h"
+#include "mlspaces/datagen/tasks/pick/success.h"
 #include "mlspaces/library/license_policy.h"
 #include "mlspaces/library/scene_metadata.h"
 #include "mlspaces/sim/mj_pose.h"
@@ -150,10 +150,11 @@ EpisodeRunner::EpisodeRunner(Env& env, TaskSampler& sampler, const Registry& reg
     }
   }
   const TaskConfig& task = config.task_config;
+  const CameraSystemConfig cameras = CamerasForRobot(config.camera_config, env.robot());
   if (options_.record && !options_.video_dir.empty() && task.enable_rendering && task.use_sensors &&
-      !config.camera_config.cameras.empty()) {
-    cameras_ = std::make_unique<CameraRecorder>(env.model(), config.camera_config, config.fps(),
-                                                options_.gl_backend);
+      !cameras.cameras.empty()) {
+    cameras_ =
+        std::make_unique<CameraRecorder>(env.model(), cameras, config.fps(), options_.gl_backend);
   }
 }
 
@@ -552,6 +553,8 @@ void EpisodeRunner::FinishRecord(Episode& e) {
     if (a.uid != uid) meta.assets.push_back(a);
   }
   meta.license_policy = std::string(LicensePolicyName(impl_->license_policy));
+  meta.robot = env_.robot().name;
+  meta.robot_description_hash = env_.robot().description_hash;
   meta.mujoco_version = mj_versionString();
   meta.mlspaces_version = std::string(Version());
   // Only what is the same on every machine: the grasp file relative to its library.

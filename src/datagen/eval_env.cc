@@ -26,7 +26,7 @@ const Env& EvalEnv::env() const {
   return *env_;
 }
 
-const RobotView& EvalEnv::robot() const {
+const robots::RobotView& EvalEnv::robot() const {
   if (!robot_) throw Error("the evaluation env has no scene yet: call reset first");
   return *robot_;
 }
@@ -45,16 +45,18 @@ void EvalEnv::LoadHouse(int64_t house) {
     env_.reset();
     house_ = -1;
     const std::filesystem::path& xml = scenes[static_cast<size_t>(house)];
-    env_ = std::make_unique<Env>(Env::Create(sim::Scene::Load(xml),
-                                             RobotSpecFromConfig(config_.robot_config),
-                                             "house_" + std::to_string(house)));
+    env_ = std::make_unique<Env>(
+        Env::Create(sim::Scene::Load(xml),
+                    RobotSpecFromConfig(config_.robot_config, {}, config_.libraries.assets_dir),
+                    "house_" + std::to_string(house)));
     sampler_->PrepareEnv(*env_);
     CheckSimTimestep(env_->model(), config_, xml.string());
-    robot_ = std::make_unique<RobotView>(env_->model(), env_->robot());
-    if (options_.render && !config_.camera_config.cameras.empty()) {
+    robot_ = std::make_unique<robots::RobotView>(env_->model(), env_->robot());
+    const CameraSystemConfig cameras = CamerasForRobot(config_.camera_config, env_->robot());
+    if (options_.render && !cameras.cameras.empty()) {
       // The GL context comes with the first Render (a process that only builds the env, e.g.
       // the parent of forked vector-env workers, makes none).
-      cameras_ = std::make_unique<CameraSystem>(env_->model(), config_.camera_config);
+      cameras_ = std::make_unique<CameraSystem>(env_->model(), cameras);
     }
     house_ = house;
     task_ = Task{};
@@ -77,7 +79,7 @@ void EvalEnv::Reset(uint64_t seed, int64_t house, int64_t episode) {
 
 EvalStep EvalEnv::Step(std::span<const double> arm, double gripper) {
   if (!started()) throw Error("step before reset: call reset first");
-  const RobotView& robot = *robot_;
+  const robots::RobotView& robot = *robot_;
   if (arm.size() != robot.num_arm()) {
     throw Error("the arm action has " + std::to_string(arm.size()) + " values, the robot " +
                     std::to_string(robot.num_arm()) + " joints",

@@ -30,7 +30,7 @@ Rng EpisodeNoiseRng(uint64_t episode_seed) {
   return Rng(DeriveSeed(episode_seed, {0x6e6f697365ULL}));  // "noise"
 }
 
-std::vector<double> ControllerArmTargets(const RobotView& robot, const mjData* d,
+std::vector<double> ControllerArmTargets(const robots::RobotView& robot, const mjData* d,
                                          std::span<const double> arm,
                                          const ActionNoiseConfig& noise, Rng& rng) {
   const std::vector<double> q_now = robot.ArmQpos(d);
@@ -38,7 +38,7 @@ std::vector<double> ControllerArmTargets(const RobotView& robot, const mjData* d
   return NoisyArmTarget(arm, q_now, jac, robot.arm_lower(), robot.arm_upper(), noise, rng);
 }
 
-void StepPhysics(const RobotView& robot, const mjModel* m, mjData* d,
+void StepPhysics(const robots::RobotView& robot, const mjModel* m, mjData* d,
                  std::span<const double> arm_targets, double gripper, int substeps,
                  const std::function<void()>& before_physics) {
   robot.SetArmTargets(d, arm_targets);

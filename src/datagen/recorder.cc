@@ -369,6 +369,9 @@ Json ProvenanceJson(const EpisodeRecord& r, int k) {
            {"task_description", m.task_description},
            {"assets", std::move(assets)}};
   if (!m.license_policy.empty()) out["license_policy"] = m.license_policy;
+  if (!m.robot.empty()) {
+    out["robot"] = Json{{"name", m.robot}, {"description_hash", m.robot_description_hash}};
+  }
   out["mujoco_version"] = m.mujoco_version;
   out["mlspaces_version"] = m.mlspaces_version;
   out["num_steps"] = t;

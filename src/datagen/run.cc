@@ -234,8 +234,9 @@ class ItemRunner {
     if (env_house_ != item.house) {
       runner_.reset();
       env_.reset();
-      env_.emplace(Env::Create(sim::Scene::Load(item.scene_xml),
-                               RobotSpecFromConfig(config_.robot_config), scene));
+      env_.emplace(Env::Create(
+          sim::Scene::Load(item.scene_xml),
+          RobotSpecFromConfig(config_.robot_config, {}, config_.libraries.assets_dir), scene));
       sampler_.PrepareEnv(*env_);
       env_house_ = -1;  // a scene whose preflight throws is built again by the next item
       // Broken input stops the run here, before the scene's first attempt, when no pickup

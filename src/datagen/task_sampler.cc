@@ -77,14 +77,14 @@ Task TaskSampler::SampleTask(Env& env, int64_t episode) {
 
 void TaskSampler::RandomizeScene(Env& env, Rng& rng) {
   env.Reset();
-  const auto& noise = config_.robot_config.init_qpos_noise_range.arm;
+  const std::vector<double>& noise = env.robot().home_noise;
   const std::vector<int>& adr = env.arm_qpos_adr();
   mjData* d = env.data();
   const mjModel* m = env.model();
   for (size_t i = 0; i < adr.size() && i < noise.size(); ++i) {
     d->qpos[adr[i]] += rng.Uniform(-noise[i], noise[i]);
-    const std::string joint = env.robot().prefix + env.robot().arm_joints[i];
-    if (const int act = mj_name2id(m, mjOBJ_ACTUATOR, joint.c_str()); act >= 0) {
+    const std::string servo = env.robot().prefix + env.robot().arm_actuators[i];
+    if (const int act = mj_name2id(m, mjOBJ_ACTUATOR, servo.c_str()); act >= 0) {
       d->ctrl[act] = d->qpos[adr[i]];
     }
   }

@@ -42,8 +42,8 @@ bool Inside(const fs::path& inner, const fs::path& outer) {
 
 const SourceVersions& BuiltinSourceVersions() {
   // The original's DATA_TYPE_TO_SOURCE_TO_VERSION at molmospaces 1320b26 for objects and
-  // grasps. Robot and scene sources are known by name; their versions are not in the spec we
-  // follow, so they are left unpinned (pin them in a pin file to install them).
+  // grasps. Robot and scene sources are known by name and left unpinned (pin them in a pin
+  // file to install them): a pinned source is one every UID lookup may have to list.
   static const SourceVersions kTable = {
       {"objects",
        {{"thor", "20251117"}, {"objaverse", "20260131"}, {"objathor_metadata", "20260129"}}},
@@ -96,15 +96,6 @@ void MergePinFile(SourceVersions& versions, const fs::path& pin_file) {
     throw Error("Could not find pinned assets file: " + pin_file.string(), pin_file.string());
   }
   MergePinJson(versions, ReadFile(pin_file), pin_file.string());
-}
-
-fs::path DefaultAssetsDir() { return Home() / ".cache" / "mlspaces" / "assets"; }
-
-AssetsDirChoice ResolveAssetsDir(const std::optional<fs::path>& given) {
-  if (given) return {*given, AssetsDirOrigin::kGiven};
-  const std::string env = Env("MLSPACES_ASSETS_DIR");
-  if (!env.empty()) return {fs::path(env), AssetsDirOrigin::kEnvironment};
-  return {DefaultAssetsDir(), AssetsDirOrigin::kDefault};
 }
 
 ResourceSettings ResourceSettings::FromEnvironment(const std::string& remote_override,

@@ -135,8 +135,9 @@ TEST_F(ConfigTest, EveryDefaultAsInTheSpec) {
   EXPECT_FALSE(c.task_sampler_config.max_tasks.has_value());
   EXPECT_EQ(c.robot_config.robot_namespace, "robot_0/");
   EXPECT_EQ(c.robot_config.base_size, (std::array<double, 3>{0.5, 0.5, 0.58}));
-  EXPECT_EQ(c.robot_config.init_qpos.arm[3], -2.35619);
-  EXPECT_EQ(c.robot_config.init_qpos_noise_range.arm[6], 0.175);
+  // Empty: the robot's own home pose and noise (robot.yaml), see RobotSpecFromConfig.
+  EXPECT_TRUE(c.robot_config.init_qpos.arm.empty());
+  EXPECT_TRUE(c.robot_config.init_qpos_noise_range.arm.empty());
   EXPECT_TRUE(c.robot_config.action_noise_config.enabled);
   EXPECT_EQ(c.camera_config.img_resolution, (std::array<int64_t, 2>{640, 368}));
   EXPECT_EQ(c.camera_config.cameras[0].mjcf_name, "gripper/wrist_camera");
@@ -208,8 +209,8 @@ TEST_F(ConfigTest, WrongTypesNameLineAndKey) {
       {"output_dir: {a: 1}\n", "line 1", "output_dir: expected a path, got a mapping"},
       {"task_sampler_config:\n  scene_xml_paths: scene.xml\n", "line 2",
        "task_sampler_config.scene_xml_paths: expected a list, got 'scene.xml'"},
-      {"robot_config:\n  init_qpos:\n    arm: [0, 1]\n", "line 3",
-       "robot_config.init_qpos.arm: expected a list of 7 values, got a list of 2"},
+      {"robot_config:\n  init_qpos:\n    arm: [0, x]\n", "line 3",
+       "robot_config.init_qpos.arm[1]: expected a number, got 'x'"},
       {"robot_config:\n  base_size: [1, 1, x]\n", "line 2",
        "robot_config.base_size[2]: expected a number, got 'x'"},
       {"task_config: 3\n", "line 1", "task_config: expected a mapping, got '3'"},
@@ -356,8 +357,8 @@ TEST_F(ConfigTest, SetErrorsNameTheKey) {
   EXPECT_THAT(SetError("task_sampler_config.samples_per_house=abc"),
               HasSubstr("--set task_sampler_config.samples_per_house: expected an integer, got "
                         "'abc'"));
-  EXPECT_THAT(SetError("robot_config.init_qpos.arm=[1, 2]"),
-              HasSubstr("robot_config.init_qpos.arm: expected a list of 7 values"));
+  EXPECT_THAT(SetError("robot_config.init_qpos.arm=[1, x]"),
+              HasSubstr("robot_config.init_qpos.arm[1]: expected a number"));
   EXPECT_THAT(SetError("log_level=loud"), HasSubstr("--set log_level: expected one of debug"));
   EXPECT_THAT(SetError("num_workers.x=1"),
               HasSubstr("--set num_workers: is a single value, it has no key 'x'"));

@@ -116,16 +116,16 @@ TEST_F(EnvTest, ErrorsNameTheBody) {
       ::testing::ThrowsMessage<Error>(::testing::HasSubstr("zero quaternion")));
 }
 
-TEST(EnvCreateTest, SharedModelAndMissingHomeNumeric) {
+TEST(EnvCreateTest, SharedModelAndAHomePoseOfTheWrongLength) {
   Env env = Env::Load(kScene, FrankaDroidSpec(MLSPACES_SOURCE_DIR));
   std::shared_ptr<const mjModel> shared = env.shared_model();
   EXPECT_EQ(shared.get(), env.model());
   EXPECT_EQ(env.scene_key(), kScene.generic_string());
 
   RobotSpec bad = FrankaDroidSpec(MLSPACES_SOURCE_DIR);
-  bad.home_arm_numeric = "no_home";
+  bad.home_arm = {0.0, 0.1};
   EXPECT_THAT([&] { Env::Load(kScene, bad); },
-              ::testing::ThrowsMessage<Error>(::testing::HasSubstr("robot_0/no_home")));
+              ::testing::ThrowsMessage<Error>(::testing::HasSubstr("home arm pose has 2 values")));
 }
 
 TEST(EnvCreateTest, RobotConfigGravcompSwitchesMuJoCosGravcompOnTheRobotBodies) {

@@ -223,7 +223,8 @@ TEST_F(TaskSamplerTest, PresetPickupObjectAndRandomisedArm) {
   config_.task_config.pickup_obj_name.reset();
   auto ok = registry_.Create(config_, 2);
   ok->SampleTask(env_, 0);
-  const auto& noise = config_.robot_config.init_qpos_noise_range.arm;
+  const std::vector<double>& noise = env_.robot().home_noise;
+  ASSERT_EQ(noise.size(), 7u);
   bool moved = false;
   for (size_t i = 0; i < 7; ++i) {
     const double q = env_.data()->qpos[env_.arm_qpos_adr()[i]];

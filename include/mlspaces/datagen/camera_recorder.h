@@ -27,11 +27,20 @@
 #include <vector>
 
 #include "mlspaces/datagen/config.h"
+#include "mlspaces/datagen/env.h"
 #include "mlspaces/datagen/episode_record.h"
 #include "mlspaces/datagen/video.h"
 #include "mlspaces/sim/renderer.h"
 
 namespace mlspaces::datagen {
+
+/// The cameras `config` means for `robot`: the robot's own cameras (robot.yaml `cameras`) when
+/// config.name is "RobotCameraSystem", else config's; then every robot name (an mjcf camera
+/// under the robot's namespace, a reference body under its prefix) through the robot's
+/// franka_droid aliases (RobotSpec::Resolve), so a config written for franka_droid runs with
+/// another robot.
+MLSPACES_API CameraSystemConfig CamerasForRobot(const CameraSystemConfig& config,
+                                                const RobotSpec& robot);
 
 /// Resolves the cameras of a config in a model and computes their views.
 class MLSPACES_API CameraSystem {

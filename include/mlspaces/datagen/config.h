@@ -35,6 +35,7 @@ enum class ActionDtype { kFloat32, kFloat64 };
 enum class ArmCommandMode { kJointPosition, kJointRelPosition };
 enum class GripperCommandMode { kJointPosition };
 enum class CameraType { kMjcf, kRobotMounted };
+enum class RobotFiles { kBundled, kMolmoSpaces };
 
 /// The YAML names of an enum's values, in declaration order.
 template <class E>
@@ -66,6 +67,10 @@ struct EnumNames<GripperCommandMode> {
 template <>
 struct EnumNames<CameraType> {
   static constexpr std::array<std::string_view, 2> kNames{"mjcf", "robot_mounted"};
+};
+template <>
+struct EnumNames<RobotFiles> {
+  static constexpr std::array<std::string_view, 2> kNames{"bundled", "molmospaces"};
 };
 
 /// The YAML name of an enum value.
@@ -187,9 +192,11 @@ struct MLSPACES_API TaskSamplerConfig {
   }
 };
 
+/// The home pose (radians / metres), one value per joint; empty = the robot's own (robot.yaml
+/// arm.home / gripper.home).
 struct MLSPACES_API InitQpos {
-  std::array<double, 7> arm{0.0, -0.7853, 0.0, -2.35619, 0.0, 1.57079, 0.0};
-  std::array<double, 2> gripper{0.00296, 0.00296};
+  std::vector<double> arm;
+  std::vector<double> gripper;
 
   template <class A>
   void Serialize(A* a) {
@@ -198,9 +205,10 @@ struct MLSPACES_API InitQpos {
   }
 };
 
-/// Uniform +- noise on the initial joint positions, radians (gripper exact).
+/// Uniform +- noise on the initial joint positions, radians (gripper exact); empty = the
+/// robot's own (robot.yaml arm.home_noise).
 struct MLSPACES_API InitQposNoise {
-  std::array<double, 7> arm{0.025, 0.05, 0.075, 0.1, 0.125, 0.15, 0.175};
+  std::vector<double> arm;
 
   template <class A>
   void Serialize(A* a) {
@@ -237,9 +245,17 @@ struct MLSPACES_API ActionNoiseConfig {
   }
 };
 
-/// FrankaRobotConfig.
+/// FrankaRobotConfig / BaseRobotConfig: which robot (docs/robots.md) and its per-run settings.
 struct MLSPACES_API RobotConfig {
+  /// A bundled robot's name (`mlspaces inspect-robot --list`), or the path of a robot.yaml or
+  /// its folder.
   std::string name = "franka_droid";
+  /// A folder holding the robot's robot.yaml (relative: to the config file); null = `name`.
+  std::optional<std::filesystem::path> robot_dir;
+  /// Whose model files: `bundled` (ours, assets/robots/<name>/robot.yaml) or `molmospaces`
+  /// (MolmoSpaces' installed <assets>/robots/<name>/, described by our
+  /// assets/robots/<name>/molmospaces.yaml; docs/robots.md).
+  RobotFiles robot_files = RobotFiles::kBundled;
   std::string robot_namespace = "robot_0/";
   /// The robot's MJCF; null = the built-in model of `name` (assets/robots/<name>/).
   std::optional<std::filesystem::path> robot_xml_path;
@@ -254,6 +270,8 @@ struct MLSPACES_API RobotConfig {
   template <class A>
   void Serialize(A* a) {
     a->Visit("name", name);
+    a->Visit("robot_dir", robot_dir);
+    a->Visit("robot_files", robot_files);
     a->Visit("robot_namespace", robot_namespace);
     a->Visit("robot_xml_path", robot_xml_path);
     a->Visit("base_size", base_size);

@@ -27,72 +27,38 @@
 
 #include "mlspaces/core/json.h"
 #include "mlspaces/core/transform.h"
+#include "mlspaces/robots/insert.h"
+#include "mlspaces/robots/robot_spec.h"
 #include "mlspaces/sim/mujoco_handlers.h"
 #include "mlspaces/sim/scene.h"
 
 namespace mlspaces::datagen {
 
-/// Which robot to insert and how to find its home pose.
-struct MLSPACES_API RobotSpec {
-  std::filesystem::path xml;
-  std::string prefix = "robot_0/";
-  /// The base pose of every episode after Reset().
-  Pose base;
-  /// The top mocap body (after the prefix).
-  std::string base_body = "base";
-  /// Arm joints (after the prefix), in the order of the `home_arm` numeric; each has a
-  /// position actuator of the same name whose ctrl Reset() sets to the home angle.
-  std::vector<std::string> arm_joints;
-  /// Gripper driver joints (after the prefix), in the order of `home_gripper`.
-  std::vector<std::string> gripper_joints;
-  /// Joints held at minus a driver's angle by an equality: {follower, driver} (after prefix).
-  std::vector<std::pair<std::string, std::string>> mirrored_joints;
-  std::string home_arm_numeric = "home_arm";
-  std::string home_gripper_numeric = "home_gripper";
-  /// Home angles overriding the numerics (e.g. robot_config.init_qpos); empty = the model's.
-  std::vector<double> home_arm, home_gripper;
-  /// A box pedestal of this full size (x, y, z; robot_config.base_size) in the base body,
-  /// standing on the base frame, with the arm root mounted on its top (docs/datagen.md). The
-  /// base pose stays the floor pose; nullopt = no pedestal.
-  std::optional<std::array<double, 3>> pedestal_size;
-  /// robot_config.gravcomp: MuJoCo's body gravcomp is 1 on every body of the arm root's
-  /// subtree, else 0 there (docs/sim.md).
-  bool gravcomp = true;
+// The robot layer's types under the names datagen code uses.
+using robots::BaseKind;
+using robots::RobotSpec;
 
-  // What the planner and recorder need (after the prefix); see RobotView.
-  /// Root body of the arm (its subtree gets gravity compensation, see `gravcomp`).
-  std::string arm_root_body = "fr3_link0";
-  /// Root body of the gripper subtree (grasp state, the collision probe).
-  std::string gripper_body = "gripper/base";
-  /// The gripper's one actuator: ctrl gripper_open_ctrl = open .. gripper_closed_ctrl = closed.
-  std::string gripper_actuator = "gripper/fingers_actuator";
-  double gripper_open_ctrl = 0;
-  double gripper_closed_ctrl = 255;
-  /// The TCP site (+z approach, fingers along +-y).
-  std::string tcp_site = "gripper/grasp_site";
-  /// The two finger pad geoms whose gap is the inter-finger distance.
-  std::array<std::string, 2> finger_pads = {"gripper/left_pad2", "gripper/right_pad2"};
-  /// The recorded articulation name (env_states/articulations/<name>) and its row width.
-  std::string articulation_name = "panda";
-  size_t articulation_width = 31;
-};
+/// franka_droid (RobotsDir(), or `source_dir`/assets/robots when given) under `prefix` at
+/// `base`. @throws Error when its robot.yaml does not load.
+MLSPACES_API RobotSpec FrankaDroidSpec(const std::filesystem::path& source_dir = {},
+                                       const Pose& base = {}, std::string prefix = "robot_0/");
 
-/// franka_droid from assets/robots/franka_droid under `prefix` at `base`.
-/// `source_dir` is the mlspaces source tree (where assets/ lives).
-RobotSpec FrankaDroidSpec(const std::filesystem::path& source_dir, const Pose& base = {},
-                          std::string prefix = "robot_0/");
-
-/// Where bundled robots live: $MLSPACES_ROBOTS_DIR when set, else the source tree's
-/// assets/robots, else the installed package's <prefix>/share/mlspaces/robots.
-MLSPACES_API std::filesystem::path RobotsDir();
+using robots::RobotsDir;
 
 struct RobotConfig;
-/// The RobotSpec a robot_config asks for: robot `name` (only "franka_droid" so far) from
-/// robot_xml_path or RobotsDir()/<name>/<name>.xml, under robot_namespace, with init_qpos as
-/// its home pose, at the identity base pose (samplers move it).
-/// @throws Error (field robot_config.name / robot_xml_path) for an unknown robot or a
-/// missing file.
-MLSPACES_API RobotSpec RobotSpecFromConfig(const RobotConfig& config);
+/// The RobotSpec a robot_config asks for: robot `name` (a bundled robot's name, or the path of
+/// a robot.yaml or its folder, relative to `base_dir`), its MJCF replaced by robot_xml_path
+/// when given, under robot_namespace, with init_qpos / init_qpos_noise_range (empty: the
+/// robot's home and home noise), base_size and gravcomp, at the identity base pose (samplers
+/// move it).
+/// robot_files molmospaces takes the robot's MolmoSpaces description (RobotsDir()/<name>/
+/// molmospaces.yaml) with its MJCF in <assets>/robots/<name>/, assets = ResolveAssetsDir(
+/// `assets_dir`) (pass libraries.assets_dir).
+/// @throws Error (field robot_config.<key>) for an unknown robot, a bad robot.yaml, a missing
+/// file, MolmoSpaces' files not installed, or a home pose of the wrong length.
+MLSPACES_API RobotSpec
+RobotSpecFromConfig(const RobotConfig& config, const std::filesystem::path& base_dir = {},
+                    const std::optional<std::filesystem::path>& assets_dir = {});
 
 class MLSPACES_API Env {
  public:
@@ -135,8 +101,10 @@ class MLSPACES_API Env {
   void SetBodyPose(std::string_view name, const Pose& pose);
 
   /// The robot's base pose (its mocap body).
-  Pose GetRobotBasePose() const { return GetBodyPose(robot_base_body_); }
-  void SetRobotBasePose(const Pose& pose) { SetBodyPose(robot_base_body_, pose); }
+  /// The robot's base pose (robots::RobotBase: mocap state, holonomic joints, fixed pose).
+  Pose GetRobotBasePose() const { return base_->Get(model_.get(), data_.get()); }
+  /// @throws Error for a fixed base moved, or a holonomic base asked to leave its plane.
+  void SetRobotBasePose(const Pose& pose) { base_->Set(model_.get(), data_.get(), pose); }
 
   // ===========================================================================================
   // Forward passes
@@ -185,6 +153,7 @@ class MLSPACES_API Env {
   std::shared_ptr<mjData> data_;
   RobotSpec robot_;
   std::string robot_base_body_;
+  std::shared_ptr<const robots::RobotBase> base_;
   std::string scene_key_;
   Json metadata_;
   // Resolved once at creation.

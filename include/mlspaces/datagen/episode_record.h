@@ -101,6 +101,9 @@ struct MLSPACES_API EpisodeMetadata {
   std::vector<AssetProvenance> assets;
   /// The run's licence policy ("all", "commercial_safe"); empty = not recorded (older runs).
   std::string license_policy;
+  /// The robot (robot.yaml name) and its description hash (RobotDescription::hash); empty =
+  /// not recorded (older runs).
+  std::string robot, robot_description_hash;
   std::string mujoco_version;    ///< required, e.g. mj_versionString() of the running library
   std::string mlspaces_version;  ///< required
   Json extra = Json::object();   ///< anything else worth keeping (object)

@@ -23,10 +23,10 @@
 #include "mlspaces/datagen/env.h"
 #include "mlspaces/datagen/episode_record.h"
 #include "mlspaces/datagen/journal.h"
-#include "mlspaces/datagen/pick_planner.h"
-#include "mlspaces/datagen/robot_view.h"
 #include "mlspaces/datagen/task_sampler.h"
+#include "mlspaces/datagen/tasks/pick/pick_planner.h"
 #include "mlspaces/library/registry.h"
+#include "mlspaces/robots/robot_view.h"
 
 namespace mlspaces::datagen {
 
@@ -91,7 +91,7 @@ class MLSPACES_API EpisodeRunner {
   // Access
 
   /// The robot's handles; valid while the runner lives.
-  const RobotView& robot() const { return robot_; }
+  const robots::RobotView& robot() const { return robot_; }
   /// Physics steps per policy step (policy_dt_ms / sim_dt_ms).
   int substeps() const { return substeps_; }
   /// The camera recorder, or null when cameras are off; owned by the runner, valid while it
@@ -129,7 +129,7 @@ class MLSPACES_API EpisodeRunner {
   const Registry& registry_;
   ExperimentConfig config_;
   EpisodeRunnerOptions options_;
-  RobotView robot_;
+  robots::RobotView robot_;
   PickPlanner planner_;
   int substeps_ = 1;
   std::unique_ptr<Impl> impl_;

@@ -26,9 +26,9 @@
 #include "mlspaces/datagen/camera_recorder.h"
 #include "mlspaces/datagen/config.h"
 #include "mlspaces/datagen/env.h"
-#include "mlspaces/datagen/robot_view.h"
-#include "mlspaces/datagen/success.h"
 #include "mlspaces/datagen/task_sampler.h"
+#include "mlspaces/datagen/tasks/pick/success.h"
+#include "mlspaces/robots/robot_view.h"
 #include "mlspaces/sim/renderer.h"
 
 namespace mlspaces::datagen {
@@ -80,7 +80,7 @@ class MLSPACES_API EvalEnv {
   /// A task was sampled (Reset ran).
   bool started() const { return task_.episode >= 0 && env_ != nullptr; }
   const Env& env() const;
-  const RobotView& robot() const;
+  const robots::RobotView& robot() const;
   const Task& task() const { return task_; }
   const ExperimentConfig& config() const { return config_; }
   /// The success check of the current state (after Reset: of the sampled state).
@@ -106,7 +106,7 @@ class MLSPACES_API EvalEnv {
   int substeps_ = 1;
   int64_t house_ = -1;
   std::unique_ptr<Env> env_;
-  std::unique_ptr<RobotView> robot_;
+  std::unique_ptr<robots::RobotView> robot_;
   std::unique_ptr<CameraSystem> cameras_;
   std::unique_ptr<sim::Renderer> renderer_;
   Task task_{.episode = -1};

@@ -14,7 +14,7 @@
 
 #include "mlspaces/core/rng.h"
 #include "mlspaces/datagen/config.h"
-#include "mlspaces/datagen/robot_view.h"
+#include "mlspaces/robots/robot_view.h"
 
 namespace mlspaces::datagen {
 
@@ -32,14 +32,14 @@ MLSPACES_API Rng EpisodeNoiseRng(uint64_t episode_seed);
 
 /// The controller: the arm targets for commanded joints `arm` with the configured action noise
 /// drawn from `rng` (NoisyArmTarget at the current joints and Jacobian).
-MLSPACES_API std::vector<double> ControllerArmTargets(const RobotView& robot, const mjData* d,
-                                                      std::span<const double> arm,
+MLSPACES_API std::vector<double> ControllerArmTargets(const robots::RobotView& robot,
+                                                      const mjData* d, std::span<const double> arm,
                                                       const ActionNoiseConfig& noise, Rng& rng);
 
 /// The physics of one policy step: arm targets and gripper ctrl set, `before_physics` (if
 /// any), `substeps` physics steps, then mj_fwdPosition (positions, contacts and Jacobians of
 /// the new state for the success check, the recorder and the next action).
-MLSPACES_API void StepPhysics(const RobotView& robot, const mjModel* m, mjData* d,
+MLSPACES_API void StepPhysics(const robots::RobotView& robot, const mjModel* m, mjData* d,
                               std::span<const double> arm_targets, double gripper, int substeps,
                               const std::function<void()>& before_physics = {});
 

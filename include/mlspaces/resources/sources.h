@@ -12,6 +12,9 @@
 #include <optional>
 #include <string>
 
+// DefaultAssetsDir, ResolveAssetsDir: the install (assets) dir, in the library layer.
+#include "mlspaces/library/assets_dir.h"
+
 namespace mlspaces {
 
 // =============================================================================================
@@ -61,26 +64,5 @@ struct MLSPACES_API ResourceSettings {
   std::string Url(const std::string& type, const std::string& source, const std::string& version,
                   const std::string& file) const;
 };
-
-// =============================================================================================
-// The install (assets) dir
-
-/// The default install dir when MLSPACES_ASSETS_DIR is unset: ~/.cache/mlspaces/assets.
-MLSPACES_API std::filesystem::path DefaultAssetsDir();
-
-/// Where an assets dir came from.
-enum class AssetsDirOrigin { kGiven, kEnvironment, kDefault };
-
-struct MLSPACES_API AssetsDirChoice {
-  std::filesystem::path dir;
-  AssetsDirOrigin origin = AssetsDirOrigin::kDefault;
-};
-
-/// The one order for the install (assets) dir, used by every command and library: `given`
-/// when it has a value (a --assets-dir flag, a libraries YAML's assets_dir), else
-/// MLSPACES_ASSETS_DIR when set and non-empty, else DefaultAssetsDir(). The path is returned
-/// as it was given (not made absolute).
-MLSPACES_API AssetsDirChoice
-ResolveAssetsDir(const std::optional<std::filesystem::path>& given = {});
 
 }  // namespace mlspaces

@@ -47,7 +47,9 @@ def native_value(value: Any, template: Any) -> Any:
     template's keys (fields the engine does not know are left out), paths as str, tuples as
     lists, an infinite count as null."""
     if isinstance(value, BaseModel):
-        value = {name: getattr(value, name) for name in type(value).model_fields}
+        engine_fields = getattr(value, "_engine_fields", None)  # a robot config's own mapping
+        value = engine_fields() if engine_fields is not None else {
+            name: getattr(value, name) for name in type(value).model_fields}
     if isinstance(template, dict) and isinstance(value, dict):
         if not template:  # a free-form mapping (added_objects, visibility constraints)
             return {str(k): native_value(v, None) for k, v in value.items()}

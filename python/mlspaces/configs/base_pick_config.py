@@ -12,7 +12,7 @@ from ._base import DEFAULTS, Config, native_value
 from ._fields import engine_model
 from .camera_configs import CameraSystemConfig, FrankaDroidCameraSystem
 from .policy_configs import PickPlannerPolicyConfig
-from .robot_configs import FrankaRobotConfig
+from .robot_configs import BaseRobotConfig, FrankaRobotConfig
 from .task_configs import PickTaskConfig
 from .task_sampler_configs import PickTaskSamplerConfig
 
@@ -47,7 +47,7 @@ PickBaseConfig = engine_model(
     output_dir=(Any, None),
     task_config=(PickTaskConfig, Field(default_factory=PickTaskConfig)),
     task_sampler_config=(PickTaskSamplerConfig, Field(default_factory=PickTaskSamplerConfig)),
-    robot_config=(FrankaRobotConfig, Field(default_factory=FrankaRobotConfig)),
+    robot_config=(BaseRobotConfig, Field(default_factory=FrankaRobotConfig)),
     camera_config=(CameraSystemConfig, Field(default_factory=FrankaDroidCameraSystem)),
     policy_config=(PickPlannerPolicyConfig, Field(default_factory=PickPlannerPolicyConfig)),
 )

@@ -64,4 +64,11 @@ FrankaDroidCameraSystem = engine_model(
     img_resolution=(Any, tuple(default("camera_config", "img_resolution"))),
 )
 
-__all__ = ["CameraConfig", "CameraSystemConfig", "FrankaDroidCameraSystem"]
+class RobotCameraSystem(CameraSystemConfig):
+    """The robot's own cameras (robot.yaml ``cameras``, docs/robots.md) at ``img_resolution``;
+    ``cameras`` stays empty here (the engine takes them from the robot)."""
+
+    name: str = "RobotCameraSystem"
+
+
+__all__ = ["CameraConfig", "CameraSystemConfig", "FrankaDroidCameraSystem", "RobotCameraSystem"]

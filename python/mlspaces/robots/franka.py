@@ -1,4 +1,6 @@
-"""``molmo_spaces.robots.franka``: the Franka DROID robot of an env (``env.current_robot``)."""
+"""``molmo_spaces.robots.franka``: ``FrankaRobot`` and ``FrankaDroidRobotView``, MolmoSpaces'
+names of the robot of an env (``env.current_robot``) and its view; in mlspaces every robot
+(franka_droid or any robot.yaml) has these classes (``mlspaces.robots.abstract.Robot``)."""
 
 from ..env.env import FrankaDroidRobotView, FrankaRobot
 

@@ -5,8 +5,10 @@ One env is one scene with its robot; a step is one policy step of the datagen ro
 noise, controller, ``policy_dt / sim_dt`` physics steps). Spaces are declared (MolmoSpaces'
 env declares none):
 
-- action: ``{"arm": Box(7) joint targets in radians (within the joint limits), "gripper":
-  Box(1) ctrl 0 (open) .. 255 (closed)}`` -- the dataset's ``commanded_action`` layout;
+- action: ``{"arm": Box(n_arm) joint targets in radians (within the joint limits), "gripper":
+  Box(1) the gripper actuator's ctrl, between robot.yaml's ``gripper.open_ctrl`` and
+  ``closed_ctrl`` (0 open .. 255 closed for franka_droid and xarm7)}`` -- the dataset's
+  ``commanded_action`` layout; any robot (``robot_config.name``, docs/robots.md);
 - observation: the dataset's layout, ``{"agent": {"qpos": {"arm", "gripper"}, "qvel": {...}},
   "extra": {"tcp_pose", "robot_base_pose", "obj_start", "obj_end"}, "sensor_data": {<camera>:
   Box(H, W, 3) uint8}}`` (one dict, not MolmoSpaces' one-element list).
@@ -128,16 +130,18 @@ class GymEnv(gym.Env):
         self._env = _core.EvalEnv(json.dumps(to_native(cfg)), f"<config {type(cfg).__qualname__}>",
                                   os.getcwd(), self.task_sampler,
                                   render=True, gl=os.environ.get("MLSPACES_GL") or "osmesa")
-        self._cameras = [c.name for c in cfg.camera_config.cameras]
+        w, h = (int(x) for x in cfg.camera_config.img_resolution)
+        lower, upper = self._arm_limits()
+        # The engine's cameras: the config's, or the robot's own (RobotCameraSystem).
+        self._cameras = list(self._env.camera_names)
         if render_camera is not None and render_camera not in self._cameras:
             raise MlspacesError(f"GymEnv: render_camera {render_camera!r} is not one of "
                                 f"{self._cameras}")
-        w, h = (int(x) for x in cfg.camera_config.img_resolution)
-        lower, upper = self._arm_limits()
         n_arm, n_grip = self._env.num_arm, self._env.num_gripper
+        grip_low, grip_high = sorted(float(c) for c in self._env.gripper_ctrl)
         self.action_space = spaces.Dict({
             "arm": spaces.Box(low=lower, high=upper, shape=(n_arm,), dtype=np.float64),
-            "gripper": spaces.Box(low=0.0, high=255.0, shape=(1,), dtype=np.float64),
+            "gripper": spaces.Box(low=grip_low, high=grip_high, shape=(1,), dtype=np.float64),
         })
         self.observation_space = spaces.Dict({
             "agent": spaces.Dict({
@@ -185,8 +189,8 @@ class GymEnv(gym.Env):
         if self.task is None:
             raise RuntimeError("step before reset")
         if not isinstance(action, Mapping) or "arm" not in action or "gripper" not in action:
-            raise _v.type_error(func, "action", "a dict with 'arm' (7 joint targets) and "
-                                "'gripper' (ctrl 0..255)", action)
+            raise _v.type_error(func, "action", f"a dict with 'arm' ({self._env.num_arm} joint "
+                                "targets) and 'gripper' (the gripper ctrl)", action)
         arm = _v.array(action["arm"], "action['arm']", func, (self._env.num_arm,))
         gripper = _v.array(action["gripper"], "action['gripper']", func).reshape(-1)
         if gripper.shape != (1,):

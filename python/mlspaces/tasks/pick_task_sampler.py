@@ -56,8 +56,10 @@ class BaseMujocoTaskSampler:
 
     # -- called by the engine -------------------------------------------------------------
 
-    def _attach_env(self, model, data, scene_metadata, model_path, namespace, base_body):
-        self.env = CPUMujocoEnv(model, data, scene_metadata, model_path, namespace, base_body)
+    def _attach_env(self, model, data, scene_metadata, model_path, namespace, base_body,
+                    robot_name):
+        self.env = CPUMujocoEnv(model, data, scene_metadata, model_path, namespace, base_body,
+                                robot_name)
         return self.env
 
     def _begin_episode(self, seed: int, pickup_obj_name: str | None) -> None:

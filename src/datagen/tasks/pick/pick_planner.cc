@@ -1,4 +1,4 @@
-#include "mlspaces/datagen/pick_planner.h"
+#include "mlspaces/datagen/tasks/pick/pick_planner.h"
 
 #include <algorithm>
 #include <chrono>
@@ -48,16 +48,16 @@ const char* PlanFailureName(PlanFailure failure) {
   return "unknown";
 }
 
-PickPlanner::PickPlanner(const Env& env, const RobotView& robot, const PolicyConfig& config,
+PickPlanner::PickPlanner(const Env& env, const robots::RobotView& robot, const PolicyConfig& config,
                          double policy_dt)
     : env_(&env), robot_(&robot), config_(config), dt_policy_(policy_dt) {
   // The tracking IK: one attempt from the previous command (no restarts, which could jump to
   // another branch), few iterations (consecutive targets are close).
-  IkOptions ik;
+  robots::IkOptions ik;
   ik.restarts = 0;
   ik.max_iterations = 200;
-  ik_ = std::make_unique<IkSolver>(env.model(), robot.spec().prefix + robot.spec().tcp_site,
-                                   robot.arm_joint_names(), std::span<const double>{}, ik);
+  ik_ = std::make_unique<robots::IkSolver>(env.model(), robot.spec().prefix + robot.spec().tcp_site,
+                                           robot.arm_joint_names(), std::span<const double>{}, ik);
   if (config_.filter_colliding_grasps) {
     GraspProbeOptions probe;
     probe.gripper_body = robot.spec().prefix + robot.spec().gripper_body;
@@ -91,7 +91,7 @@ void PickPlanner::Fail(PlanFailure failure, std::string message) {
 bool PickPlanner::SolveIk(const Mat4& target, std::vector<double>& q, bool allow_restarts) {
   ik_->options().restarts = allow_restarts ? 8 : 0;
   ik_->options().max_iterations = allow_restarts ? 1000 : 200;
-  const IkResult r = ik_->Solve(target, q);
+  const robots::IkResult r = ik_->Solve(target, q);
   ++stats_.ik_calls;
   if (!r.success) {
     ++stats_.ik_failures;
@@ -348,7 +348,9 @@ PlannerAction PickPlanner::Act(const mjData* d) {
                                                std::to_string(rot_err / kDegToRad) +
                                                " deg from its target");
     }
-    if (p.holding && robot_->InterFingerDistance(d) < config_.gripper_empty_threshold) {
+    // The original's check: the gap below the robot's closed gap + the threshold (spec 12).
+    if (p.holding && robot_->InterFingerDistance(d) <
+                         robot_->spec().finger_range[0] + config_.gripper_empty_threshold) {
       return fail(PlanFailure::kEmptyGrasp, "the gripper closed on nothing");
     }
     Target ahead = target_at(elapsed + dt_policy_);

@@ -1,6 +1,6 @@
 // Pick success and reward on the example scene (examples/custom_assets/scene.xml) with the
 // franka_droid robot attached under "robot_0/", states set by hand.
-#include "mlspaces/datagen/success.h"
+#include "mlspaces/datagen/tasks/pick/success.h"
 
 #include <cmath>
 #include <filesystem>

@@ -51,8 +51,8 @@
 #include "mlspaces/datagen/config.h"
 #include "mlspaces/datagen/env.h"
 #include "mlspaces/datagen/grasp_selection.h"
-#include "mlspaces/datagen/ik.h"
-#include "mlspaces/datagen/robot_view.h"
+#include "mlspaces/robots/ik.h"
+#include "mlspaces/robots/robot_view.h"
 
 namespace mlspaces::datagen {
 
@@ -110,7 +110,8 @@ class MLSPACES_API PickPlanner {
   /// are kept by pointer: both (and the model) must outlive the planner. One planner serves
   /// every episode of the env. `policy_dt` is the policy step in seconds (the experiment's
   /// policy_dt_ms / 1000).
-  PickPlanner(const Env& env, const RobotView& robot, const PolicyConfig& config, double policy_dt);
+  PickPlanner(const Env& env, const robots::RobotView& robot, const PolicyConfig& config,
+              double policy_dt);
   ~PickPlanner();
   PickPlanner(const PickPlanner&) = delete;
   PickPlanner& operator=(const PickPlanner&) = delete;
@@ -170,10 +171,10 @@ class MLSPACES_API PickPlanner {
   bool SolveIk(const Mat4& target, std::vector<double>& q, bool allow_restarts);
 
   const Env* env_;
-  const RobotView* robot_;
+  const robots::RobotView* robot_;
   PolicyConfig config_;
   double dt_policy_;
-  std::unique_ptr<IkSolver> ik_;
+  std::unique_ptr<robots::IkSolver> ik_;
   std::unique_ptr<GraspCollisionChecker> probe_;
 
   int object_body_ = -1;

@@ -1,4 +1,4 @@
-#include "mlspaces/datagen/pick_planner.h"
+#include "mlspaces/datagen/tasks/pick/pick_planner.h"
 
 #include <cmath>
 #include <filesystem>
@@ -57,7 +57,7 @@ class PickPlannerTest : public ::testing::Test {
 
   ExperimentConfig config_;
   Env env_;
-  RobotView robot_;
+  robots::RobotView robot_;
   PickPlanner planner_;
   int block_;
   std::vector<Mat4> grasps_;

@@ -1,4 +1,4 @@
-#include "mlspaces/datagen/success.h"
+#include "mlspaces/datagen/tasks/pick/success.h"
 
 #include <algorithm>
 #include <string>

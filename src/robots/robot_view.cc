@@ -1,4 +1,4 @@
-#include "mlspaces/datagen/robot_view.h"
+#include "mlspaces/robots/robot_view.h"
 
 #include <algorithm>
 #include <cmath>
@@ -7,7 +7,7 @@
 #include "mlspaces/core/error.h"
 #include "mlspaces/sim/mj_pose.h"
 
-namespace mlspaces::datagen {
+namespace mlspaces::robots {
 namespace {
 
 int Require(const mjModel* m, mjtObj type, const std::string& name, const char* what) {
@@ -20,13 +20,15 @@ int Require(const mjModel* m, mjtObj type, const std::string& name, const char* 
 
 RobotView::RobotView(const mjModel* m, const RobotSpec& spec) : m_(m), spec_(spec) {
   const std::string& p = spec.prefix;
-  for (const std::string& joint : spec.arm_joints) {
-    const std::string name = p + joint;
+  for (size_t i = 0; i < spec.arm_joints.size(); ++i) {
+    const std::string name = p + spec.arm_joints[i];
+    const std::string servo =
+        p + (i < spec.arm_actuators.size() ? spec.arm_actuators[i] : spec.arm_joints[i]);
     const int j = Require(m, mjOBJ_JOINT, name, "arm joint");
     arm_names_.push_back(name);
     arm_qpos_.push_back(m->jnt_qposadr[j]);
     arm_dof_.push_back(m->jnt_dofadr[j]);
-    arm_act_.push_back(Require(m, mjOBJ_ACTUATOR, name, "arm servo"));
+    arm_act_.push_back(Require(m, mjOBJ_ACTUATOR, servo, "arm servo"));
     const bool limited = m->jnt_limited[j] != 0;
     arm_lower_.push_back(limited ? m->jnt_range[2 * j] : -std::numeric_limits<double>::infinity());
     arm_upper_.push_back(limited ? m->jnt_range[2 * j + 1]
@@ -41,7 +43,9 @@ RobotView::RobotView(const mjModel* m, const RobotSpec& spec) : m_(m), spec_(spe
   tcp_site_ = Require(m, mjOBJ_SITE, p + spec.tcp_site, "TCP site");
   base_body_ = Require(m, mjOBJ_BODY, p + spec.base_body, "base body");
   base_mocap_ = m->body_mocapid[base_body_];
-  if (base_mocap_ < 0) throw Error("robot base body '" + p + spec.base_body + "' is not mocap");
+  if (base_mocap_ < 0 && spec.base_kind == BaseKind::kMocap) {
+    throw Error("robot base body '" + p + spec.base_body + "' is not mocap");
+  }
   gripper_body_ = Require(m, mjOBJ_BODY, p + spec.gripper_body, "gripper body");
   for (int k = 0; k < 2; ++k) {
     pads_[k] = Require(m, mjOBJ_GEOM, p + spec.finger_pads[k], "finger pad");
@@ -101,6 +105,7 @@ void RobotView::SetGripperCtrl(mjData* d, double ctrl) const {
 Mat4 RobotView::TcpPose(const mjData* d) const { return sim::SiteMat4(d, tcp_site_); }
 
 Mat4 RobotView::BasePose(const mjData* d) const {
+  if (base_mocap_ < 0) return sim::FrameToMat4(d->xpos + 3 * base_body_, d->xmat + 9 * base_body_);
   return ToMat4(sim::PoseFromMj(d->mocap_pos + 3 * base_mocap_, d->mocap_quat + 4 * base_mocap_));
 }
 
@@ -134,4 +139,4 @@ void RobotView::Step(mjData* d, int n) const {
   for (int i = 0; i < n; ++i) mj_step(m_, d);
 }
 
-}  // namespace mlspaces::datagen
+}  // namespace mlspaces::robots

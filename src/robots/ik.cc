@@ -1,4 +1,4 @@
-#include "mlspaces/datagen/ik.h"
+#include "mlspaces/robots/ik.h"
 
 #include <algorithm>
 #include <cmath>
@@ -9,7 +9,7 @@
 #include "mlspaces/core/se3.h"
 #include "mlspaces/sim/mj_pose.h"
 
-namespace mlspaces::datagen {
+namespace mlspaces::robots {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
@@ -280,4 +280,4 @@ IkResult IkSolver::Solve(const Mat4& target, std::span<const double> seed) {
   return result;
 }
 
-}  // namespace mlspaces::datagen
+}  // namespace mlspaces::robots

@@ -1,4 +1,4 @@
-#include "mlspaces/datagen/robot_view.h"
+#include "mlspaces/robots/robot_view.h"
 
 #include <cmath>
 #include <filesystem>
@@ -8,10 +8,13 @@
 
 #include "mlspaces/core/error.h"
 #include "mlspaces/datagen/config.h"
+#include "mlspaces/datagen/env.h"
 #include "test_util.h"
 
 namespace mlspaces::datagen {
 namespace {
+
+using robots::RobotView;
 
 const std::filesystem::path kScene =
     std::filesystem::path(MLSPACES_EXAMPLES_DIR) / "custom_assets" / "scene.xml";
@@ -102,6 +105,17 @@ TEST(RobotSpecFromConfigTest, ResolvesTheBundledRobotAndChecksTheName) {
   EXPECT_TRUE(std::filesystem::is_regular_file(spec.xml));
   EXPECT_EQ(spec.prefix, "robot_0/");
   EXPECT_EQ(spec.home_arm.size(), 7u);
+  EXPECT_EQ(spec.home_arm[3], -2.35619);  // robot.yaml's, as FrankaRobotConfig's init_qpos
+  EXPECT_EQ(spec.home_noise[6], 0.175);
+  config.init_qpos.arm = {0, 1};
+  testing::ExpectError([&] { RobotSpecFromConfig(config); },
+                       {"robot_config.init_qpos.arm", "2 values, robot has 7 arm joints"});
+  config.init_qpos.arm = {0, 0, 0, -2, 0, 2, 0.5};
+  config.init_qpos_noise_range.arm = {0, 0, 0, 0, 0, 0, 0};
+  const RobotSpec custom = RobotSpecFromConfig(config);
+  EXPECT_EQ(custom.home_arm, config.init_qpos.arm);
+  EXPECT_EQ(custom.home_noise, config.init_qpos_noise_range.arm);
+  config = RobotConfig{};
   config.name = "ur5";
   testing::ExpectError([&] { RobotSpecFromConfig(config); }, {"robot_config.name", "ur5"});
   config.name = "franka_droid";

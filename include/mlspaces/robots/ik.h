@@ -29,7 +29,7 @@
 #include "mlspaces/core/transform.h"
 #include "mlspaces/sim/mujoco_handlers.h"
 
-namespace mlspaces::datagen {
+namespace mlspaces::robots {
 
 struct MLSPACES_API IkOptions {
   int max_iterations = 1000;  ///< per attempt (spec 8.4: 1000)
@@ -121,4 +121,4 @@ class MLSPACES_API IkSolver {
   std::vector<double> jacp_, jacr_;  // 3 x nv each
 };
 
-}  // namespace mlspaces::datagen
+}  // namespace mlspaces::robots

@@ -16,9 +16,9 @@
 #include <mujoco/mujoco.h>
 
 #include "mlspaces/core/transform.h"
-#include "mlspaces/datagen/env.h"
+#include "mlspaces/robots/robot_spec.h"
 
-namespace mlspaces::datagen {
+namespace mlspaces::robots {
 
 class MLSPACES_API RobotView {
  public:
@@ -65,7 +65,7 @@ class MLSPACES_API RobotView {
 
   /// World pose of the TCP site (after kinematics).
   Mat4 TcpPose(const mjData* d) const;
-  /// World pose of the robot base (its mocap state).
+  /// World pose of the robot base: its mocap state, else its body frame (after kinematics).
   Mat4 BasePose(const mjData* d) const;
 
   /// Distance between the two finger pad geoms (mj_geomDistance), clamped at 0 (needs
@@ -110,4 +110,4 @@ class MLSPACES_API RobotView {
   int gripper_body_ = -1;
 };
 
-}  // namespace mlspaces::datagen
+}  // namespace mlspaces::robots

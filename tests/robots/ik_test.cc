@@ -1,7 +1,7 @@
 // Damped-least-squares IK (src/datagen/ik.cc) on the franka_droid arm: random reachable poses
 // (FK of random joint configurations within the limits) from the home seed, joint limits,
 // unreachable targets, determinism, and that the episode's data is never touched.
-#include "mlspaces/datagen/ik.h"
+#include "mlspaces/robots/ik.h"
 
 #include <algorithm>
 #include <chrono>
@@ -20,7 +20,7 @@
 #include "mlspaces/sim/mjcf_composer.h"
 #include "mlspaces/sim/mujoco_handlers.h"
 
-namespace mlspaces::datagen {
+namespace mlspaces::robots {
 namespace {
 
 namespace fs = std::filesystem;
@@ -222,4 +222,4 @@ TEST_F(IkTest, RejectsBadArguments) {
 }
 
 }  // namespace
-}  // namespace mlspaces::datagen
+}  // namespace mlspaces::robots

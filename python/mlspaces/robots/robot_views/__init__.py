@@ -1,0 +1,1 @@
+"""Robot views (``molmo_spaces.robots.robot_views``)."""

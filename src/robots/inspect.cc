@@ -18,6 +18,7 @@
 #include "mlspaces/robots/insert.h"
 #include "mlspaces/robots/robot_spec.h"
 #include "mlspaces/robots/robot_view.h"
+#include "mlspaces/sim/describe.h"
 #include "mlspaces/sim/mj_pose.h"
 #include "mlspaces/sim/mujoco_handlers.h"
 #include "mlspaces/sim/scene.h"
@@ -146,19 +147,6 @@ std::string Unprefixed(const char* name) {
   std::string s = name == nullptr ? "" : name;
   if (s.starts_with(kPrefix)) s.erase(0, sizeof kPrefix - 1);
   return s;
-}
-
-std::string JointType(int type) {
-  switch (type) {
-    case mjJNT_FREE:
-      return "free";
-    case mjJNT_BALL:
-      return "ball";
-    case mjJNT_SLIDE:
-      return "slide";
-    default:
-      return "hinge";
-  }
 }
 
 ActuatorReport DescribeActuator(const mjModel* m, int a) {
@@ -301,7 +289,7 @@ class Inspector {
            j >= 0 && j < m_->body_jntadr[body] + m_->body_jntnum[body]; ++j) {
         ChainJoint cj;
         cj.name = Unprefixed(mj_id2name(m_, mjOBJ_JOINT, j));
-        cj.type = JointType(m_->jnt_type[j]);
+        cj.type = sim::JointTypeName(m_->jnt_type[j]);
         cj.axis = ToVec3(m_->jnt_axis + 3 * j);
         if (m_->jnt_limited[j]) cj.range = {{m_->jnt_range[2 * j], m_->jnt_range[2 * j + 1]}};
         cj.arm =

@@ -4,9 +4,8 @@
 #include "mlspaces/sim/mj_pose.h"
 
 namespace mlspaces::sim {
-namespace {
 
-const char* JointType(int t) {
+const char* JointTypeName(int t) {
   switch (t) {
     case mjJNT_FREE:
       return "free";
@@ -18,6 +17,8 @@ const char* JointType(int t) {
       return "hinge";
   }
 }
+
+namespace {
 
 const char* TrnType(int t) {
   switch (t) {
@@ -73,7 +74,7 @@ ModelDescription DescribeModel(const MjcfComposer& composer, const std::string& 
     out.bodies.push_back(std::move(body));
   }
   for (int j = 0; j < m->njnt; ++j) {
-    JointDescription joint{MjName(m, mjOBJ_JOINT, j), JointType(m->jnt_type[j]),
+    JointDescription joint{MjName(m, mjOBJ_JOINT, j), JointTypeName(m->jnt_type[j]),
                            MjName(m, mjOBJ_BODY, m->jnt_bodyid[j]), std::nullopt};
     if (m->jnt_limited[j]) joint.range = Pair(m->jnt_range + 2 * j);
     out.joints.push_back(std::move(joint));

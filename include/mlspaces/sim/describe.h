@@ -57,6 +57,9 @@ struct MLSPACES_API ModelDescription {
   std::vector<Diagnostic> warnings;  ///< MuJoCo's compile warnings (MjcfComposer::warnings)
 };
 
+/// MuJoCo's name of a joint type (mjtJoint): "free", "ball", "slide" or "hinge".
+MLSPACES_API const char* JointTypeName(int type);
+
 /// Compiles `composer` and describes the model at qpos0 (after mj_kinematics).
 /// `file` is recorded as given. @throws Error as MjcfComposer::Compile.
 MLSPACES_API ModelDescription DescribeModel(const MjcfComposer& composer, const std::string& file);

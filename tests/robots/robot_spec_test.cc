@@ -9,6 +9,8 @@
 #include <gtest/gtest.h>
 
 #include "mlspaces/core/error.h"
+#include "mlspaces/sim/mjcf_composer.h"
+#include "mlspaces/sim/mujoco_handlers.h"
 #include "test_util.h"
 
 namespace mlspaces::robots {
@@ -49,6 +51,15 @@ TEST(RobotSpecTest, FrankaDroidLoadsAsData) {
   EXPECT_EQ(s.home_noise.size(), 7u);
   EXPECT_EQ(s.Resolve("fr3_link0"), "fr3_link0");
   EXPECT_THAT(BundledRobots(), ::testing::Contains("franka_droid"));
+  // The MJCF's home numerics (for loading the file alone) mirror robot.yaml's home.
+  const sim::ModelPtr m = sim::ComposeAndCompile(d.mjcf);
+  for (const auto& [numeric, home] :
+       {std::pair{"home_arm", d.arm.home}, std::pair{"home_gripper", d.gripper.home}}) {
+    const int id = mj_name2id(m.get(), mjOBJ_NUMERIC, numeric);
+    ASSERT_GE(id, 0) << numeric;
+    const double* data = m->numeric_data + m->numeric_adr[id];
+    EXPECT_EQ(std::vector<double>(data, data + m->numeric_size[id]), home) << numeric;
+  }
   EXPECT_EQ(FindRobot("franka_droid"), RobotsDir() / "franka_droid" / "robot.yaml");
 }
 

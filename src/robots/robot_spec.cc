@@ -298,15 +298,33 @@ std::filesystem::path RobotsDir() {
   return MLSPACES_INSTALLED_ROBOTS_DIR;
 }
 
+std::vector<std::filesystem::path> RobotSearchPath() {
+  std::vector<fs::path> dirs;
+  if (const char* path = std::getenv("MLSPACES_ROBOT_PATH"); path != nullptr) {
+    std::string_view rest = path;
+    while (!rest.empty()) {
+      const size_t colon = rest.find(':');
+      const std::string_view dir = rest.substr(0, colon);
+      if (!dir.empty()) dirs.emplace_back(dir);
+      rest = colon == std::string_view::npos ? std::string_view() : rest.substr(colon + 1);
+    }
+  }
+  dirs.push_back(RobotsDir());
+  return dirs;
+}
+
 std::vector<std::string> BundledRobots() {
   std::vector<std::string> names;
   std::error_code ec;
-  for (const auto& entry : fs::directory_iterator(RobotsDir(), ec)) {
-    if (fs::is_regular_file(entry.path() / kRobotYaml, ec)) {
-      names.push_back(entry.path().filename().string());
+  for (const fs::path& dir : RobotSearchPath()) {
+    for (const auto& entry : fs::directory_iterator(dir, ec)) {
+      if (fs::is_regular_file(entry.path() / kRobotYaml, ec)) {
+        names.push_back(entry.path().filename().string());
+      }
     }
   }
   std::sort(names.begin(), names.end());
+  names.erase(std::unique(names.begin(), names.end()), names.end());
   return names;
 }
 
@@ -325,14 +343,14 @@ std::filesystem::path FindRobot(std::string_view name_or_path,
     }
     return path;
   }
-  const fs::path file = RobotsDir() / given / kRobotYaml;
-  if (given.empty() || !fs::is_regular_file(file, ec)) {
-    std::string hint = DidYouMean(given, BundledRobots());
-    throw Error("unknown robot '" + given + "' (mlspaces has: " + JoinRobotNames() +
-                    "; or give the path of a robot.yaml)" + (hint.empty() ? "" : "; " + hint),
-                "", field);
+  for (const fs::path& dir : RobotSearchPath()) {
+    const fs::path file = dir / given / kRobotYaml;
+    if (!given.empty() && fs::is_regular_file(file, ec)) return file;
   }
-  return file;
+  const std::string hint = DidYouMean(given, BundledRobots());
+  throw Error("unknown robot '" + given + "' (mlspaces has: " + JoinRobotNames() +
+                  "; or give the path of a robot.yaml)" + (hint.empty() ? "" : "; " + hint),
+              "", field);
 }
 
 std::string RobotSpec::Resolve(const std::string& name) const {

@@ -1,6 +1,7 @@
 // robot.yaml loading (robots/robot_spec.h): the bundled robots, strictness, name checks.
 #include "mlspaces/robots/robot_spec.h"
 
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -111,6 +112,24 @@ TEST(RobotSpecTest, BadDescriptionsAreOneLineNamingFileAndField) {
   ASSERT_EQ(lines.size(), 2u);
   EXPECT_THAT(lines[0], HasSubstr("tcp_site: site 'gripper/nope'"));
   EXPECT_THAT(lines[1], HasSubstr("gripper.closed_ctrl: 300"));
+}
+
+TEST(RobotSpecTest, UserRobotsAreFoundByNameOnMLSPACES_ROBOT_PATH) {
+  testing::TempDir tmp;
+  const fs::path mine = tmp.path() / "mine" / "my_franka";
+  fs::create_directories(mine);
+  fs::copy_file(kFranka / "franka_droid.xml", mine / "franka_droid.xml");
+  std::string text = testing::Slurp(kFranka / "robot.yaml");
+  text.replace(text.find("name: franka_droid"), 18, "name: my_franka");
+  testing::WriteText(mine / "robot.yaml", text);
+  const std::string path = "/nonexistent:" + (tmp.path() / "mine").string();
+  ::setenv("MLSPACES_ROBOT_PATH", path.c_str(), 1);
+  EXPECT_EQ(FindRobot("my_franka"), mine / "robot.yaml");
+  EXPECT_EQ(LoadRobotSpec("my_franka").name, "my_franka");
+  EXPECT_THAT(BundledRobots(), ::testing::IsSupersetOf({"franka_droid", "my_franka"}));
+  EXPECT_EQ(FindRobot("franka_droid"), RobotsDir() / "franka_droid" / "robot.yaml");
+  ::unsetenv("MLSPACES_ROBOT_PATH");
+  testing::ExpectError([] { FindRobot("my_franka"); }, {"unknown robot 'my_franka'"});
 }
 
 TEST(RobotSpecTest, UnknownRobotNamesTheFieldAndTheBundledRobots) {

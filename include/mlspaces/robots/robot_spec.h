@@ -188,13 +188,19 @@ MLSPACES_API std::vector<std::string> CheckRobotDescription(
 /// assets/robots, else the installed package's <prefix>/share/mlspaces/robots.
 MLSPACES_API std::filesystem::path RobotsDir();
 
-/// The names of the robots in RobotsDir() (folders holding a robot.yaml), sorted.
+/// Where robots are found by name, in order: the folders of $MLSPACES_ROBOT_PATH
+/// (':'-separated; the user's robots, each a folder <name>/robot.yaml), then RobotsDir().
+MLSPACES_API std::vector<std::filesystem::path> RobotSearchPath();
+
+/// The names of the robots on RobotSearchPath() (folders holding a robot.yaml), sorted, each
+/// once.
 MLSPACES_API std::vector<std::string> BundledRobots();
 
 /// The robot.yaml that `name_or_path` means: a path (it holds a '/' or ends in .yaml; a
-/// relative one resolves against `base_dir`) to a robot.yaml or its folder, else the bundled
-/// robot of that name. @throws Error naming the field `field` for an unknown robot (with the
-/// bundled names and a "did you mean") or a path that holds no robot.yaml.
+/// relative one resolves against `base_dir`) to a robot.yaml or its folder, else the robot of
+/// that name in the first folder of RobotSearchPath() that has it. @throws Error naming the field
+/// `field` for an unknown robot (with the bundled names and a "did you mean") or a path that holds
+/// no robot.yaml.
 MLSPACES_API std::filesystem::path FindRobot(std::string_view name_or_path,
                                              const std::filesystem::path& base_dir = {},
                                              const std::string& field = "robot_config.name");

@@ -93,6 +93,36 @@ TEST(AnyRobotTest, TheTutorialWithTheXarm7ThroughWorkersResumeShardsAndCameras) 
   EXPECT_THAT(RobotsOf(dir.path(), dir / "m"), HasSubstr("xarm7 " + hash));
 }
 
+// franka_droid became a robot.yaml without a change to what its episodes record: the tutorial's
+// first episode (seed 0) digests to the value the engine before robots-as-data (commit 270ba44)
+// wrote. Every dataset of traj_0 but the scene JSON (it holds the config hash, which the new
+// robot_config keys change) and the camera datasets (off here) goes in, name, dtype, shape and
+// bytes. A deliberate change to the planner or the physics changes this value: update it then.
+TEST(AnyRobotTest, FrankaDroidAsDataRecordsTheBytesOfTheEngineBefore) {
+  testing::TempDir dir;
+  const fs::path run = dir / "run";
+  const testing::CliResult r =
+      testing::RunCli({"datagen", kYaml.string(), "-q", "--seed", "0", "--episodes", "1",
+                       "--output", run.string(), "--set", "task_config.enable_rendering=false"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  std::string digest;
+  testing::RunPython(dir.path(), R"(
+import hashlib, sys, h5py, numpy as np
+h = hashlib.sha256()
+with h5py.File(sys.argv[1] + "/house_0/trajectories_batch_1_of_1.h5") as f:
+    t = f["traj_0"]
+    names = []
+    t.visit(lambda n: names.append(n) if isinstance(t[n], h5py.Dataset)
+            and not n.startswith(("obs_scene", "obs/sensor")) else None)
+    for n in sorted(names):
+        a = np.asarray(t[n][()])
+        h.update(n.encode() + str(a.dtype).encode() + str(a.shape).encode() + a.tobytes())
+print(h.hexdigest(), len(names))
+)",
+                     testing::ShellQuote(run.string()), &digest);
+  EXPECT_EQ(digest, "8e8f6d89b94e06c55cdff584099ed6b82ff2004bd11f7905c4b790f1601df487 23\n");
+}
+
 // franka_droid's folder copied to `dir` with robot.yaml's base section replaced.
 fs::path FrankaWithBase(const fs::path& dir, const std::string& base) {
   fs::create_directories(dir);

@@ -8,7 +8,8 @@
 #   target_link_libraries(app PRIVATE mlspaces::mlspaces)  # every layer that was built
 #   target_link_libraries(app PRIVATE mlspaces::library)   # or one layer (and what it needs)
 #
-# Targets: mlspaces::core, ::library, ::resources, ::sim, ::robots, ::datagen (the last three when
+# Targets: mlspaces::core, ::library, ::resources, ::sim, ::robots, ::graspgen, ::datagen (the
+# last four when
 # MLSPACES_BUILD_SIM), the umbrella ::mlspaces and the command ::cli. The package finds the
 # dependencies the layers link (mlspacesConfig.cmake.in) and MuJoCo the way this build did
 # (cmake/FindMuJoCo.cmake, installed beside it; MUJOCO_DIR overrides).
@@ -17,7 +18,7 @@ include(CMakePackageConfigHelpers)
 set(MLSPACES_INSTALL_CMAKEDIR "${CMAKE_INSTALL_LIBDIR}/cmake/mlspaces")
 set(_mlspaces_layers core library resources)
 if(TARGET mlspaces_sim)
-  list(APPEND _mlspaces_layers sim robots datagen)
+  list(APPEND _mlspaces_layers sim robots graspgen datagen)
 endif()
 
 add_library(mlspaces_all INTERFACE)

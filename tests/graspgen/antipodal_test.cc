@@ -1,0 +1,252 @@
+// Systematic antipodal candidates (src/graspgen/antipodal.cc) on a box, a cylinder and an
+// L-bracket OBJ the test writes, with the franka_droid gripper proxy.
+#include "mlspaces/graspgen/antipodal.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <numbers>
+
+#include <gtest/gtest.h>
+
+#include "graspgen/assets.h"
+#include "mlspaces/core/error.h"
+#include "mlspaces/core/rng.h"
+#include "mlspaces/sim/mjcf_composer.h"
+
+namespace mlspaces::graspgen {
+namespace {
+
+Vec3 Col(const Mat4& t, int c) { return {t(0, c), t(1, c), t(2, c)}; }
+double Dot(const Vec3& a, const Vec3& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+Vec3 At(const Mat4& t, const Vec3& p) {
+  return {t(0, 0) * p[0] + t(0, 1) * p[1] + t(0, 2) * p[2] + t(0, 3),
+          t(1, 0) * p[0] + t(1, 1) * p[1] + t(1, 2) * p[2] + t(1, 3),
+          t(2, 0) * p[0] + t(2, 1) * p[1] + t(2, 2) * p[2] + t(2, 3)};
+}
+
+std::string Bytes(const CandidateSet& s) {
+  std::string out;
+  for (const GraspCandidate& c : s.candidates) {
+    out.append(reinterpret_cast<const char*>(c.tcp.m.data()), sizeof(double) * 16);
+    out.append(reinterpret_cast<const char*>(&c.quality), sizeof(double));
+    out.append(reinterpret_cast<const char*>(&c.depth), sizeof(double));
+  }
+  return out;
+}
+
+TEST(GraspgenAntipodalTest, CandidateSpaceMatchesTheOriginal) {
+  const CandidateParams p;
+  const std::vector<double> s = Standoffs(p), r = Rolls(p);
+  ASSERT_EQ(s.size(), 7u);
+  EXPECT_DOUBLE_EQ(s.front(), 0.101);
+  EXPECT_DOUBLE_EQ(s.back(), 0.174);
+  ASSERT_EQ(r.size(), 12u);
+  EXPECT_NEAR(r.back(), 165 * std::numbers::pi / 180, 1e-12);
+  // TCP: approach = -normal, fingers along y, origin (standoff - 0.155) out along the normal.
+  for (const Vec3& n : {Vec3{0, 0, 1}, Vec3{0, 0, -1}, Vec3{0.6, 0, 0.8}, Vec3{0, -1, 0}}) {
+    const Mat4 t = CandidateTcp({0.1, 0.2, 0.3}, n, 0.3, 0.12, 0.155);
+    for (int k = 0; k < 3; ++k) EXPECT_NEAR(Col(t, 2)[k], -n[k], 1e-12);
+    EXPECT_NEAR(t(0, 3), 0.1 - 0.035 * n[0], 1e-12);
+    EXPECT_NEAR(t(2, 3), 0.3 - 0.035 * n[2], 1e-12);
+    EXPECT_NEAR(Dot(Col(t, 0), Col(t, 1)), 0, 1e-12);
+    EXPECT_NEAR(Dot(Col(t, 1), Col(t, 1)), 1, 1e-12);
+    // Roll turns the finger axis about the approach by the same angle.
+    const Mat4 t2 = CandidateTcp({0.1, 0.2, 0.3}, n, 0.3 + 0.5, 0.12, 0.155);
+    EXPECT_NEAR(Dot(Col(t, 1), Col(t2, 1)), std::cos(0.5), 1e-12);
+  }
+  CandidateParams bad;
+  bad.standoff_density = 0;
+  EXPECT_THROW(Standoffs(bad), Error);
+  bad = {};
+  bad.roll_step_deg = -1;
+  EXPECT_THROW(Rolls(bad), Error);
+  const GripperProxy g = FrankaDroidGripperProxy();
+  EXPECT_EQ(g.ray_levels.size(), 20u);
+  EXPECT_NEAR(g.finger_offset, 0.0465, 1e-4);  // pads' inner faces 85 mm apart, as the 2F-85
+}
+
+// The proxy is franka_droid.xml's open gripper: every gripper geom's box (or a capsule's or
+// cylinder's bounding box) at qpos0, in the grasp_site frame, is one of the proxy's boxes.
+TEST(GraspgenAntipodalTest, GripperProxyMatchesFrankaDroidXml) {
+  const sim::ModelPtr m = sim::ComposeAndCompile(std::string(MLSPACES_SOURCE_DIR) +
+                                                 "/assets/robots/franka_droid/franka_droid.xml");
+  const sim::DataPtr d(mj_makeData(m.get()));
+  mj_kinematics(m.get(), d.get());
+  const int site = mj_name2id(m.get(), mjOBJ_SITE, "gripper/grasp_site");
+  ASSERT_GE(site, 0);
+  Rot3 sr;
+  std::copy_n(d->site_xmat + 9 * site, 9, sr.begin());
+  const Mat4 site_inv = InverseRigid(ToMat4(
+      Vec3{d->site_xpos[3 * site], d->site_xpos[3 * site + 1], d->site_xpos[3 * site + 2]}, sr));
+  const GripperProxy g = FrankaDroidGripperProxy();
+  int matched = 0;
+  for (int geom = 0; geom < m->ngeom; ++geom) {
+    const std::string name =
+        mj_id2name(m.get(), mjOBJ_GEOM, geom) ? mj_id2name(m.get(), mjOBJ_GEOM, geom) : "";
+    if (name.rfind("gripper/", 0) != 0) continue;
+    Rot3 gr;
+    std::copy_n(d->geom_xmat + 9 * geom, 9, gr.begin());
+    const Mat4 t = site_inv * ToMat4(Vec3{d->geom_xpos[3 * geom], d->geom_xpos[3 * geom + 1],
+                                          d->geom_xpos[3 * geom + 2]},
+                                     gr);
+    const double* size = m->geom_size + 3 * geom;
+    Vec3 half{size[0], size[1], size[2]};
+    if (m->geom_type[geom] == mjGEOM_CYLINDER) half = {size[0], size[0], size[1]};
+    if (m->geom_type[geom] == mjGEOM_CAPSULE) half = {size[0], size[0], size[1] + size[0]};
+    bool found = false;
+    for (const OrientedBox& b : g.boxes) {
+      bool same = true;
+      double axis = 0;  // the box's z axis is the geom's, up to sign (capsule, cylinder axes)
+      for (int k = 0; k < 3; ++k) {
+        same =
+            same && std::abs(b.center[k] - t(k, 3)) < 1e-6 && std::abs(b.half[k] - half[k]) < 1e-6;
+        axis += b.rot[3 * k + 2] * t(k, 2);
+      }
+      same = same && std::abs(std::abs(axis) - 1) < 1e-9;
+      found = found || same;
+    }
+    EXPECT_TRUE(found) << name;
+    matched += found;
+  }
+  EXPECT_EQ(matched, static_cast<int>(g.boxes.size()));
+}
+
+TEST(GraspgenAntipodalTest, BoxCandidatesStraddleTheBoxOnOppositeFaces) {
+  mlspaces::testing::TempDir dir;
+  const MeshBvh bvh(AssetCollisionMesh(testing::WriteBoxAsset(dir.path())));  // +-.02 .025 .04
+  const GripperProxy g = FrankaDroidGripperProxy();
+  CandidateParams p;
+  const CandidateSet set = GenerateCandidates(bvh, g, p, 11);
+  const size_t points = static_cast<size_t>(std::ceil(bvh.mesh().Area() / p.surface_density));
+  EXPECT_EQ(set.stats.points, points);
+  EXPECT_EQ(set.stats.raw, points * 7 * 12);
+  EXPECT_EQ(set.stats.visible, set.stats.raw);  // convex: nothing hides a point
+  EXPECT_LT(set.stats.collision_free, set.stats.visible);
+  EXPECT_EQ(set.stats.kept, set.candidates.size());
+  ASSERT_GT(set.candidates.size(), 1000u);
+  const double half[3] = {0.02, 0.025, 0.04};
+  auto inside = [&](const Vec3& q) {
+    return std::abs(q[0]) < half[0] && std::abs(q[1]) < half[1] && std::abs(q[2]) < half[2];
+  };
+  int opposite = 0;
+  for (const GraspCandidate& c : set.candidates) {
+    ASSERT_GE(c.quality, p.min_quality);
+    ASSERT_LE(c.quality, 1 + 1e-12);
+    ASSERT_GE(c.depth, 0);
+    ASSERT_LE(c.depth, 1);
+    EXPECT_FALSE(HandCollides(bvh, g, c.tcp));
+    // Both finger pads are outside the box and the closing line between them crosses it.
+    const Vec3 y = Col(c.tcp, 1);
+    bool crossed = false;
+    for (double z : g.ray_levels) {
+      const Vec3 left = At(c.tcp, {0, g.finger_offset, z}),
+                 right = At(c.tcp, {0, -g.finger_offset, z});
+      ASSERT_FALSE(inside(left));
+      ASSERT_FALSE(inside(right));
+      const auto hl = bvh.Raycast(left, {-y[0], -y[1], -y[2]}, 2 * g.finger_offset);
+      const auto hr = bvh.Raycast(right, y, 2 * g.finger_offset);
+      if (!hl || !hr) continue;
+      crossed = true;
+      const double nn = Dot(FaceNormal(bvh.mesh(), hl->face), FaceNormal(bvh.mesh(), hr->face));
+      // Good grasps (cosine > 1/sqrt 2) close on two opposite faces.
+      if (c.quality > 0.75) {
+        EXPECT_NEAR(nn, -1, 1e-9);
+      }
+    }
+    EXPECT_TRUE(crossed);
+    opposite += c.quality > 0.999;
+  }
+  EXPECT_GT(opposite, 100);  // straight across the box
+  // All three extents (4, 5 and 8 cm) fit the 85 mm opening: every face has candidates.
+  bool face_seen[6] = {};
+  for (const GraspCandidate& c : set.candidates) {
+    for (int k = 0; k < 3; ++k) {
+      if (std::abs(c.normal[k]) > 0.5) face_seen[2 * k + (c.normal[k] > 0)] = true;
+    }
+  }
+  for (bool seen : face_seen) EXPECT_TRUE(seen);
+}
+
+TEST(GraspgenAntipodalTest, DeterministicForASeedWhateverTheThreads) {
+  mlspaces::testing::TempDir dir;
+  const MeshBvh bvh(AssetCollisionMesh(testing::WriteCylinderAsset(dir.path())));
+  const GripperProxy g = FrankaDroidGripperProxy();
+  CandidateParams p;
+  p.surface_density = 1e-4;
+  p.threads = 1;
+  const std::string one = Bytes(GenerateCandidates(bvh, g, p, 5));
+  p.threads = 2;
+  const CandidateSet two = GenerateCandidates(bvh, g, p, 5);
+  EXPECT_EQ(Bytes(two), one);
+  EXPECT_NE(Bytes(GenerateCandidates(bvh, g, p, 6)), one);
+  ASSERT_GT(two.candidates.size(), 100u);
+  for (const GraspCandidate& c : two.candidates) {
+    EXPECT_GE(c.quality, 0.005);
+    EXPECT_LE(c.quality, 1 + 1e-12);
+  }
+}
+
+TEST(GraspgenAntipodalTest, CylinderSideGraspsCloseAcrossTheAxis) {
+  mlspaces::testing::TempDir dir;
+  const MeshBvh bvh(AssetCollisionMesh(testing::WriteCylinderAsset(dir.path())));
+  CandidateParams p;
+  p.surface_density = 1e-4;
+  const CandidateSet set = GenerateCandidates(bvh, FrankaDroidGripperProxy(), p, 3);
+  // The axis is the body's y (a child body turned about x, at z 0.01). Grasps from the side
+  // with fingers across the axis are good; with fingers along the 10 cm axis, too long to fit.
+  int across = 0;
+  for (const GraspCandidate& c : set.candidates) {
+    const Vec3 y = Col(c.tcp, 1);
+    if (std::abs(c.normal[1]) < 0.1) {
+      EXPECT_LT(std::abs(y[1]), 0.9) << "fingers along the 10 cm axis cannot close on it";
+      across += std::abs(y[1]) < 0.1 && c.quality > 0.9;
+    }
+  }
+  EXPECT_GT(across, 20);
+}
+
+TEST(GraspgenAntipodalTest, LBracketGetsCandidatesOnBothLegs) {
+  mlspaces::testing::TempDir dir;
+  const MeshBvh bvh(AssetCollisionMesh(testing::WriteLBracketAsset(dir.path())));
+  CandidateParams p;
+  const CandidateSet set = GenerateCandidates(bvh, FrankaDroidGripperProxy(), p, 9);
+  EXPECT_EQ(set.stats.points, static_cast<size_t>(std::ceil(0.01275 / 2.5e-5)));
+  EXPECT_EQ(set.stats.raw, set.stats.points * 84);
+  int foot = 0, wall = 0;  // fingers closing across the foot's / the wall's 15 mm thickness
+  for (const GraspCandidate& c : set.candidates) {
+    const Vec3 y = Col(c.tcp, 1);
+    if (c.quality > 0.99 && std::abs(y[2]) > 0.99 && c.point[0] > 0.03) ++foot;
+    if (c.quality > 0.99 && std::abs(y[0]) > 0.99 && c.point[2] > 0.03) ++wall;
+  }
+  EXPECT_GT(foot, 20);
+  EXPECT_GT(wall, 20);
+}
+
+TEST(GraspgenAntipodalTest, UChannelVisibilityRemovesHiddenApproaches) {
+  mlspaces::testing::TempDir dir;
+  const MeshBvh bvh(
+      AssetCollisionMesh(testing::WriteObjAsset(dir.path(), "channel", testing::UChannelObj())));
+  CandidateParams p;
+  p.surface_density = 1e-4;
+  const CandidateSet set = GenerateCandidates(bvh, FrankaDroidGripperProxy(), p, 4);
+  // The inner wall faces (x = 0.015 facing +x, x = 0.065 facing -x, above the floor) see the
+  // other wall 0.05 m away, nearer than the smallest standoff: all their candidates go.
+  size_t inner = 0;
+  const SurfaceSamples s = SampleSurface(bvh.mesh(), p.surface_density, 4);
+  for (size_t i = 0; i < s.points.size(); ++i) {
+    const Vec3 &q = s.points[i], &n = s.normals[i];
+    inner += (std::abs(q[0] - 0.015) < 1e-6 && n[0] > 0.5) ||
+             (std::abs(q[0] - 0.065) < 1e-6 && n[0] < -0.5);
+  }
+  ASSERT_GT(inner, 10u);
+  EXPECT_EQ(set.stats.visible, set.stats.raw - inner * 84);
+  for (const GraspCandidate& c : set.candidates) {
+    EXPECT_FALSE(std::abs(c.normal[0]) > 0.5 && c.point[0] > 0.01 && c.point[0] < 0.07)
+        << "a candidate on an inner wall";
+  }
+  EXPECT_GT(set.candidates.size(), 100u);
+}
+
+}  // namespace
+}  // namespace mlspaces::graspgen

@@ -13,6 +13,7 @@
 #include "mlspaces/core/error.h"
 #include "mlspaces/core/rng.h"
 #include "mlspaces/core/yaml_archive.h"
+#include "mlspaces/datagen/env.h"
 #include "mlspaces/datagen/run.h"
 #include "mlspaces/library/asset_index.h"
 #include "mlspaces/library/scene_metadata.h"
@@ -185,6 +186,16 @@ ExperimentConfig DataFields(const ExperimentConfig& config, bool paths_by_conten
   MapYamlPaths(data, [&run_folder, paths_by_content](const fs::path& p) {
     return fs::path(paths_by_content ? PathDigest(p, run_folder) : "<path>");
   });
+  // The robot by what its files hold too (robot.yaml and its MJCF, RobotDescription::hash):
+  // a robot found by name is no path above. A robot that does not load is left to the run,
+  // which reports it.
+  if (paths_by_content) {
+    try {
+      const RobotSpec robot =
+          RobotSpecFromConfig(config.robot_config, {}, config.libraries.assets_dir);
+      data.robot_config.name += " (robot.yaml " + robot.description_hash + ")";
+    } catch (const Error&) {}
+  }
   return data;
 }
 

@@ -2,12 +2,14 @@
 // the robot changed, through workers, resume, shards and merge, cameras and validate-dataset;
 // the robot in each episode's provenance; the three base kinds; bad robot descriptions.
 #include <filesystem>
+#include <fstream>
 #include <string>
 #include <vector>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "mlspaces/datagen/config.h"
 #include "mlspaces/robots/robot_spec.h"
 #include "test_util.h"
 
@@ -132,6 +134,20 @@ fs::path FrankaWithBase(const fs::path& dir, const std::string& base) {
   text.replace(text.find(old), old.size(), base);
   testing::WriteText(dir / "robot.yaml", text);
   return dir;
+}
+
+TEST(AnyRobotTest, TheDataHashFollowsTheRobotsFiles) {
+  testing::TempDir dir;
+  const fs::path robot = FrankaWithBase(dir / "robot", "  kind: mocap\n  body: base");
+  ExperimentConfig config;
+  config.robot_config.name = robot.string();
+  const std::string before = DataConfigHashHex(config);
+  EXPECT_EQ(DataConfigHashHex(config), before);
+  std::ofstream(robot / "franka_droid.xml", std::ios::app) << "<!-- a changed model -->\n";
+  EXPECT_NE(DataConfigHashHex(config), before);
+  // A robot found by name counts by its files as well: another robot, another hash.
+  config.robot_config.name = "xarm7";
+  EXPECT_NE(DataConfigHashHex(config), before);
 }
 
 TEST(AnyRobotTest, BaseKindsAndBadDescriptionsByPath) {

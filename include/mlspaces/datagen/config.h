@@ -580,8 +580,9 @@ MLSPACES_API std::string DataConfigHashHex(const ExperimentConfig& config);
 
 /// The fields DataConfigHashHex hashes: `config` with output_dir, log_level, num_workers,
 /// profile and libraries.assets_dir reset to their defaults; with `paths_by_content` every
-/// other path replaced by what it holds (as DataConfigHashHex), else by "<path>" (what
-/// differs then is a value, never a location). @throws Error for an unreadable file.
+/// other path replaced by what it holds (as DataConfigHashHex) and the robot's description
+/// hash (robot.yaml and its MJCF) added to robot_config.name, else paths replaced by "<path>"
+/// (what differs then is a value, never a location). @throws Error for an unreadable file.
 MLSPACES_API ExperimentConfig DataFields(const ExperimentConfig& config, bool paths_by_content);
 
 }  // namespace mlspaces::datagen

@@ -65,6 +65,11 @@ void AddSearch(CLI::App& app, Action& action);
 void AddInspectRobot(CLI::App& app, Action& action);
 #endif
 
+#ifdef MLSPACES_HAVE_GRASPGEN
+/// `generate-grasps`: grasps for an asset library's objects (graspgen_generate.cc).
+void AddGenerateGrasps(CLI::App& app, Action& action);
+#endif
+
 #ifdef MLSPACES_HAVE_DATAGEN
 /// The flags that choose and adjust a datagen config, shared by `config` and `datagen`:
 /// CONFIG (a YAML file, or a registered config name) [--set KEY=VALUE]... [--seed S]

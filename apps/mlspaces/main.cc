@@ -46,6 +46,9 @@ int Run(int argc, char** argv) {
 #ifdef MLSPACES_HAVE_ROBOTS
   cli::AddInspectRobot(app, action);
 #endif
+#ifdef MLSPACES_HAVE_GRASPGEN
+  cli::AddGenerateGrasps(app, action);
+#endif
 #ifdef MLSPACES_HAVE_DATAGEN
   cli::AddConfig(app, action);
   cli::AddDatagen(app, action);

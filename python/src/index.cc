@@ -19,8 +19,8 @@ namespace mlspaces::python {
 
 namespace {
 
-/// Runs `command` (index-assets or index-grasps) on `args` as the CLI does, with `prog` as
-/// the name in --help; returns the exit code (0 ok, 1 error, 2 usage error). Output and
+/// Runs `command` (index-assets, index-grasps or generate-grasps) on `args` as the CLI does, with
+/// `prog` as the name in --help; returns the exit code (0 ok, 1 error, 2 usage error). Output and
 /// error lines go to the process's stdout and stderr.
 int RunIndexCommand(const std::string& command, const std::string& prog,
                     std::vector<std::string> args) {
@@ -31,6 +31,10 @@ int RunIndexCommand(const std::string& command, const std::string& prog,
     cli::AddIndexAssets(app, action);
   } else if (command == "index-grasps") {
     cli::AddIndexGrasps(app, action);
+#ifdef MLSPACES_HAVE_GRASPGEN
+  } else if (command == "generate-grasps") {
+    cli::AddGenerateGrasps(app, action);
+#endif
   } else {
     throw UsageError("unknown index command '" + command + "'");
   }
@@ -60,7 +64,8 @@ void BindIndex(nb::module_& m) {
         return RunIndexCommand(command, prog, std::move(args));
       },
       nb::arg("command"), nb::arg("prog"), nb::arg("args"),
-      "Runs `mlspaces index-assets` / `index-grasps` with `args` (argv after the command); "
+      "Runs `mlspaces index-assets` / `index-grasps` / `generate-grasps` with `args` (argv after "
+      "the command); "
       "prints as the CLI does and returns its exit code.");
 }
 

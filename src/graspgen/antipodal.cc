@@ -1,6 +1,7 @@
 // Systematic antipodal candidates (include/mlspaces/graspgen/antipodal.h).
 #include "mlspaces/graspgen/antipodal.h"
 
+#include <array>
 #include <cmath>
 #include <numbers>
 
@@ -103,15 +104,20 @@ Mat4 CandidateTcp(const Vec3& p, const Vec3& n, double roll, double standoff, do
   return t * RotZ(roll + std::numbers::pi / 2);
 }
 
-std::pair<double, double> AntipodalQuality(const MeshBvh& bvh, const GripperProxy& g,
-                                           const Mat4& tcp) {
+namespace {
+
+// The nearest hit of each finger's closing rays: 0 the +y finger (closing along -y), 1 the -y
+// finger; level -1 when a finger's rays hit nothing within 2 * finger_offset.
+struct FingerHit {
+  double t = 1e300;
+  int level = -1;
+  RayHit hit;
+};
+
+std::array<FingerHit, 2> ClosingHits(const MeshBvh& bvh, const GripperProxy& g, const Mat4& tcp) {
   const Vec3 y = Column(tcp, 1);
   const double w = g.finger_offset;
-  struct Side {
-    double t = 1e300;
-    int level = -1;
-    RayHit hit;
-  } side[2];  // 0: the +y finger (closing along -y), 1: the -y finger
+  std::array<FingerHit, 2> side;
   for (size_t k = 0; k < g.ray_levels.size(); ++k) {
     for (int s = 0; s < 2; ++s) {
       const double sign = s == 0 ? 1.0 : -1.0;
@@ -123,6 +129,14 @@ std::pair<double, double> AntipodalQuality(const MeshBvh& bvh, const GripperProx
       }
     }
   }
+  return side;
+}
+
+}  // namespace
+
+std::pair<double, double> AntipodalQuality(const MeshBvh& bvh, const GripperProxy& g,
+                                           const Mat4& tcp) {
+  const std::array<FingerHit, 2> side = ClosingHits(bvh, g, tcp);
   if (side[0].level < 0 || side[1].level < 0) return {0.0, 0.0};
   const Vec3 &cl = side[0].hit.point, &cr = side[1].hit.point;
   Vec3 u{cr[0] - cl[0], cr[1] - cl[1], cr[2] - cl[2]};
@@ -137,6 +151,17 @@ std::pair<double, double> AntipodalQuality(const MeshBvh& bvh, const GripperProx
                            ? 0.5 * (side[0].level + side[1].level) / (g.ray_levels.size() - 1)
                            : 0.0;
   return {std::min(ql, qr), depth};
+}
+
+Mat4 CenteredTcp(const MeshBvh& bvh, const GripperProxy& g, const Mat4& tcp) {
+  const std::array<FingerHit, 2> side = ClosingHits(bvh, g, tcp);
+  if (side[0].level < 0 || side[1].level < 0) return tcp;
+  // Moving the hand by -delta along y shortens the +y finger's gap by delta and lengthens the
+  // other's: equal gaps at delta = (t0 - t1) / 2.
+  const double delta = 0.5 * (side[0].t - side[1].t);
+  Mat4 out = tcp;
+  for (int r = 0; r < 3; ++r) out(r, 3) -= delta * tcp(r, 1);
+  return out;
 }
 
 bool HandCollides(const MeshBvh& bvh, const GripperProxy& g, const Mat4& tcp) {
@@ -157,7 +182,8 @@ bool HandCollides(const MeshBvh& bvh, const GripperProxy& g, const Mat4& tcp) {
 }
 
 CandidateSet GenerateCandidates(const MeshBvh& bvh, const GripperProxy& g,
-                                const CandidateParams& params, uint64_t seed) {
+                                const CandidateParams& params, uint64_t seed,
+                                const MeshBvh* obstacles) {
   const SurfaceSamples samples = SampleSurface(bvh.mesh(), params.surface_density, seed);
   const std::vector<double> standoffs = Standoffs(params), rolls = Rolls(params);
   const double smax = *std::max_element(standoffs.begin(), standoffs.end());
@@ -189,6 +215,7 @@ CandidateSet GenerateCandidates(const MeshBvh& bvh, const GripperProxy& g,
               ++r.stats.visible;
               const Mat4 tcp = CandidateTcp(p, n, roll, s, params.tcp_offset);
               if (HandCollides(bvh, g, tcp)) continue;
+              if (obstacles != nullptr && HandCollides(*obstacles, g, tcp)) continue;
               ++r.stats.collision_free;
               const auto [q, depth] = AntipodalQuality(bvh, g, tcp);
               if (q < params.min_quality) continue;

@@ -137,8 +137,21 @@ TriMesh ValidatedMesh(TriMesh mesh, const std::string& source) {
   return mesh;
 }
 
-TriMesh CollisionMesh(const mjModel* m, int body, const std::string& source) {
+std::vector<int> CollisionGeoms(const mjModel* m, int body) {
+  std::vector<int> out;
+  for (int g = 0; g < m->ngeom; ++g) {
+    if (m->geom_contype[g] == 0 && m->geom_conaffinity[g] == 0) continue;
+    int b = m->geom_bodyid[g];
+    while (b != body && b != 0) b = m->body_parentid[b];
+    if (b == body) out.push_back(g);
+  }
+  return out;
+}
+
+TriMesh GeomsMesh(const mjModel* m, const std::vector<int>& geoms, int body,
+                  const std::string& source) {
   if (body < 0 || body >= m->nbody) throw Error("no body " + std::to_string(body), source);
+  if (geoms.empty()) throw Error("no geoms to mesh", source);
   const sim::DataPtr data(mj_makeData(m));
   mjData* d = data.get();
   mj_kinematics(m, d);
@@ -150,11 +163,8 @@ TriMesh CollisionMesh(const mjModel* m, int body, const std::string& source) {
       }()));
   TriMesh out;
   std::string unsupported;
-  for (int g = 0; g < m->ngeom; ++g) {
-    if (m->geom_contype[g] == 0 && m->geom_conaffinity[g] == 0) continue;
-    int b = m->geom_bodyid[g];
-    while (b != body && b != 0) b = m->body_parentid[b];
-    if (b != body) continue;
+  for (int g : geoms) {
+    if (g < 0 || g >= m->ngeom) throw Error("no geom " + std::to_string(g), source);
     Rot3 r;
     std::copy_n(d->geom_xmat + 9 * g, 9, r.begin());
     const Mat4 t =
@@ -198,13 +208,19 @@ TriMesh CollisionMesh(const mjModel* m, int body, const std::string& source) {
                   t(2, 0) * s[0] + t(2, 1) * s[1] + t(2, 2) * s[2] + t(2, 3)};
     });
   }
-  if (out.faces.empty()) {
+  return ValidatedMesh(std::move(out), source);
+}
+
+TriMesh CollisionMesh(const mjModel* m, int body, const std::string& source) {
+  if (body < 0 || body >= m->nbody) throw Error("no body " + std::to_string(body), source);
+  const std::vector<int> geoms = CollisionGeoms(m, body);
+  if (geoms.empty()) {
     const char* name = mj_id2name(m, mjOBJ_BODY, body);
     throw Error("body " + std::string(name ? name : "#" + std::to_string(body)) +
                     " has no collision geometry (no geom with contype or conaffinity set)",
                 source);
   }
-  return ValidatedMesh(std::move(out), source);
+  return GeomsMesh(m, geoms, body, source);
 }
 
 TriMesh AssetCollisionMesh(const std::filesystem::path& asset_file, const std::string& body) {

@@ -90,12 +90,19 @@ MLSPACES_API std::pair<double, double> AntipodalQuality(const MeshBvh& bvh,
                                                         const GripperProxy& gripper,
                                                         const Mat4& tcp);
 
+/// The TCP moved along its closing axis (y) so that both fingers' closing rays meet the mesh
+/// at the same distance: both fingers then touch together instead of the first pushing the
+/// object toward the second. `tcp` itself when a finger's rays hit nothing.
+MLSPACES_API Mat4 CenteredTcp(const MeshBvh& bvh, const GripperProxy& gripper, const Mat4& tcp);
+
 /// True when an open-hand box touches the mesh at this TCP pose.
 MLSPACES_API bool HandCollides(const MeshBvh& bvh, const GripperProxy& gripper, const Mat4& tcp);
 
 /// All candidates of a mesh, filtered and scored; deterministic for (mesh, gripper, params,
 /// seed) whatever params.threads. Seed it with DeriveSeed(run_seed, {HashString(uid)}).
+/// `obstacles` (optional): the open hand must not touch that mesh either (joints.h).
 MLSPACES_API CandidateSet GenerateCandidates(const MeshBvh& bvh, const GripperProxy& gripper,
-                                             const CandidateParams& params, uint64_t seed);
+                                             const CandidateParams& params, uint64_t seed,
+                                             const MeshBvh* obstacles = nullptr);
 
 }  // namespace mlspaces::graspgen

@@ -15,7 +15,7 @@ from .. import _validate as _v
 
 
 def run_index_command(command: str, prog: str, argv: Sequence[str] | None = None) -> int:
-    """Runs ``mlspaces COMMAND ARGV...`` (``index-assets`` or ``index-grasps``) in this
+    """Runs ``mlspaces COMMAND ARGV...`` (``index-assets``, ``index-grasps`` or ``generate-grasps``) in this
     process, with ``prog`` as the program name in ``--help``; returns its exit code. Output and
     error lines go to the process's stdout and stderr, as the CLI prints them."""
     args = _v.strings(sys.argv[1:] if argv is None else argv, "argv", "run_index_command")

@@ -1,0 +1,58 @@
+// Grasp simulation internals shared by grasp_sim.cc (scene, rigid test, TestCandidates) and
+// grasp_sim_joint.cc (articulated test). Not installed.
+#pragma once
+
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <mujoco/mujoco.h>
+
+#include "mlspaces/graspgen/antipodal.h"
+#include "mlspaces/graspgen/grasp_sim.h"
+#include "mlspaces/graspgen/mesh.h"
+#include "mlspaces/sim/mujoco_handlers.h"
+
+namespace mlspaces::graspgen {
+
+struct GraspScene::Impl {
+  Mode mode = Mode::kRigid;
+  SimParams params;
+  std::string source;  // the asset file, for errors
+  sim::ModelPtr model;
+  int mocap = -1;      // mocap index of the target the hand is welded to
+  int hand_qpos = -1;  // the hand's free joint
+  int hand_dof = -1;
+  int site = -1;      // the TCP site
+  int actuator = -1;  // the gripper actuator
+  double open_ctrl = 0, closed_ctrl = 255;
+  std::vector<int> finger_dofs;  // dof addresses of the gripper's hinge joints
+  Mat4 mocap_to_tcp;             // the TCP site in the hand root frame (constant)
+  int object = -1;               // object root body (first top-level body of the asset)
+  std::vector<int> body_root;    // per body: its top-level ancestor (world: 0)
+  /// Per geom: 1 left finger, 2 right finger, 0 anything else.
+  std::vector<int> geom_side;
+  /// The open hand as boxes in the TCP frame (from the compiled hand's geom AABBs).
+  GripperProxy proxy;
+  /// The object's collision geometry (root subtree, root body frame, qpos0).
+  std::optional<MeshBvh> object_mesh;
+
+  /// Moves the mocap target so the welded hand pulls its TCP to `tcp_world`.
+  void SetTcp(mjData* d, const Mat4& tcp_world) const;
+  /// SetTcp, and puts the hand there at rest (before the first step of a test).
+  void PlaceHand(mjData* d, const Mat4& tcp_world) const;
+  /// Both-finger contact with bodies in `in_set`: bit 1 left, bit 2 right.
+  int FingerContacts(const mjData* d, const std::vector<char>& in_set) const;
+  /// Steps the gripper closed (at least a few steps, until the fingers stop, at most a cap;
+  /// sooner when `abort`, asked every 10 steps, says so). @returns the steps.
+  int64_t Close(const mjModel* m, mjData* d, const std::function<bool()>& abort = {}) const;
+  /// True when the open hand (proxy) touches the object mesh anywhere on the approach line
+  /// TCP - s z, s in [s_from, s_to] (object-root-frame TCP pose).
+  bool ApproachBlocked(const Mat4& tcp_in_root, double s_from, double s_to) const;
+};
+
+/// Rigid transform of a body / site from mjData.
+Mat4 BodyMat4(const mjData* d, int body);
+
+}  // namespace mlspaces::graspgen

@@ -36,7 +36,7 @@ struct MLSPACES_API SimParams {
   double approach_distance = 0.3;  ///< m, start of the approach behind the grasp
   double shake_amplitude = 0.1;    ///< m, per world axis
   double shake_period = 0.6;       ///< s, one at-rest-to-rest period per axis (orig.: 2 x 4 s)
-  double twist_period = 1.2;       ///< s, the 360 deg turn about the approach (original: 10 s)
+  double twist_period = 2.0;       ///< s, the 360 deg turn about the approach (original: 10 s)
   double max_slip = 0.01;          ///< m, object drift in the hand (TCP frame) that fails
   double max_slip_angle = 0.2;     ///< rad, object turn in the hand that fails
   // Articulated test

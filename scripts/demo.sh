@@ -5,7 +5,8 @@
 # package and install the red block from it (file:// remote), then generate pick
 # demonstrations with camera videos from the tutorial's datagen config, validate the dataset
 # and load it with h5py; then run the tutorial's datagen.py with `python -m mlspaces.datagen`,
-# and show a broken grasp file stopping a run before it simulates.
+# generate grasps for the red block and the example cabinet's joints, and show a broken grasp
+# file stopping a run before it simulates.
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 "$ROOT/scripts/install-deps.sh"
@@ -63,6 +64,17 @@ PY
 "$ML" datagen datagen.yaml --set robot_config.name=xarm7 --output xarm7_output --seed 0 --episodes 2
 "$ML" validate-dataset xarm7_output
 "$PY" -c "import h5py, json; f = h5py.File('xarm7_output/house_0/trajectories_batch_1_of_1.h5'); print({k: (json.loads(f[k].attrs['provenance'])['robot'], bool(f[k]['success'][-1])) for k in sorted(f)})"
+# Grasps for any mesh (docs/graspgen.md): generate the red block's grasps with the
+# franka_droid gripper (candidates on its collision geometry, each tested in MuJoCo: approach,
+# close, twist and shake, no slip), replacing the tutorial's hand-written one, and pick with
+# only those; then joint grasps for the example cabinet's drawer and door.
+mkdir -p generated && cp -r asset_library scene.xml scene_metadata.json datagen.yaml generated/
+"$ML" generate-grasps generated/asset_library --uid red_block --max-grasps 50 --overwrite -q
+"$ML" datagen generated/datagen.yaml --output generated/run --seed 0 --episodes 2 -q \
+  --set task_config.enable_rendering=false
+"$ML" validate-dataset generated/run
+"$ML" generate-grasps "$ROOT/examples/objects" --joints --max-grasps 10 -o cabinet_grasps
+"$PY" -c "import numpy as np, glob; [print(f, np.load(f)['transforms'].shape) for f in sorted(glob.glob('cabinet_grasps/*/droid/*.npz'))]"
 # The same tutorial step as MolmoSpaces users run it: datagen.py (the seed tutorial's code,
 # imports renamed to mlspaces) through the Python package the build made (build/python).
 PYTHONPATH="$ROOT/build/python" "$PY" -m mlspaces.datagen datagen:CustomAssetsDataGenConfig \

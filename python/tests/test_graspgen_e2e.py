@@ -19,7 +19,10 @@ from conftest import SOURCE_DIR
 
 CLI = os.environ.get("MLSPACES_CLI_PATH")
 MAKE_LIBRARY = SOURCE_DIR / "bench" / "graspgen" / "make_mesh_library.py"
-UIDS = ["box_small", "mug_small"]
+# box_tall, not box_small: the 4 cm cube is picked 0 times in 27 by the bench (grasps that hold
+# in zero gravity but push it away on the floor, bench/results/graspgen_bench.txt); the
+# other boxes are the ones this smoke test can rely on.
+UIDS = ["box_tall", "mug_small"]
 MAX_GRASPS = 20
 
 pytestmark = pytest.mark.skipif(not CLI, reason="needs MLSPACES_CLI_PATH (the ctest sets it)")

@@ -11,16 +11,16 @@ ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 "$ROOT/scripts/build.sh"
 ctest --test-dir "$ROOT/build" --output-on-failure -j "$(nproc)"
 
-echo "== core, robots and datagen suites under ASan + UBSan =="
+echo "== core, robots, graspgen and datagen suites under ASan + UBSan =="
 # Only the test executables of the suites run below (and what they need: the CLI, the example
 # sampler); the sim and CLI suites are not built here.
 MLSPACES_BUILD_DIR="$ROOT/build-asan" \
-  MLSPACES_BUILD_TARGETS='(core|library|resources|robots|datagen)_[a-z0-9_]+_test' \
+  MLSPACES_BUILD_TARGETS='(core|library|resources|robots|graspgen|datagen)_[a-z0-9_]+_test' \
   "$ROOT/scripts/build.sh" -DMLSPACES_SANITIZE=ON \
   -DMLSPACES_BUILD_BENCH=OFF -DMLSPACES_BUILD_SIM=ON
 ASAN_OPTIONS=detect_leaks=1:abort_on_error=0 UBSAN_OPTIONS=print_stacktrace=1 \
   LSAN_OPTIONS="suppressions=$ROOT/scripts/lsan-suppressions.txt" \
-  ctest --test-dir "$ROOT/build-asan" --output-on-failure -j "$(nproc)" -L 'core|library|resources|robots|datagen'
+  ctest --test-dir "$ROOT/build-asan" --output-on-failure -j "$(nproc)" -L 'core|library|resources|robots|graspgen|datagen'
 
 echo "== fuzz targets of the binary parsers =="
 "$ROOT/scripts/fuzz.sh" "${MLSPACES_FUZZ_SECONDS:-20}"

@@ -96,6 +96,27 @@ Mat4 RotZ(double angle) {
   return out;
 }
 
+Mat4 AxisAngle(const Vec3& a, double angle) {
+  const double c = std::cos(angle), s = std::sin(angle), t = 1 - c;
+  Mat4 r;
+  r(0, 0) = c + a[0] * a[0] * t;
+  r(0, 1) = a[0] * a[1] * t - a[2] * s;
+  r(0, 2) = a[0] * a[2] * t + a[1] * s;
+  r(1, 0) = a[1] * a[0] * t + a[2] * s;
+  r(1, 1) = c + a[1] * a[1] * t;
+  r(1, 2) = a[1] * a[2] * t - a[0] * s;
+  r(2, 0) = a[2] * a[0] * t - a[1] * s;
+  r(2, 1) = a[2] * a[1] * t + a[0] * s;
+  r(2, 2) = c + a[2] * a[2] * t;
+  return r;
+}
+
+Mat4 Translate(const Vec3& v) {
+  Mat4 t;
+  for (int k = 0; k < 3; ++k) t(k, 3) = v[k];
+  return t;
+}
+
 Mat4 InverseRigid(const Mat4& t) {
   Mat4 out;
   for (int r = 0; r < 3; ++r) {

@@ -33,30 +33,6 @@ constexpr double kSweepStep = 0.005;       // m between open-hand checks on the 
 constexpr int kSlipEvery = 10;    // steps between slip checks (contacts: at the load peaks)
 constexpr int kReturnSteps = 25;  // back at the grasp pose after each shake
 
-Mat4 Translate(const Vec3& v) {
-  Mat4 t;
-  t(0, 3) = v[0];
-  t(1, 3) = v[1];
-  t(2, 3) = v[2];
-  return t;
-}
-
-// Rotation by `angle` about the unit axis `a` (Rodrigues), as a Mat4.
-Mat4 AxisAngle(const Vec3& a, double angle) {
-  const double c = std::cos(angle), s = std::sin(angle), t = 1 - c;
-  Mat4 r;
-  r(0, 0) = c + a[0] * a[0] * t;
-  r(0, 1) = a[0] * a[1] * t - a[2] * s;
-  r(0, 2) = a[0] * a[2] * t + a[1] * s;
-  r(1, 0) = a[1] * a[0] * t + a[2] * s;
-  r(1, 1) = c + a[1] * a[1] * t;
-  r(1, 2) = a[1] * a[2] * t - a[0] * s;
-  r(2, 0) = a[2] * a[0] * t - a[1] * s;
-  r(2, 1) = a[2] * a[1] * t + a[0] * s;
-  r(2, 2) = c + a[2] * a[2] * t;
-  return r;
-}
-
 // The shake profile over one period, x in [0, 1]: peaks of +-1 at x = 1/3 and 2/3, at rest
 // (zero velocity and acceleration) at both ends, so the hand never jerks the object.
 double Shake(double x) {

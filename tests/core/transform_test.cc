@@ -67,6 +67,20 @@ TEST(TransformTest, RotZ) {
   EXPECT_NEAR(flip(1, 0), 0, 1e-15);
 }
 
+TEST(TransformTest, AxisAngleAndTranslate) {
+  // About z it is RotZ; about any unit axis the axis is fixed and the angle is kept.
+  const Mat4 z = AxisAngle({0, 0, 1}, 0.7), rz = RotZ(0.7);
+  for (int i = 0; i < 16; ++i) EXPECT_NEAR(z.m[i], rz.m[i], 1e-15) << i;
+  const double k = 1 / std::sqrt(3.0);
+  const Mat4 r = AxisAngle({k, k, k}, 2 * std::numbers::pi / 3);  // cycles x -> y -> z
+  EXPECT_NEAR(r(1, 0), 1, 1e-12);
+  EXPECT_NEAR(r(2, 1), 1, 1e-12);
+  EXPECT_NEAR(r(0, 2), 1, 1e-12);
+  const Mat4 t = Translate({1, 2, 3}) * r;
+  EXPECT_EQ(Translation(t), (Vec3{1, 2, 3}));
+  EXPECT_EQ(Rotation(t), Rotation(r));
+}
+
 TEST(TransformTest, PoseMatrixAndArray7RoundTrips) {
   const Pose pose{{0.5, -0.25, 1.5}, QuatNormalized({0.3, -0.2, 0.9, 0.1})};
   const Mat4 t = ToMat4(pose);

@@ -57,6 +57,10 @@ MLSPACES_API Quat QuatFromRotation(const Rot3& r);
 MLSPACES_API Mat4 operator*(const Mat4& a, const Mat4& b);
 /// Rotation of `angle` radians about the local z axis.
 MLSPACES_API Mat4 RotZ(double angle);
+/// Rotation of `angle` radians about the unit axis `axis` (Rodrigues).
+MLSPACES_API Mat4 AxisAngle(const Vec3& axis, double angle);
+/// The pure translation by `v`.
+MLSPACES_API Mat4 Translate(const Vec3& v);
 /// Inverse of a rigid transform.
 MLSPACES_API Mat4 InverseRigid(const Mat4& t);
 /// Position part of a transform.

@@ -1,5 +1,6 @@
 // mlspaces generate-grasps LIBRARY_DIR [--uid UID...] [--robot droid] [--joints]
-//   [--max-grasps N] [--seed S] [-j N] [--overwrite] [--dtype f2|f8] [-o DIR] [-q]:
+//   [--max-grasps N] [--seed S] [-j N] [--overwrite] [--min-quality Q] [--dtype f2|f8] [-o DIR]
+//   [-q]:
 // stable grasps for the objects of an asset library (docs/graspgen.md), written as
 // <uid>/<robot>/grasps.npz or joint_grasps_<joint>.npz, then grasps_index.json.
 #include <cstdio>
@@ -73,6 +74,9 @@ void AddGenerateGrasps(CLI::App& app, Action& action) {
       ->check(PositiveInteger());
   sub->add_flag("--overwrite", flags->options.overwrite,
                 "Regenerate objects whose grasp file exists (default: skip them)");
+  sub->add_option("--min-quality", flags->options.candidates.min_quality,
+                  "Antipodal quality a candidate needs, the cosine between each contact normal "
+                  "and the closing line (0.005, the original's; 0.9: near-perpendicular contacts)");
   sub->add_option("--dtype", flags->dtype, "f2 (float16, like the original's files) or f8")
       ->check(CLI::IsMember({"f2", "f8"}));
   sub->add_option("-o,--output", flags->output, "Grasp library folder (default: LIBRARY_DIR)");

@@ -55,7 +55,7 @@ void BindGraspgen(nb::module_& m) {
       [](const std::filesystem::path& library_dir, std::vector<std::string> uids,
          const std::string& robot, bool joints, int64_t max_grasps, uint64_t seed, int threads,
          bool overwrite, const std::string& dtype, const std::filesystem::path& output_dir,
-         bool progress) {
+         bool progress, double min_quality) {
         if (max_grasps < 1) throw UsageError("max_grasps must be at least 1");
         if (dtype != "f2" && dtype != "f8" && dtype != "float16" && dtype != "float64") {
           throw UsageError("dtype must be 'f2' (float16) or 'f8' (float64), got '" + dtype + "'");
@@ -72,6 +72,7 @@ void BindGraspgen(nb::module_& m) {
         o.overwrite = overwrite;
         o.float64 = dtype == "f8" || dtype == "float64";
         o.progress = progress;
+        o.candidates.min_quality = min_quality;
         graspgen::GenerateReport report;
         {
           nb::gil_scoped_release no_gil;
@@ -88,7 +89,7 @@ void BindGraspgen(nb::module_& m) {
       nb::arg("robot") = "droid", nb::arg("joints") = false, nb::arg("max_grasps") = 1000,
       nb::arg("seed") = 0, nb::arg("threads") = 0, nb::arg("overwrite") = false,
       nb::arg("dtype") = "f2", nb::arg("output_dir") = std::filesystem::path(),
-      nb::arg("progress") = true,
+      nb::arg("progress") = true, nb::arg("min_quality") = graspgen::CandidateParams{}.min_quality,
       "The engine of mlspaces.grasp_generation.generate_grasps: GenerateGrasps' report as "
       "{'objects': [dict per object or joint], 'index': path or None}");
 }

@@ -74,6 +74,8 @@ def test_errors(library) -> None:
         gg.generate_grasps(library, robot="ur5", progress=False)
     with pytest.raises(TypeError):
         gg.generate_grasps(library, max_grasps=2.5, progress=False)
+    with pytest.raises(UsageError, match="min_quality"):
+        gg.generate_grasps(library, min_quality=-0.1, progress=False)
     with pytest.raises(MlspacesError, match="not found"):
         gg.generate_grasps(library / "missing", progress=False)
 

@@ -379,6 +379,10 @@ std::string RobotForGraspLibrary(const std::string& robot) {
 GenerateReport GenerateGrasps(const GenerateOptions& options,
                               const std::function<void(const ObjectReport&)>& on_object) {
   if (options.max_grasps == 0) throw UsageError("max_grasps must be at least 1");
+  const double q = options.candidates.min_quality;
+  if (!(q >= 0 && q <= 1)) {
+    throw UsageError("min_quality must be in [0, 1] (a cosine), got " + std::to_string(q));
+  }
   if (options.robot.empty() || options.robot.find('/') != std::string::npos) {
     throw UsageError("robot must be a folder name, got '" + options.robot + "'");
   }

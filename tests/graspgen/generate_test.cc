@@ -227,6 +227,9 @@ TEST(GraspgenGenerateTest, CommandLine) {
   EXPECT_EQ(r.exit_code, 2);
   r = RunCli({"generate-grasps", lib.string(), "--dtype", "f4"});
   EXPECT_EQ(r.exit_code, 2);
+  r = RunCli({"generate-grasps", lib.string(), "--min-quality", "1.5"});
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_THAT(r.err, HasSubstr("min_quality must be in [0, 1]"));
   r = RunCli({"generate-grasps", lib.string(), "--uid", "nope"});
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_THAT(r.err, HasSubstr("nope"));

@@ -51,8 +51,12 @@ def generate_grasps(
     dtype: str = "f2",
     output_dir: str | os.PathLike[str] | None = None,
     progress: bool = True,
+    min_quality: float = 0.005,
 ) -> GraspGenerationReport:
     """Generates grasps for the objects of ``library_dir`` (all, or ``uids``).
+
+    ``min_quality`` is the antipodal quality a candidate needs (the cosine between each contact
+    normal and the closing line; 0.005 is the original's, 0.9 keeps near-perpendicular contacts).
 
     Raises ``mlspaces.errors.MlspacesError`` for a missing library or an unknown UID and
     ``ValueError`` (``MlspacesUsageError``) for bad arguments; an object that fails is reported
@@ -74,5 +78,6 @@ def generate_grasps(
         dtype=dtype,
         output_dir=os.fspath(output_dir) if output_dir is not None else "",
         progress=progress,
+        min_quality=float(min_quality),
     )
     return GraspGenerationReport(report)

@@ -13,6 +13,7 @@
 #include "grasp_sim_internal.h"
 #include "mlspaces/core/error.h"
 #include "mlspaces/core/parallel.h"
+#include "mlspaces/core/se3.h"
 #include "mlspaces/sim/mj_pose.h"
 #include "mlspaces/sim/mjcf_composer.h"
 
@@ -40,12 +41,9 @@ double Shake(double x) {
   return (std::sin(u) - 0.5 * std::sin(2 * u)) / 1.299038105676658;
 }
 
-// Translation distance and rotation angle between two rigid transforms.
+// Translation distance and rotation angle between two rigid transforms (core/se3.h).
 std::pair<double, double> PoseDelta(const Mat4& a, const Mat4& b) {
-  const Mat4 d = InverseRigid(a) * b;
-  const double dist = std::hypot(d(0, 3), d(1, 3), d(2, 3));
-  const double c = std::clamp((d(0, 0) + d(1, 1) + d(2, 2) - 1) / 2, -1.0, 1.0);
-  return {dist, std::acos(c)};
+  return {TranslationDistance(a, b), RotationAngle(a, b)};
 }
 
 std::string Mm(double m) {
@@ -128,22 +126,7 @@ bool GraspScene::Impl::ApproachBlocked(const Mat4& tcp_in_root, double s_from, d
     const double back = s_from + (s_to - s_from) * i / n;
     Mat4 t = tcp_in_root;
     for (int k = 0; k < 3; ++k) t(k, 3) -= back * z[k];
-    const Rot3 r = Rotation(t);
-    const Vec3 p = Translation(t);
-    for (const OrientedBox& b : proxy.boxes) {
-      OrientedBox w;
-      w.half = b.half;
-      for (int row = 0; row < 3; ++row) {
-        w.center[row] = p[row];
-        for (int k = 0; k < 3; ++k) {
-          w.center[row] += r[3 * row + k] * b.center[k];
-          double v = 0;
-          for (int j = 0; j < 3; ++j) v += r[3 * row + j] * b.rot[3 * j + k];
-          w.rot[3 * row + k] = v;
-        }
-      }
-      if (object_mesh->Overlaps(w)) return true;
-    }
+    if (HandCollides(*object_mesh, proxy, t)) return true;
   }
   return false;
 }

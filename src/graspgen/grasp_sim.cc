@@ -195,6 +195,7 @@ GraspScene::GraspScene(const std::filesystem::path& asset_file, const robots::Ro
   const double solimp[5] = {0.99, 0.99, 0.001, 0.5, 2};
   for (int i = 0; i < 5; ++i) weld->solimp[i] = solimp[i];
   composer.Attach(robot.xml, kHandBody, kHandPrefix, Pose{}, robot.gripper_body);
+  if (mode == Mode::kRigid) AddSupport(spec);
   s.model = composer.Compile();
   const mjModel* m = s.model.get();
 
@@ -273,8 +274,14 @@ GraspScene::GraspScene(const std::filesystem::path& asset_file, const robots::Ro
     s.proxy.boxes.push_back(b);
   }
   s.proxy.name = robot.name;
-  if (s.object > 0) s.object_mesh.emplace(CollisionMesh(m, s.object, s.source));
   if (s.object < 0) throw Error("the asset has no body", s.source);
+  s.object_mesh.emplace(CollisionMesh(m, s.object, s.source));
+  if (mode == Mode::kRigid) {
+    s.support_mocap = m->body_mocapid[mj_name2id(m, mjOBJ_BODY, "graspgen_support")];
+    s.support_model = SupportModel(m);
+    s.support_z = INFINITY;
+    for (const Vec3& v : s.object_mesh->mesh().vertices) s.support_z = std::min(s.support_z, v[2]);
+  }
 }
 
 GraspScene::~GraspScene() = default;
@@ -397,6 +404,9 @@ SimOutcome GraspScene::TestRigid(const Mat4& tcp, mjData* data) const {
         reason = run.Check(axes[axis], false);
       }
     }
+  }
+  if (reason.empty() && s.params.support_test && SupportClear(out.tcp)) {
+    reason = s.TestOnSupport(out.tcp, data, run.steps);
   }
   out.steps = run.steps;
   out.reason = reason;

@@ -37,6 +37,12 @@ struct GraspScene::Impl {
   GripperProxy proxy;
   /// The object's collision geometry (root subtree, root body frame, qpos0).
   std::optional<MeshBvh> object_mesh;
+  /// The support under the object (rigid scenes): a mocap box whose top face is the plane
+  /// z = support_z of the object root frame during the support test, far away otherwise.
+  int support_mocap = -1;
+  double support_z = 0;
+  /// `model` with the data engine's physics (SupportModel), for the support test.
+  sim::ModelPtr support_model;
 
   /// Moves the mocap target so the welded hand pulls its TCP to `tcp_world`.
   void SetTcp(mjData* d, const Mat4& tcp_world) const;
@@ -50,7 +56,23 @@ struct GraspScene::Impl {
   /// True when the open hand (proxy) touches the object mesh anywhere on the approach line
   /// TCP - s z, s in [s_from, s_to] (object-root-frame TCP pose).
   bool ApproachBlocked(const Mat4& tcp_in_root, double s_from, double s_to) const;
+  /// The same along the object root frame's -z (a vertical descent onto the grasp).
+  bool DescentBlocked(const Mat4& tcp_in_root, double s_from, double s_to) const;
+  /// The pick from the support of a grasp that passed the zero-gravity test: "" when the
+  /// object is lifted by lift_height held by both fingers without slipping, else the reason.
+  /// Adds its mj_step calls to `steps`.
+  std::string TestOnSupport(const Mat4& tcp_in_root, mjData* d, int64_t& steps) const;
 };
+
+/// The support mocap body's half thickness (m) and its resting place between tests.
+inline constexpr double kSupportHalfThickness = 0.01;
+inline constexpr double kSupportAway = -100;
+/// Adds the support body to a rigid scene's spec (before compiling).
+void AddSupport(mjSpec* spec);
+/// A copy of a rigid scene's model with MolmoSpaces' data-engine physics (the scene's option:
+/// implicit, default pyramidal cone, impratio 1, no no-slip; multi-contact CCD kept), where the
+/// grasps are used. Same sizes, so the scene's mjData serve it too.
+sim::ModelPtr SupportModel(const mjModel* m);
 
 /// Rigid transform of a body / site from mjData.
 Mat4 BodyMat4(const mjData* d, int body);

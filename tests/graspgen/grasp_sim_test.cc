@@ -170,7 +170,8 @@ TEST(GraspgenSimTest, SceneHoldsTheGripperWithBothFingerSides) {
   const GraspScene scene(WriteFreeBox(dir.path(), "box", {0.02, 0.025, 0.03}), Droid(),
                          GraspScene::Mode::kRigid, SimParams{});
   const mjModel* m = scene.model();
-  EXPECT_EQ(m->nmocap, 1);
+  EXPECT_EQ(m->nmocap, 2);  // the hand's target and the support (rigid scenes only)
+  EXPECT_GE(mj_name2id(m, mjOBJ_BODY, "graspgen_support"), 0);
   EXPECT_EQ(m->opt.gravity[2], 0);
   EXPECT_EQ(m->opt.timestep, 0.002);
   EXPECT_GE(mj_name2id(m, mjOBJ_ACTUATOR, "graspgen_hand/gripper/fingers_actuator"), 0);
@@ -185,6 +186,7 @@ TEST(GraspgenSimTest, SceneHoldsTheGripperWithBothFingerSides) {
   for (int j = 0; j < fixed.model()->njnt; ++j)
     free_joints += fixed.model()->jnt_type[j] == mjJNT_FREE;
   EXPECT_EQ(free_joints, 1);
+  EXPECT_EQ(fixed.model()->nmocap, 1);
   EXPECT_EQ(mlspaces::testing::Slurp(cabinet), before);
 }
 
@@ -251,6 +253,42 @@ TEST(GraspgenSimTest, ASlipperyObjectSlipsOutOfTheHand) {
   const SimOutcome o = scene.TestRigid(good, data.get());
   EXPECT_FALSE(o.success);
   EXPECT_EQ(ReasonClass(o.reason), "slipped in the hand") << o.reason;
+}
+
+TEST(GraspgenSimTest, GraspsThatClearTheSupportArePickedFromIt) {
+  mlspaces::testing::TempDir dir;
+  // A 40 x 50 x 60 mm box whose body origin is at its bottom face: the support is z = 0.
+  const auto path = dir.path() / "bottom" / "bottom.xml";
+  mlspaces::testing::WriteText(
+      path,
+      "<mujoco model=\"bottom\"><worldbody><body name=\"bottom\"><freejoint/>"
+      "<geom type=\"box\" size=\"0.02 0.025 0.03\" pos=\"0 0 0.03\"/></body></worldbody>"
+      "</mujoco>\n");
+  SimParams on;
+  SimParams off;
+  off.support_test = false;
+  const GraspScene scene(path, Droid(), GraspScene::Mode::kRigid, on);
+  const GraspScene zero_g(path, Droid(), GraspScene::Mode::kRigid, off);
+  // Top-down across the 40 mm side, the pads' centre 45 mm up: clear of the support.
+  const Mat4 high = Tcp({0, 0, 0.045}, {0, 1, 0}, {1, 0, 0}, {0, 0, -1});
+  EXPECT_TRUE(scene.AboveSupport(high));
+  EXPECT_TRUE(scene.SupportClear(high));
+  // The same 10 mm up: the fingertips would be in the support.
+  EXPECT_FALSE(scene.AboveSupport(Tcp({0, 0, 0.01}, {0, 1, 0}, {1, 0, 0}, {0, 0, -1})));
+  // From below (+z approach): the hand is under the support.
+  EXPECT_FALSE(scene.AboveSupport(Tcp({0, 0, 0.03}, {0, 1, 0}, {-1, 0, 0}, {0, 0, 1})));
+  // From the side with the fingers vertical: the lower finger is under the support.
+  EXPECT_FALSE(scene.SupportClear(Tcp({0, 0, 0.03}, {0, -1, 0}, {0, 0, 1}, {-1, 0, 0})));
+
+  // The high grasp passes both ways; with the support test it is also lifted from the
+  // support under gravity (more steps), and the measured pose is the zero-gravity one.
+  sim::DataPtr data = sim::MakeData(scene.model());
+  const SimOutcome picked = scene.TestRigid(high, data.get());
+  const SimOutcome floating = zero_g.TestRigid(high, data.get());
+  ASSERT_TRUE(picked.success) << picked.reason;
+  ASSERT_TRUE(floating.success) << floating.reason;
+  EXPECT_GT(picked.steps, floating.steps + 250);  // at least the 0.5 s lift
+  EXPECT_LT(Distance(picked.tcp, floating.tcp), 1e-9);
 }
 
 TEST(GraspgenSimTest, MugGraspsAreDeterministicWhateverTheThreads) {

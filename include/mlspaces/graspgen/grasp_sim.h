@@ -39,6 +39,11 @@ struct MLSPACES_API SimParams {
   double twist_period = 2.0;       ///< s, the 360 deg turn about the approach (original: 10 s)
   double max_slip = 0.01;          ///< m, object drift in the hand (TCP frame) that fails
   double max_slip_angle = 0.2;     ///< rad, object turn in the hand that fails
+  /// Rigid grasps whose open hand clears the object's support plane (the plane under its
+  /// lowest point, perpendicular to its body z) are also tested as a pick from that support:
+  /// gravity on, vertical descent, close, lift by lift_height (docs/graspgen.md).
+  bool support_test = true;
+  double lift_height = 0.1;  ///< m, along the object's body z
   // Articulated test
   double joint_approach_distance = 0.6;    ///< m
   double max_approach_disturbance = 0.01;  ///< rad or m the approach may move the joint
@@ -97,6 +102,12 @@ class MLSPACES_API GraspScene {
   /// Rigid test of one candidate (TCP pose in the object body frame) on `data` (an mjData of
   /// model(), reset here).
   SimOutcome TestRigid(const Mat4& tcp, mjData* data) const;
+  /// True when the open hand at `tcp` (object body frame) clears the object's support plane
+  /// (the plane under its lowest point, perpendicular to its body z; rigid scenes).
+  bool AboveSupport(const Mat4& tcp) const;
+  /// AboveSupport, and the hand's vertical descent onto `tcp` does not touch the object: the
+  /// grasps the support test (SimParams::support_test) tries.
+  bool SupportClear(const Mat4& tcp) const;
   /// Articulated test of one candidate (TCP in the joint body's frame) for `target`.
   SimOutcome TestJoint(const JointTarget& target, const Mat4& tcp, mjData* data) const;
 

@@ -196,6 +196,44 @@ class Runner {
     for (GraspCandidate& c : set->candidates) c.tcp = CenteredTcp(bvh, gripper_, c.tcp);
   }
 
+  // Keeps at least min_support_fraction of the kept grasps usable from the object's support
+  // (SupportClear): when the covering order kept fewer, the untested candidates whose open
+  // hand clears the support are tested in order, and their successes replace the last kept
+  // grasps that do not clear it. `run` covers a prefix of `order`.
+  template <typename Progress>
+  void EnsureSupportGrasps(const GraspScene& scene, const CandidateSet& set,
+                           const std::vector<size_t>& order, SimRun* run,
+                           const Progress& progress) const {
+    const size_t kept = run->accepted.size();
+    const size_t want = std::min(
+        kept, std::max<size_t>(1, static_cast<size_t>(std::ceil(options_.min_support_fraction *
+                                                                static_cast<double>(kept)))));
+    std::vector<char> clear(kept);
+    size_t have = 0;
+    for (size_t i = 0; i < kept; ++i) have += clear[i] = scene.SupportClear(run->poses[i]);
+    if (have >= want || run->tested >= order.size()) return;
+    std::vector<size_t> rest;
+    for (size_t k = run->tested; k < order.size(); ++k) {
+      if (scene.AboveSupport(set.candidates[order[k]].tcp)) rest.push_back(order[k]);
+    }
+    if (rest.empty()) return;
+    SimRun more = TestCandidates(scene, set.candidates, rest, want - have, nullptr, sim_,
+                                 progress(run->tested, kept));
+    run->tested += more.tested;
+    run->steps += more.steps;
+    for (const auto& [reason, count] : more.failures) run->failures[reason] += count;
+    // Drop the last kept grasps that do not clear the support, one per new grasp.
+    size_t drop = more.accepted.size();
+    for (size_t i = kept; i-- > 0 && drop > 0;) {
+      if (clear[i]) continue;
+      run->accepted.erase(run->accepted.begin() + static_cast<ptrdiff_t>(i));
+      run->poses.erase(run->poses.begin() + static_cast<ptrdiff_t>(i));
+      --drop;
+    }
+    run->accepted.insert(run->accepted.end(), more.accepted.begin(), more.accepted.end());
+    run->poses.insert(run->poses.end(), more.poses.begin(), more.poses.end());
+  }
+
   // Orders, simulates and writes one candidate set; fills the counts of `report`.
   void TestAndWrite(const GraspScene& scene, const CandidateSet& set, const JointTarget* target,
                     const TriMesh& mesh, uint64_t seed, ObjectReport* report) {
@@ -225,6 +263,9 @@ class Runner {
       run.tested += rest.tested;
       run.steps += rest.steps;
       for (const auto& [reason, count] : rest.failures) run.failures[reason] += count;
+    }
+    if (target == nullptr && sim_.support_test && !run.accepted.empty()) {
+      EnsureSupportGrasps(scene, set, order, &run, progress);
     }
     bar.Finish();
     report->tested = run.tested;

@@ -11,6 +11,7 @@
 
 #include "assets.h"
 #include "mlspaces/core/npz.h"
+#include "mlspaces/graspgen/grasp_sim.h"
 #include "mlspaces/library/grasp_index.h"
 #include "test_util.h"
 
@@ -118,6 +119,49 @@ TEST(GraspgenGenerateTest, WritesFloat16GraspsIndexAndReasons) {
   EXPECT_EQ(index.grasp_paths.at("droid").size(), 1u);
   IndexReport ignored;
   EXPECT_EQ(Slurp(report.index), BuildGraspIndex(lib, &ignored).Serialize());
+}
+
+TEST(GraspgenGenerateTest, KeepsGraspsThatClearTheSupport) {
+  // The L-bracket lies flat: many of its grasps reach under it. Asking for all kept grasps
+  // to clear its support makes every written pose one a table allows; without the support
+  // test the covering order keeps some that do not.
+  TempDir tmp;
+  fs::path lib = WriteLibrary(tmp.path());
+  const robots::RobotSpec robot = robots::LoadRobotSpec("franka_droid");
+  const fs::path asset = lib / "bracket" / "bracket.xml";
+  const GraspScene scene(asset, robot, GraspScene::Mode::kRigid, SimParams{});
+  auto clearing = [&](const fs::path& npz) {
+    NpyArray t = NpzReader(npz).Read("transforms");
+    size_t n = 0;
+    for (size_t g = 0; g < t.shape[0]; ++g) {
+      Mat4 pose;
+      for (int r = 0; r < 4; ++r) {
+        for (int c = 0; c < 4; ++c) pose(r, c) = t.AsDouble(g * 16 + r * 4 + c);
+      }
+      n += scene.SupportClear(pose);
+    }
+    return std::pair{n, t.shape[0]};
+  };
+  GenerateOptions o = Small(lib);
+  o.uids = {"bracket"};
+  o.max_grasps = 8;
+  o.float64 = true;
+  o.output_dir = tmp.path() / "all";
+  o.min_support_fraction = 1.0;
+  GenerateReport all = GenerateGrasps(o);
+  ASSERT_EQ(all.done(), 1u) << all.objects.at(0).reason;
+  const auto [clear_all, kept_all] = clearing(all.objects.at(0).output);
+  EXPECT_EQ(kept_all, 8u);
+  EXPECT_EQ(clear_all, 8u);
+
+  o.output_dir = tmp.path() / "plain";
+  o.sim.support_test = false;
+  GenerateReport plain = GenerateGrasps(o);
+  ASSERT_EQ(plain.done(), 1u) << plain.objects.at(0).reason;
+  const auto [clear_plain, kept_plain] = clearing(plain.objects.at(0).output);
+  EXPECT_EQ(kept_plain, 8u);
+  EXPECT_LT(clear_plain, 8u);
+  EXPECT_GT(all.objects.at(0).tested, plain.objects.at(0).tested);
 }
 
 TEST(GraspgenGenerateTest, SameBytesWhateverThreadsAndResume) {

@@ -41,6 +41,11 @@ struct MLSPACES_API GenerateOptions {
   /// An object (joint) none of whose first `give_up_after` candidates in test order passes is
   /// given up (they cover the object, so the rest would fail alike).
   size_t give_up_after = 2000;
+  /// Rigid objects with the support test on: at least this fraction of the kept grasps (at
+  /// least one) clears the object's support, so a pick from a table has some; when the
+  /// covering order kept fewer, candidates whose open hand clears the support are tested
+  /// further and their successes replace the last kept others.
+  double min_support_fraction = 0.1;
   CandidateParams candidates;
   SimParams sim;
 };

@@ -5,8 +5,9 @@
 # package and install the red block from it (file:// remote), then generate pick
 # demonstrations with camera videos from the tutorial's datagen config, validate the dataset
 # and load it with h5py; then run the tutorial's datagen.py with `python -m mlspaces.datagen`,
-# generate grasps for the red block and the example cabinet's joints, and show a broken grasp
-# file stopping a run before it simulates.
+# generate grasps for the red block and the example cabinet's joints, open and close the
+# cabinet's drawer and door (examples/open_close), and show a broken grasp file stopping a run
+# before it simulates.
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 "$ROOT/scripts/install-deps.sh"
@@ -75,6 +76,25 @@ mkdir -p generated && cp -r asset_library scene.xml scene_metadata.json datagen.
 "$ML" validate-dataset generated/run
 "$ML" generate-grasps "$ROOT/examples/objects" --joints --max-grasps 10 -o cabinet_grasps
 "$PY" -c "import numpy as np, glob; [print(f, np.load(f)['transforms'].shape) for f in sorted(glob.glob('cabinet_grasps/*/droid/*.npz'))]"
+# Open and close the example cabinet's drawer or door with its joint grasps (docs/tasks.md):
+# two episodes of each task (seed 3: the drawer, then the door), cameras off, then the dataset
+# check and the recorded joint.
+"$ML" datagen "$ROOT/examples/open_close/datagen_open.yaml" --output open_output --seed 3 \
+  --episodes 2 -q --set task_config.enable_rendering=false
+"$ML" datagen "$ROOT/examples/open_close/datagen_close.yaml" --output close_output --seed 3 \
+  --episodes 2 -q --set task_config.enable_rendering=false
+"$ML" validate-dataset open_output
+"$ML" validate-dataset close_output
+"$PY" - <<'PY'
+import h5py, json
+for run in ("open_output", "close_output"):
+    f = h5py.File(run + "/house_0/trajectories_batch_1_of_1.h5", "r")
+    for k in sorted(f):
+        scene = json.loads(f[k]["obs_scene"][()])
+        print(run, k, repr(scene["task_description"]), scene["joint"]["joint_name"],
+              "opened %.2f" % f[k]["obs/extra/joint_opened_fraction"][-1],
+              "success", bool(f[k]["success"][-1]))
+PY
 # The same tutorial step as MolmoSpaces users run it: datagen.py (the seed tutorial's code,
 # imports renamed to mlspaces) through the Python package the build made (build/python).
 PYTHONPATH="$ROOT/build/python" "$PY" -m mlspaces.datagen datagen:CustomAssetsDataGenConfig \

@@ -92,6 +92,11 @@ void AddDatagen(CLI::App& app, Action& action);
 void AddValidateDataset(CLI::App& app, Action& action);
 #endif
 
+#ifdef MLSPACES_HAVE_LEROBOT
+/// `export-lerobot`: an mlspaces dataset as a LeRobot v3.0 dataset (lerobot_export.cc).
+void AddExportLeRobot(CLI::App& app, Action& action);
+#endif
+
 /// The help formatter of every command (cli_app.cc): `--episodes N`, never `N:N` or a C++
 /// type name. Set it on the top app before adding subcommands (they copy it).
 std::shared_ptr<CLI::Formatter> MakeHelpFormatter();

@@ -54,6 +54,9 @@ int Run(int argc, char** argv) {
   cli::AddDatagen(app, action);
   cli::AddValidateDataset(app, action);
 #endif
+#ifdef MLSPACES_HAVE_LEROBOT
+  cli::AddExportLeRobot(app, action);
+#endif
   if (argc >= 2 && argv[1][0] != '-') {
     std::vector<std::string> names;
     bool known = false;

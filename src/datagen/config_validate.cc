@@ -4,6 +4,7 @@
 #include <set>
 
 #include "mlspaces/core/error.h"
+#include "mlspaces/core/strings.h"
 #include "mlspaces/core/yaml_archive.h"
 #include "mlspaces/datagen/config.h"
 
@@ -91,6 +92,14 @@ void Validate(const ExperimentConfig& c, const fs::path& origin) {
   k.Pose(t.pickup_obj_start_pose, "task_config.pickup_obj_start_pose");
   k.Pose(t.pickup_obj_goal_pose, "task_config.pickup_obj_goal_pose");
   k.PositiveReal(t.succ_pos_threshold, "task_config.succ_pos_threshold");
+  // open / close (docs/tasks.md).
+  k.Check(!t.joint_name || !t.joint_name->empty(), "task_config.joint_name",
+          "must not be empty (use null to let the sampler choose)");
+  if (t.task_success_threshold) {
+    const double v = *t.task_success_threshold;
+    k.Check(std::isfinite(v) && v > 0 && v <= 1, "task_config.task_success_threshold",
+            "must be a fraction of the joint range in (0, 1], got " + std::to_string(v));
+  }
 
   const TaskSamplerConfig& s = c.task_sampler_config;
   const std::string sp = "task_sampler_config.";
@@ -129,6 +138,22 @@ void Validate(const ExperimentConfig& c, const fs::path& origin) {
     k.Check(noise->yaw_deg <= 180, sp + name + ".yaw_deg", "must be <= 180");
   }
   k.Check(std::isfinite(s.goal_offset_z), sp + "goal_offset_z", "must be finite");
+  if (s.target_initial_state_open_percentage) {
+    const double v = *s.target_initial_state_open_percentage;
+    k.Check(std::isfinite(v) && v >= 0 && v <= 1, sp + "target_initial_state_open_percentage",
+            "must be a fraction of the joint range in [0, 1], got " + std::to_string(v));
+  }
+  {
+    const bool articulated = c.task_type == TaskType::kOpen || c.task_type == TaskType::kClose;
+    const bool open_sampler = Lower(s.task_sampler_class) == "opentasksampler";
+    k.Check(!articulated || Lower(s.task_sampler_class) != "block_pickup",
+            sp + "task_sampler_class",
+            "task_type " + std::string(EnumName(c.task_type)) +
+                " needs a sampler that chooses a joint (OpenTaskSampler), not block_pickup");
+    k.Check(articulated || !open_sampler, sp + "task_sampler_class",
+            "OpenTaskSampler samples open / close tasks; task_type is " +
+                std::string(EnumName(c.task_type)));
+  }
 
   const RobotConfig& r = c.robot_config;
   k.Check(!r.name.empty(), "robot_config.name", "must not be empty");
@@ -207,6 +232,7 @@ void Validate(const ExperimentConfig& c, const fs::path& origin) {
   k.NonNegative(p.grasp_cost_weights.rot, pp + "grasp_cost_weights.rot");
   k.NonNegative(p.grasp_cost_weights.vertical, pp + "grasp_cost_weights.vertical");
   k.NonNegative(p.grasp_cost_weights.com_dist, pp + "grasp_cost_weights.com_dist");
+  k.NonNegative(p.grasp_horizontal_cost_weight, pp + "grasp_horizontal_cost_weight");
   k.Positive(p.grasp_feasibility_batch_size, pp + "grasp_feasibility_batch_size");
   k.Positive(p.grasp_feasibility_max_grasps, pp + "grasp_feasibility_max_grasps");
 }

@@ -15,10 +15,14 @@
 #include "mlspaces/core/version.h"
 #include "mlspaces/datagen/policy_step.h"
 #include "mlspaces/datagen/preflight.h"
+#include "mlspaces/datagen/tasks/open_close/planner.h"
+#include "mlspaces/datagen/tasks/open_close/sampler.h"
+#include "mlspaces/datagen/tasks/open_close/success.h"
 #include "mlspaces/datagen/tasks/pick/success.h"
 #include "mlspaces/library/license_policy.h"
 #include "mlspaces/library/scene_metadata.h"
 #include "mlspaces/sim/mj_pose.h"
+#include "mlspaces/sim/mujoco_handlers.h"
 
 namespace mlspaces::datagen {
 namespace fs = std::filesystem;
@@ -117,6 +121,15 @@ std::string LicenseRefusal(LicensePolicy policy, const std::string& uid,
   return "licence policy commercial_safe: asset " + uid + " is " + license + " (non-commercial)";
 }
 
+std::unique_ptr<PickPlanner> MakePlanner(const Env& env, const robots::RobotView& robot,
+                                         const ExperimentConfig& config) {
+  const double dt = config.policy_dt_ms / 1000.0;
+  if (IsOpenCloseTask(config.task_type)) {
+    return std::make_unique<OpenClosePlanner>(env, robot, config.policy_config, dt);
+  }
+  return std::make_unique<PickPlanner>(env, robot, config.policy_config, dt);
+}
+
 }  // namespace
 
 struct EpisodeRunner::Impl {
@@ -136,7 +149,8 @@ EpisodeRunner::EpisodeRunner(Env& env, TaskSampler& sampler, const Registry& reg
       config_(config),
       options_(std::move(options)),
       robot_(env.model(), env.robot()),
-      planner_(env, robot_, config.policy_config, config.policy_dt_ms / 1000.0),
+      planner_owned_(MakePlanner(env, robot_, config)),
+      planner_(*planner_owned_),
       impl_(std::make_unique<Impl>()) {
   substeps_ = PolicySubsteps(config);
   CheckSimTimestep(env.model(), config, env.scene_key());
@@ -181,6 +195,9 @@ struct EpisodeRunner::Episode {
   Mat4 prev_tcp;
   std::vector<double> prev_arm_qpos;
   PickSuccess verdict;
+  // open / close: the joint and its verdict (which sets verdict.success and reward).
+  int joint_id = -1;
+  std::optional<OpenCloseVerdict> joint_verdict;
   int64_t step = 0;
   bool terminated = false, truncated = false;
 };
@@ -218,6 +235,20 @@ bool EpisodeRunner::SampleTask(Episode& e) {
   }
   e.attempt.AddTiming("sample", Since(t0));
   e.object = env_.BodyId(e.task.pickup_obj_name);
+  if (IsOpenCloseTask(config_.task_type)) {
+    if (!e.task.joint) {
+      throw Error("task sampler '" + sampler_.name() + "' chose no joint; task_type " +
+                      std::string(EnumName(config_.task_type)) + " needs one (OpenTaskSampler)",
+                  "", "task_sampler_config.task_sampler_class");
+    }
+    e.joint_id = mj_name2id(env_.model(), mjOBJ_JOINT, e.task.joint->name.c_str());
+    if (e.joint_id < 0) {
+      throw Error("task sampler '" + sampler_.name() + "' chose joint '" + e.task.joint->name +
+                      "', which is not a joint of the scene",
+                  "", "joint_name");
+    }
+    e.attempt.extra["joint"] = e.task.joint->name;
+  }
   return true;
 }
 
@@ -240,7 +271,13 @@ bool EpisodeRunner::LoadGrasps(Episode& e) {
       e.attempt.message = "the pickup object is refused: " + why;
       return false;
     }
-    e.grasps = LoadPickupGrasps(registry_, e.uid, e.task.pickup_obj_name, metadata_file, e.filter);
+    if (e.task.joint) {
+      e.grasps = registry_.LoadGrasps({e.uid, e.task.joint->asset_joint, e.filter},
+                                      std::numeric_limits<size_t>::max());
+    } else {
+      e.grasps =
+          LoadPickupGrasps(registry_, e.uid, e.task.pickup_obj_name, metadata_file, e.filter);
+    }
   } catch (const Error& error) {
     e.attempt.AddTiming("grasps", Since(t0));
     e.attempt.outcome = Outcome::kNoGrasp;
@@ -254,7 +291,16 @@ bool EpisodeRunner::LoadGrasps(Episode& e) {
 
 bool EpisodeRunner::Plan(Episode& e) {
   const auto t0 = Clock::now();
-  const PlanFailure planned = planner_.Reset(env_.data(), e.object, e.grasps.poses);
+  PlanFailure planned;
+  if (e.task.joint) {
+    // The articulation must be reachable past the success threshold, with a margin.
+    const double min_fraction = std::min(1.0, OpenCloseThreshold(config_) + 0.05);
+    planned = static_cast<OpenClosePlanner&>(planner_).ResetJoint(
+        env_.data(), e.joint_id, *e.task.joint, config_.task_type == TaskType::kOpen, min_fraction,
+        e.grasps.poses);
+  } else {
+    planned = planner_.Reset(env_.data(), e.object, e.grasps.poses);
+  }
   AttemptRecord& attempt = e.attempt;
   attempt.AddTiming("plan", Since(t0));
   attempt.extra["num_grasps"] = e.grasps.poses.size();
@@ -265,6 +311,9 @@ bool EpisodeRunner::Plan(Episode& e) {
     return false;
   }
   attempt.extra["grasp_index"] = *planner_.grasp_index();
+  if (e.task.joint) {
+    attempt.extra["planned_fraction"] = static_cast<OpenClosePlanner&>(planner_).planned_fraction();
+  }
   return true;
 }
 
@@ -292,6 +341,11 @@ void EpisodeRunner::BeginRecording(Episode& e) {
     rec.extra["policy_num_retries"] = Series(DType::kInt64, {});
     rec.extra_json["task_info"].max_len = 4000;
     rec.extra_json["grasp_state_pickup_obj"].max_len = 2000;
+    if (e.task.joint) {
+      rec.extra["joint_position"] = Series(DType::kFloat32, {});
+      rec.extra["joint_opened_fraction"] = Series(DType::kFloat32, {});
+      rec.extra["joint_range"] = Series(DType::kFloat32, {2});
+    }
     rec.env_states["articulations/" + env_.robot().articulation_name] =
         Series(DType::kFloat32, {env_.robot().articulation_width});
     for (const auto& [name, joint] : e.actors) {
@@ -320,6 +374,12 @@ void EpisodeRunner::Observe(Episode& e, const PlannerAction* action) {
   const int object = e.object;
   e.verdict = EvaluatePickSuccess(m, d, object, e.start_z, env_.robot().prefix,
                                   config_.task_config.succ_pos_threshold);
+  if (e.task.joint) {
+    e.joint_verdict = EvaluateOpenClose(m, d, e.joint_id, *e.task.joint, config_.task_type,
+                                        OpenCloseThreshold(config_));
+    e.verdict.success = e.joint_verdict->success;
+    e.verdict.reward = e.joint_verdict->reward;
+  }
   if (!options_.record) return;
   EpisodeRecord& rec = e.rec;
   const size_t artic_width = env_.robot().articulation_width;
@@ -356,11 +416,23 @@ void EpisodeRunner::Observe(Episode& e, const PlannerAction* action) {
   }
 
   const Mat4 obj = ToMat4(sim::BodyPose(d, object));
-  rec.extra_json["task_info"].steps.push_back(
-      Json{{"episode_step", e.step},
-           {"position_error", TranslationDistance(obj, e.goal)},
-           {"rotation_error", RotationAngle(obj, e.goal)},
-           {"success", e.verdict.success}});
+  if (e.joint_verdict) {
+    // The original's open / close task_info keys, plus the opened fraction.
+    const OpenCloseVerdict& jv = *e.joint_verdict;
+    rec.extra["joint_position"].Append({jv.joint_position});
+    rec.extra["joint_opened_fraction"].Append({jv.opened_fraction});
+    rec.extra["joint_range"].Append({e.task.joint->range_lo, e.task.joint->range_hi});
+    rec.extra_json["task_info"].steps.push_back(Json{{"joint_position", jv.joint_position},
+                                                     {"opened_fraction", jv.opened_fraction},
+                                                     {"success", jv.success},
+                                                     {"episode_step", e.step}});
+  } else {
+    rec.extra_json["task_info"].steps.push_back(
+        Json{{"episode_step", e.step},
+             {"position_error", TranslationDistance(obj, e.goal)},
+             {"rotation_error", RotationAngle(obj, e.goal)},
+             {"success", e.verdict.success}});
+  }
   // Grasp state: contacts of the object with gripper geoms and with anything else.
   bool touching = false, other = false;
   for (int c = 0; c < d->ncon; ++c) {
@@ -508,6 +580,7 @@ void EpisodeRunner::Rollout(Episode& e) {
   attempt.extra["policy_steps"] = e.step;
   attempt.extra["retries"] = planner_.retries();
   attempt.extra["lift"] = e.verdict.lift;
+  if (e.joint_verdict) attempt.extra["opened_fraction"] = e.joint_verdict->opened_fraction;
 }
 
 void EpisodeRunner::Judge(Episode& e) {
@@ -524,6 +597,12 @@ void EpisodeRunner::Judge(Episode& e) {
     attempt.outcome = Outcome::kTimeout;
     attempt.message =
         "the horizon of " + std::to_string(config_.task_horizon) + " policy steps ran out";
+  } else if (e.joint_verdict) {
+    attempt.outcome = Outcome::kGraspSlip;
+    attempt.message = "the plan finished with joint " + e.task.joint->name +
+                      " at opened fraction " + std::to_string(e.joint_verdict->opened_fraction) +
+                      " (reward " + std::to_string(e.joint_verdict->reward) + " below " +
+                      std::to_string(OpenCloseThreshold(config_)) + ")";
   } else {
     attempt.outcome = Outcome::kGraspSlip;
     attempt.message = "the plan finished but the object is not held: lift " +
@@ -544,7 +623,14 @@ void EpisodeRunner::FinishRecord(Episode& e) {
   meta.scene = options_.scene_name;
   meta.source_episode = e.index;
   const std::string expr = Referral(task.pickup_obj_name, e.annotation.get());
-  meta.task_description = "Pick up the " + expr;
+  std::string part;  // open / close: the joint body's name, when it is not the object's
+  if (task.joint) {
+    part = sim::MjName(env_.model(), mjOBJ_BODY, env_.model()->jnt_bodyid[e.joint_id]);
+    std::replace(part.begin(), part.end(), '_', ' ');
+    meta.task_description = OpenCloseDescription(config_.task_type, expr, part);
+  } else {
+    meta.task_description = "Pick up the " + expr;
+  }
   const std::optional<AssetLocation> where = registry_.Locate(uid);
   const std::string library = where ? where->library : std::string("unknown");
   meta.assets.push_back(
@@ -574,7 +660,7 @@ void EpisodeRunner::FinishRecord(Episode& e) {
                     {"grasp_file", grasp_file},
                     {"attempt", attempt_json}};
   rec.obs_scene = Json{
-      {"task_type", "pick"},
+      {"task_type", std::string(EnumName(config_.task_type))},
       {"task_description", meta.task_description},
       {"policy_dt_ms", config_.policy_dt_ms},
       {"referral_expressions", Json{{"pickup_obj_name", Json::array({Json::array({expr, 1.0})})}}},
@@ -584,8 +670,28 @@ void EpisodeRunner::FinishRecord(Episode& e) {
                              {"pickup_obj_start_pose", ToArray7(task.pickup_obj_start_pose)},
                              {"pickup_obj_goal_pose", ToArray7(task.pickup_obj_goal_pose)},
                              {"config_hash", meta.config_hash}}},
-      {"text", "pick " + task.pickup_obj_name},
+      {"text", std::string(EnumName(config_.task_type)) + " " + task.pickup_obj_name},
       {"object_name", task.pickup_obj_name}};
+  if (task.joint) {
+    // The chosen joint as explicit fields (the original keeps it only in a pickled config).
+    const TaskJoint& j = *task.joint;
+    int index = 0;
+    for (const ArticulatedJoint& a : ArticulatedJoints(env_, task.pickup_obj_name)) {
+      if (a.joint.name == j.name) index = a.index;
+    }
+    const Json joint{{"joint_name", j.name},
+                     {"asset_joint_name", j.asset_joint},
+                     {"joint_index", index},
+                     {"joint_start_position", j.start},
+                     {"joint_range", Json::array({j.range_lo, j.range_hi})},
+                     {"joint_closed_position", j.closed},
+                     {"joint_open_position", j.open},
+                     {"task_success_threshold", OpenCloseThreshold(config_)}};
+    for (const auto& [key, value] : joint.items()) {
+      rec.obs_scene["frozen_config"][key] = value;
+    }
+    rec.obs_scene["joint"] = joint;
+  }
   e.result.record = std::move(rec);
 }
 

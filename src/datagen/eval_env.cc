@@ -8,9 +8,30 @@
 
 #include "mlspaces/core/error.h"
 #include "mlspaces/datagen/policy_step.h"
+#include "mlspaces/datagen/tasks/open_close/sampler.h"
+#include "mlspaces/datagen/tasks/open_close/success.h"
 #include "mlspaces/sim/scene.h"
 
 namespace mlspaces::datagen {
+namespace {
+
+// Open / close (docs/tasks.md): success and reward are the chosen joint's.
+void JudgeJoint(const ExperimentConfig& config, const Env& env, const Task& task,
+                PickSuccess& verdict) {
+  if (!IsOpenCloseTask(config.task_type)) return;
+  if (!task.joint) {
+    throw Error("the task sampler chose no joint; task_type " +
+                    std::string(EnumName(config.task_type)) + " needs one (OpenTaskSampler)",
+                "", "task_sampler_config.task_sampler_class");
+  }
+  const int j = mj_name2id(env.model(), mjOBJ_JOINT, task.joint->name.c_str());
+  const OpenCloseVerdict v = EvaluateOpenClose(env.model(), env.data(), j, *task.joint,
+                                               config.task_type, OpenCloseThreshold(config));
+  verdict.success = v.success;
+  verdict.reward = v.reward;
+}
+
+}  // namespace
 
 EvalEnv::EvalEnv(ExperimentConfig config, std::unique_ptr<TaskSampler> sampler,
                  EvalEnvOptions options)
@@ -75,6 +96,7 @@ void EvalEnv::Reset(uint64_t seed, int64_t house, int64_t episode) {
   verdict_ =
       EvaluatePickSuccess(env_->model(), env_->data(), object_, task_.pickup_obj_start_pose.pos[2],
                           env_->robot().prefix, config_.task_config.succ_pos_threshold);
+  JudgeJoint(config_, *env_, task_, verdict_);
 }
 
 EvalStep EvalEnv::Step(std::span<const double> arm, double gripper) {
@@ -104,6 +126,7 @@ EvalStep EvalEnv::Step(std::span<const double> arm, double gripper) {
   ++steps_;
   verdict_ = EvaluatePickSuccess(m, d, object_, task_.pickup_obj_start_pose.pos[2],
                                  env_->robot().prefix, config_.task_config.succ_pos_threshold);
+  JudgeJoint(config_, *env_, task_, verdict_);
   EvalStep out;
   out.verdict = verdict_;
   out.truncated = steps_ >= config_.task_horizon;

@@ -9,6 +9,7 @@
 #include "mlspaces/core/error.h"
 #include "mlspaces/core/strings.h"
 #include "mlspaces/core/transform.h"
+#include "mlspaces/datagen/tasks/open_close/sampler.h"
 
 namespace mlspaces::datagen {
 namespace {
@@ -70,6 +71,7 @@ Task TaskSampler::SampleTask(Env& env, int64_t episode) {
   task.robot_base_pose = *draft.robot_base_pose;
   task.pickup_obj_start_pose = *draft.pickup_obj_start_pose;
   task.pickup_obj_goal_pose = *draft.pickup_obj_goal_pose;
+  task.joint = draft.joint;
   task.episode = episode;
   task.seed = seed;
   return task;
@@ -156,6 +158,7 @@ TaskSamplerRegistry TaskSamplerRegistry::WithBuiltins() {
   registry.Register("block_pickup", [](const ExperimentConfig& config, uint64_t seed) {
     return std::make_unique<BlockPickupTaskSampler>(config, seed);
   });
+  RegisterOpenCloseSamplers(registry);
   return registry;
 }
 

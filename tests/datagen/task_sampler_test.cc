@@ -164,7 +164,8 @@ TEST_F(TaskSamplerTest, CustomSubclassRegisteredByName) {
     return std::make_unique<FixedBaseSampler>(c, seed);
   });
   EXPECT_TRUE(registry_.Contains("fixedbase"));
-  EXPECT_EQ(registry_.names(), (std::vector<std::string>{"block_pickup", "FixedBase"}));
+  EXPECT_EQ(registry_.names(),
+            (std::vector<std::string>{"block_pickup", "FixedBase", "OpenTaskSampler"}));
   config_.task_sampler_config.task_sampler_class = "fixedBASE";
   auto sampler = registry_.Create(config_, 1);
   EXPECT_EQ(sampler->name(), "FixedBase");

@@ -28,7 +28,7 @@ namespace mlspaces::datagen {
 // ---------------------------------------------------------------------------------------
 // Enums. Each has a name table (EnumNames below); YAML uses the names.
 
-enum class TaskType { kPick };
+enum class TaskType { kPick, kOpen, kClose };
 enum class SceneDataset { kUser };
 enum class LogLevel { kDebug, kInfo, kWarning, kError };
 enum class ActionDtype { kFloat32, kFloat64 };
@@ -42,7 +42,7 @@ template <class E>
 struct EnumNames;
 template <>
 struct EnumNames<TaskType> {
-  static constexpr std::array<std::string_view, 1> kNames{"pick"};
+  static constexpr std::array<std::string_view, 3> kNames{"pick", "open", "close"};
 };
 template <>
 struct EnumNames<SceneDataset> {
@@ -103,6 +103,12 @@ struct MLSPACES_API TaskConfig {
   ActionDtype action_dtype = ActionDtype::kFloat32;
   double succ_pos_threshold = 0.01;  ///< metres
   bool enable_rendering = true;
+  // open / close (docs/tasks.md): a preset joint (MJCF name; null = sampled), the success
+  // threshold on the opened fraction (null = 0.15 open, 0.85 close), and the original's
+  // any_inst_of_category (accepted; success is judged on the chosen joint only).
+  std::optional<std::string> joint_name;
+  std::optional<double> task_success_threshold;
+  bool any_inst_of_category = false;
 
   template <class A>
   void Serialize(A* a) {
@@ -117,6 +123,9 @@ struct MLSPACES_API TaskConfig {
     a->Visit("action_dtype", action_dtype);
     a->Visit("succ_pos_threshold", succ_pos_threshold);
     a->Visit("enable_rendering", enable_rendering);
+    a->Visit("joint_name", joint_name);
+    a->Visit("task_success_threshold", task_success_threshold);
+    a->Visit("any_inst_of_category", any_inst_of_category);
   }
 };
 
@@ -163,6 +172,8 @@ struct MLSPACES_API TaskSamplerConfig {
   PlanarNoise robot_base_noise{0.1, 0.1, 30.0};
   PlanarNoise object_noise{0.05, 0.05, 45.0};
   double goal_offset_z = 0.05;  ///< metres
+  /// open / close: the joint's initial opened fraction (null = 0 open, 0.5 close).
+  std::optional<double> target_initial_state_open_percentage;
 
   template <class A>
   void Serialize(A* a) {
@@ -189,6 +200,7 @@ struct MLSPACES_API TaskSamplerConfig {
     a->Visit("robot_base_noise", robot_base_noise);
     a->Visit("object_noise", object_noise);
     a->Visit("goal_offset_z", goal_offset_z);
+    a->Visit("target_initial_state_open_percentage", target_initial_state_open_percentage);
   }
 };
 
@@ -386,6 +398,7 @@ struct MLSPACES_API PolicyConfig {
   double grasp_height = 0.01;
   std::array<double, 3> grasp_base_pos{0.0, 0.0, -0.04};  ///< TCP frame
   GraspCostConfig grasp_cost_weights;
+  double grasp_horizontal_cost_weight = 0.0;  ///< G[2,2]^2 weight (open / close only)
   bool filter_feasible_grasps = true;
   int64_t grasp_feasibility_batch_size = 256;
   int64_t grasp_feasibility_max_grasps = 256;
@@ -415,6 +428,7 @@ struct MLSPACES_API PolicyConfig {
     a->Visit("grasp_height", grasp_height);
     a->Visit("grasp_base_pos", grasp_base_pos);
     a->Visit("grasp_cost_weights", grasp_cost_weights);
+    a->Visit("grasp_horizontal_cost_weight", grasp_horizontal_cost_weight);
     a->Visit("filter_feasible_grasps", filter_feasible_grasps);
     a->Visit("grasp_feasibility_batch_size", grasp_feasibility_batch_size);
     a->Visit("grasp_feasibility_max_grasps", grasp_feasibility_max_grasps);

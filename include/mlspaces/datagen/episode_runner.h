@@ -130,7 +130,9 @@ class MLSPACES_API EpisodeRunner {
   ExperimentConfig config_;
   EpisodeRunnerOptions options_;
   robots::RobotView robot_;
-  PickPlanner planner_;
+  // The task's planner: PickPlanner, or OpenClosePlanner for task types open / close.
+  std::unique_ptr<PickPlanner> planner_owned_;
+  PickPlanner& planner_;
   int substeps_ = 1;
   std::unique_ptr<Impl> impl_;
   std::unique_ptr<CameraRecorder> cameras_;

@@ -46,12 +46,25 @@ class MLSPACES_API TaskRejected : public Error {
   using Error::Error;
 };
 
-/// What the hooks fill; every field is required after the hooks ran.
+/// The joint of an open / close task (tasks/open_close.h): MJCF name, the asset's name for it
+/// (its joint-grasp file), the range and the closed limit, and the initial position.
+struct MLSPACES_API TaskJoint {
+  std::string name;
+  std::string asset_joint;
+  double range_lo = 0, range_hi = 0;
+  double closed = 0;  ///< the range limit nearest 0 (0 when a limit is 0)
+  double open = 0;    ///< the other limit
+  double start = 0;   ///< qpos written by the sampler
+};
+
+/// What the hooks fill; every field but `joint` is required after the hooks ran (`joint`:
+/// by task types open and close).
 struct MLSPACES_API TaskDraft {
   std::optional<std::string> pickup_obj_name;
   std::optional<Pose> robot_base_pose;
   std::optional<Pose> pickup_obj_start_pose;
   std::optional<Pose> pickup_obj_goal_pose;
+  std::optional<TaskJoint> joint;
 };
 
 /// A sampled task, fixed once sampled. Poses: world, xyz + quat wxyz.
@@ -60,6 +73,7 @@ struct MLSPACES_API Task {
   Pose robot_base_pose;
   Pose pickup_obj_start_pose;
   Pose pickup_obj_goal_pose;
+  std::optional<TaskJoint> joint;  ///< open / close
   int64_t episode = 0;
   uint64_t seed = 0;
 };

@@ -80,6 +80,10 @@ def to_native(config: Config, registry: Any = None) -> dict[str, Any]:
     sampler = out.get("task_sampler_config", {})
     if sampler.get("task_sampler_class") is None:
         sampler["task_sampler_class"] = DEFAULTS["task_sampler_config"]["task_sampler_class"]
+    from ..tasks.opening_task_samplers import engine_sampler_name  # late: tasks imports configs
+    engine = engine_sampler_name(getattr(config.task_sampler_config, "task_sampler_class", None))
+    if engine is not None:
+        sampler["task_sampler_class"] = engine
     for key in ("scene_xml_paths", "pickup_types"):
         if sampler.get(key) is None:
             sampler[key] = []

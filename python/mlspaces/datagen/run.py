@@ -22,6 +22,9 @@ def _sampler_for(config: Any):
     cls = config.task_sampler_config.task_sampler_class
     if cls is None or isinstance(cls, str):
         return None  # an engine sampler, by name
+    from ..tasks.opening_task_samplers import engine_sampler_name
+    if engine_sampler_name(cls) is not None:
+        return None  # OpenTaskSampler: the engine's, by name (to_native names it)
     if not isinstance(cls, type):
         raise MlspacesError("task_sampler_config.task_sampler_class: expected a PickTaskSampler "
                             f"subclass or an engine sampler name, got {cls!r}")

@@ -112,7 +112,7 @@ class MLSPACES_API PickPlanner {
   /// policy_dt_ms / 1000).
   PickPlanner(const Env& env, const robots::RobotView& robot, const PolicyConfig& config,
               double policy_dt);
-  ~PickPlanner();
+  virtual ~PickPlanner();
   PickPlanner(const PickPlanner&) = delete;
   PickPlanner& operator=(const PickPlanner&) = delete;
 
@@ -145,7 +145,9 @@ class MLSPACES_API PickPlanner {
   /// The index (into library grasps, flips counted after them) of the planned grasp.
   std::optional<size_t> grasp_index() const { return grasp_index_; }
 
- private:
+ protected:
+  // For planners of other tasks (tasks/open_close/planner.h): they replace Plan and reuse
+  // Act's execution of primitives_.
   struct Segment {
     Mat4 start, end;
     double duration = 0;
@@ -166,7 +168,8 @@ class MLSPACES_API PickPlanner {
   /// A Cartesian segment timed by `timing`.
   static Segment Line(const Mat4& start, const Mat4& end, const SegmentTiming& timing,
                       PolicyPhase phase);
-  PlanFailure Plan(const mjData* d);
+  /// Fills primitives_ (and grasp_, grasp_index_, stats_) from the state in `d`.
+  virtual PlanFailure Plan(const mjData* d);
   void Fail(PlanFailure failure, std::string message);
   bool SolveIk(const Mat4& target, std::vector<double>& q, bool allow_restarts);
 

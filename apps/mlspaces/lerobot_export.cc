@@ -1,0 +1,134 @@
+// mlspaces export-lerobot DATASET_DIR OUT_DIR [--fps F] [--repo-id NAME] [--codec copy|h264|av1]
+// [-q]: an mlspaces dataset as a LeRobot v3.0 dataset (datagen/lerobot/export.h,
+// docs/lerobot.md).
+//
+// Built twice: into `mlspaces`, where the command execs `mlspaces-lerobot` beside it, and, with
+// MLSPACES_LEROBOT_HELPER, into that helper, which does the export and is the only program
+// that links Arrow C++ (so `mlspaces` runs where the pyarrow wheel is not installed).
+#include <unistd.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "commands.h"
+#include "mlspaces/core/error.h"
+#ifdef MLSPACES_LEROBOT_HELPER
+#include "mlspaces/core/progress.h"
+#include "mlspaces/datagen/lerobot/export.h"
+#endif
+
+namespace mlspaces::cli {
+namespace {
+
+struct Flags {
+  std::string dataset, out, repo_id, codec = "copy";
+  double fps = 0;
+  bool quiet = false;
+};
+
+#ifndef MLSPACES_LEROBOT_HELPER
+// The export itself runs in mlspaces-lerobot, beside this program.
+int Run(const Flags& flags) {
+  std::error_code ec;
+  const std::filesystem::path self = std::filesystem::read_symlink("/proc/self/exe", ec);
+  const std::filesystem::path helper = self.parent_path() / "mlspaces-lerobot";
+  if (ec || ::access(helper.c_str(), X_OK) != 0) {
+    throw Error(
+        "this mlspaces was built without Arrow C++ (no mlspaces-lerobot beside it); "
+        "see docs/lerobot.md",
+        helper.string());
+  }
+  std::vector<std::string> args = {helper.string(), "export-lerobot", flags.dataset,
+                                   flags.out,       "--codec",        flags.codec};
+  if (flags.fps > 0) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.17g", flags.fps);
+    args.insert(args.end(), {"--fps", buf});
+  }
+  if (!flags.repo_id.empty()) args.insert(args.end(), {"--repo-id", flags.repo_id});
+  if (flags.quiet) args.emplace_back("-q");
+  std::vector<char*> argv;
+  for (std::string& a : args) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  std::fflush(nullptr);
+  ::execv(helper.c_str(), argv.data());
+  throw Error("cannot run the export helper", helper.string());
+}
+#else
+int Run(const Flags& flags) {
+  using namespace datagen::lerobot;
+  ExportOptions options;
+  options.fps = flags.fps;
+  options.repo_id = flags.repo_id;
+  options.codec = flags.codec == "h264"  ? VideoCodec::kH264
+                  : flags.codec == "av1" ? VideoCodec::kAv1
+                                         : VideoCodec::kCopy;
+  ProgressStyle style;
+  style.enabled = !flags.quiet;
+  style.lines_when_not_tty = true;
+  style.unit = "episodes";
+  std::unique_ptr<ProgressBar> bar;
+  options.progress = [&](int64_t done, int64_t total) {
+    if (!bar) {
+      bar = std::make_unique<ProgressBar>("export-lerobot", static_cast<size_t>(total), style);
+      bar->Start(0, "starting");
+    }
+    bar->Update(static_cast<size_t>(done));
+  };
+  const ExportReport r = ExportLeRobot(flags.dataset, flags.out, options);
+  if (bar) bar->Finish();
+  for (const std::string& s : r.skipped) std::fprintf(stderr, "left out: %s\n", s.c_str());
+  std::string cams;
+  for (const std::string& c : r.cameras) cams += (cams.empty() ? "" : ", ") + c;
+  const std::string repo = flags.repo_id.empty() ? "<repo_id>" : flags.repo_id;
+  std::printf(
+      "%s: LeRobot v3.0, %lld episodes (%zu left out), %lld frames, %lld tasks, %.4g fps, "
+      "cameras: %s\nload: LeRobotDataset(\"%s\", root=\"%s\")\n",
+      flags.out.c_str(), static_cast<long long>(r.episodes), r.skipped.size(),
+      static_cast<long long>(r.frames), static_cast<long long>(r.tasks), r.fps,
+      cams.empty() ? "none" : cams.c_str(), repo.c_str(), flags.out.c_str());
+  return 0;
+}
+#endif
+
+}  // namespace
+
+void AddExportLeRobot(CLI::App& app, Action& action) {
+  auto flags = std::make_shared<Flags>();
+  CLI::App* sub = app.add_subcommand(
+      "export-lerobot",
+      "Write a dataset as a LeRobot v3.0 dataset (parquet + one MP4 per camera); failed and "
+      "truncated episodes are left out");
+  sub->add_option("DATASET_DIR", flags->dataset, "A datagen run folder (or a house folder)")
+      ->required();
+  sub->add_option("OUT_DIR", flags->out, "The LeRobot dataset folder to create (must not exist)")
+      ->required();
+  sub->add_option("--fps", flags->fps,
+                  "Check the dataset's frame rate is this (1000 / policy_dt_ms); error if not")
+      ->type_name("F");
+  sub->add_option("--repo-id", flags->repo_id,
+                  "The repo_id to load it with (printed; LeRobot takes it from the caller)")
+      ->type_name("NAME");
+  sub->add_option("--codec", flags->codec,
+                  "copy: re-mux the episodes' H.264 videos (default); h264 or av1: re-encode")
+      ->check(CLI::IsMember({"copy", "h264", "av1"}));
+  sub->add_flag("-q,--quiet", flags->quiet, "No progress bar");
+  sub->callback([&action, flags] { action = [flags] { return Run(*flags); }; });
+}
+
+}  // namespace mlspaces::cli
+
+#ifdef MLSPACES_LEROBOT_HELPER
+int main(int argc, char** argv) {
+  using namespace mlspaces;
+  CLI::App app{"mlspaces-lerobot: the export-lerobot command of mlspaces (run it as mlspaces)"};
+  app.formatter(cli::MakeHelpFormatter());
+  app.require_subcommand(1);
+  cli::Action action;
+  cli::AddExportLeRobot(app, action);
+  return cli::ParseAndRun(app, action, argc, argv);
+}
+#endif

@@ -1,0 +1,270 @@
+// The open / close planner (tasks/open_close/planner.h).
+#include "mlspaces/datagen/tasks/open_close/planner.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <numbers>
+#include <utility>
+
+#include "mlspaces/core/se3.h"
+#include "mlspaces/library/grasp_set.h"
+#include "mlspaces/sim/mj_pose.h"
+
+namespace mlspaces::datagen {
+namespace {
+
+constexpr double kHingeStep = 5.0 * std::numbers::pi / 180.0;  // rad between waypoints
+constexpr double kSlideStep = 0.01;                            // m between waypoints
+constexpr double kApproachBack = 0.12;   // joint-space travel ends this far behind the grasp
+constexpr double kRetryBack = 0.08;      // a retry first backs off this far
+constexpr double kRetreat = 0.10;        // after release
+constexpr double kMaxJointSpeed = 1.0;   // rad/s, joint-space travel
+constexpr double kMinApproachCos = 0.5;  // approach within 60 deg of base -> grasp
+
+// `pose` moved by `dist` along its own -z (back along the approach axis).
+Mat4 Back(const Mat4& pose, double dist) {
+  Mat4 out = pose;
+  for (int i = 0; i < 3; ++i) out(i, 3) -= dist * pose(i, 2);
+  return out;
+}
+
+}  // namespace
+
+double OpenedFraction(const TaskJoint& joint, double q) {
+  const double span = std::abs(joint.open - joint.closed);
+  if (span <= 0) return 0;
+  return std::clamp(std::abs(q - joint.closed) / span, 0.0, 1.0);
+}
+
+PlanFailure OpenClosePlanner::ResetJoint(const mjData* d, int joint_id, const TaskJoint& joint,
+                                         bool open, double min_fraction, std::vector<Mat4> grasps) {
+  joint_id_ = joint_id;
+  joint_ = joint;
+  open_ = open;
+  min_fraction_ = min_fraction;
+  planned_fraction_ = 0;
+  failed_grasps_.clear();
+  return Reset(d, env_->model()->jnt_bodyid[joint_id], std::move(grasps));
+}
+
+PlanFailure OpenClosePlanner::Plan(const mjData* d) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const mjModel* m = env_->model();
+  primitives_.clear();
+  current_ = 0;
+  started_at_.reset();
+  ik_fail_streak_ = 0;
+  ik_->SyncState(d);
+  if (probe_) probe_->SyncState(d);
+  auto finish = [&](PlanFailure f, std::string message) {
+    stats_.plan_seconds +=
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    if (f != PlanFailure::kNone) Fail(f, std::move(message));
+    return f;
+  };
+
+  const Mat4 body = ToMat4(sim::BodyPose(d, object_body_));
+  const Mat4 tcp = robot_->TcpPose(d);
+  const std::vector<Mat4> all = GraspsInWorld(body, grasps_local_, true);
+  stats_.num_candidates = all.size();
+  if (all.empty()) return finish(PlanFailure::kNoGrasp, "the joint has no grasps");
+  // Grasps that approach the handle from the robot's side (approach axis within 60 degrees
+  // of the horizontal direction from the robot base to the grasp): a hand coming in from the
+  // side or from behind the handle sweeps along the door or front first. All of them when
+  // none does.
+  // A retry does not take the grasp that just failed again (the original replans from the
+  // same ranking and usually takes it again).
+  if (retries_ > 0 && grasp_index_) failed_grasps_.push_back(*grasp_index_);
+  std::vector<Mat4> candidates;
+  std::vector<size_t> source;  // index into `all`
+  const Mat4 base = robot_->BasePose(d);
+  for (size_t i = 0; i < all.size(); ++i) {
+    const Mat4& g = all[i];
+    if (std::find(failed_grasps_.begin(), failed_grasps_.end(), i) != failed_grasps_.end()) {
+      continue;
+    }
+    double dx = g(0, 3) - base(0, 3), dy = g(1, 3) - base(1, 3);
+    const double norm = std::hypot(dx, dy);
+    if (norm < 1e-9) continue;
+    dx /= norm;
+    dy /= norm;
+    if (g(0, 2) * dx + g(1, 2) * dy >= kMinApproachCos) {
+      candidates.push_back(g);
+      source.push_back(i);
+    }
+  }
+  // The rest, tried when none of those is collision-free and reachable (another gripper
+  // than the one the grasps were made for may fit only from the side).
+  std::vector<Mat4> rest;
+  std::vector<size_t> rest_source;
+  for (size_t i = 0; i < all.size(); ++i) {
+    if (std::find(failed_grasps_.begin(), failed_grasps_.end(), i) != failed_grasps_.end() ||
+        std::find(source.begin(), source.end(), i) != source.end()) {
+      continue;
+    }
+    rest.push_back(all[i]);
+    rest_source.push_back(i);
+  }
+  const std::vector<double> q_now = robot_->ArmQpos(d);
+
+  // The joint's motion: positions from now to the goal, and the rigid motion of the joint
+  // body for a change dq (about the world axis through the anchor, or along it).
+  const double q_joint = d->qpos[m->jnt_qposadr[joint_id_]];
+  const double goal = open_ ? joint_.open : joint_.closed;
+  const bool hinge = m->jnt_type[joint_id_] == mjJNT_HINGE;
+  const double step = hinge ? kHingeStep : kSlideStep;
+  const int n = std::max(1, static_cast<int>(std::ceil(std::abs(goal - q_joint) / step)));
+  const Vec3 axis{d->xaxis[3 * joint_id_], d->xaxis[3 * joint_id_ + 1],
+                  d->xaxis[3 * joint_id_ + 2]};
+  const Vec3 anchor{d->xanchor[3 * joint_id_], d->xanchor[3 * joint_id_ + 1],
+                    d->xanchor[3 * joint_id_ + 2]};
+  auto motion = [&](double dq) {
+    if (!hinge) return Translate({axis[0] * dq, axis[1] * dq, axis[2] * dq});
+    return Translate(anchor) * AxisAngle(axis, dq) *
+           Translate({-anchor[0], -anchor[1], -anchor[2]});
+  };
+  auto reached = [&](double f) { return open_ ? f >= min_fraction_ : f <= 1.0 - min_fraction_; };
+
+  // A grasp is feasible when the grasp, the pregrasp, the travel's end and enough of the
+  // articulation have IK solutions (the original checks only the first two).
+  std::vector<double> q_grasp, q_back;
+  std::vector<Mat4> waypoints;
+  double fraction_end = 0;
+  std::string why_not;
+  auto feasible = [&](const Mat4& g) {
+    if (!config_.filter_feasible_grasps) return true;
+    std::vector<double> q = q_now;
+    if (!SolveIk(g, q, true)) return false;
+    std::vector<double> qb = q;
+    if (!SolveIk(Back(g, kApproachBack), qb, true)) return false;
+    std::vector<double> qp = q;
+    if (!SolveIk(Back(g, config_.pregrasp_z_offset), qp, true)) return false;
+    std::vector<Mat4> path{g};
+    std::vector<double> qa = q;
+    double f = OpenedFraction(joint_, q_joint);
+    for (int k = 1; k <= n; ++k) {
+      const double dq = (goal - q_joint) * k / n;
+      const Mat4 w = motion(dq) * g;
+      if (!SolveIk(w, qa, false)) break;
+      path.push_back(w);
+      f = OpenedFraction(joint_, q_joint + dq);
+    }
+    if (!reached(f)) {
+      why_not = "the articulation is reachable only to an opened fraction of " + std::to_string(f);
+      return false;
+    }
+    q_grasp = std::move(q);
+    q_back = std::move(qb);
+    waypoints = std::move(path);
+    fraction_end = f;
+    return true;
+  };
+
+  GraspSelectionOptions select;
+  select.weights.tcp_distance = config_.grasp_cost_weights.pos;
+  select.weights.tcp_angle_deg = config_.grasp_cost_weights.rot;
+  select.weights.approach_z = config_.grasp_cost_weights.vertical;
+  select.weights.approach_z_sq = config_.grasp_horizontal_cost_weight;
+  select.weights.object_distance = config_.grasp_cost_weights.com_dist;
+  select.max_ranked = static_cast<size_t>(config_.grasp_collision_max_grasps);
+  select.max_ik_checked = config_.filter_feasible_grasps
+                              ? static_cast<size_t>(config_.grasp_feasibility_max_grasps)
+                              : 1;
+  const std::function<bool(const Mat4&)> collision_free =
+      probe_ ? std::function<bool(const Mat4&)>([&](const Mat4& g) { return !probe_->Collides(g); })
+             : nullptr;
+  GraspSelection chosen = SelectGrasp(candidates, tcp, body, collision_free, feasible, select);
+  if (!chosen.index && !rest.empty()) {
+    const GraspSelection second = SelectGrasp(rest, tcp, body, collision_free, feasible, select);
+    if (second.index || candidates.empty()) {
+      chosen = second;
+      candidates = std::move(rest);
+      source = std::move(rest_source);
+    }
+  }
+  stats_.num_collision_free = chosen.num_collision_free;
+  stats_.num_ik_checked = chosen.num_ik_checked;
+  if (!chosen.index) {
+    if (chosen.num_collision_free == 0) {
+      return finish(PlanFailure::kNoGrasp, "every one of " + std::to_string(chosen.ranked.size()) +
+                                               " ranked joint grasps collides with the scene");
+    }
+    return finish(PlanFailure::kNoGrasp,
+                  "no feasible joint grasp among " + std::to_string(chosen.num_ik_checked) +
+                      " collision-free candidates" + (why_not.empty() ? "" : " (" + why_not + ")"));
+  }
+  grasp_index_ = source[*chosen.index];
+  grasp_ = candidates[*chosen.index];
+  if (waypoints.empty()) {  // feasibility checks off: the whole motion, unchecked
+    waypoints.push_back(grasp_);
+    for (int k = 1; k <= n; ++k) waypoints.push_back(motion((goal - q_joint) * k / n) * grasp_);
+    fraction_end = OpenedFraction(joint_, goal);
+    q_grasp = q_now;
+    q_back = q_now;
+    SolveIk(Back(grasp_, kApproachBack), q_back, true);
+  }
+  planned_fraction_ = fraction_end;
+
+  const SegmentTiming fast{config_.speed_fast, 1.0};
+  const SegmentTiming slow{config_.speed_slow, 1.0};
+  Primitive open;
+  open.phase = PolicyPhase::kGripperOpen;
+  open.gripper = robot_->spec().gripper_open_ctrl;
+  Primitive approach;
+  approach.move = true;
+  approach.settle = config_.move_settle_time;
+  Mat4 from = tcp;
+  std::vector<double> q_from = q_now;
+  if (retries_ > 0) {
+    // A retry starts with the hand at the handle: back off along the approach axis first.
+    const Mat4 backed = Back(tcp, kRetryBack);
+    std::vector<double> qb = q_now;
+    if (SolveIk(backed, qb, false)) {
+      approach.segments.push_back(Line(tcp, backed, slow, PolicyPhase::kRetreat));
+      from = backed;
+      q_from = qb;
+    }
+  }
+  const Mat4 behind = Back(grasp_, kApproachBack);
+  double joint_span = 0;
+  for (size_t i = 0; i < q_from.size(); ++i) {
+    joint_span = std::max(joint_span, std::abs(q_back[i] - q_from[i]));
+  }
+  Segment travel = Line(from, behind, fast, PolicyPhase::kPregrasp);
+  travel.duration = std::max(travel.duration, joint_span / kMaxJointSpeed);
+  travel.q_start = q_from;
+  travel.q_end = q_back;
+  approach.segments.push_back(travel);
+  const Mat4 pregrasp = Back(grasp_, config_.pregrasp_z_offset);
+  approach.segments.push_back(Line(behind, pregrasp, fast, PolicyPhase::kPregrasp));
+  approach.segments.push_back(Line(pregrasp, grasp_, slow, PolicyPhase::kGrasp));
+  Primitive close;
+  close.phase = PolicyPhase::kGripperClose;
+  close.gripper = robot_->spec().gripper_closed_ctrl;
+  close.duration = config_.gripper_close_duration;
+  Primitive articulate;
+  articulate.move = true;
+  articulate.holding = true;
+  articulate.settle = config_.move_settle_time;
+  for (size_t k = 1; k < waypoints.size(); ++k) {
+    articulate.segments.push_back(Line(waypoints[k - 1], waypoints[k], slow, PolicyPhase::kLift));
+  }
+  Primitive release;
+  release.phase = PolicyPhase::kGripperOpen;
+  release.gripper = robot_->spec().gripper_open_ctrl;
+  release.duration = config_.gripper_close_duration;
+  Primitive retreat;
+  retreat.move = true;
+  retreat.settle = 0;
+  const Mat4& last = waypoints.back();
+  retreat.segments.push_back(Line(last, Back(last, kRetreat), fast, PolicyPhase::kRetreat));
+  primitives_ = {open, approach, close};
+  if (!articulate.segments.empty()) primitives_.push_back(articulate);
+  primitives_.push_back(release);
+  primitives_.push_back(retreat);
+  command_ = q_now;
+  return finish(PlanFailure::kNone, "");
+}
+
+}  // namespace mlspaces::datagen

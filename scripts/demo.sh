@@ -58,6 +58,10 @@ for k in sorted(f):
     print(k, "steps", t["success"].shape[0], "success", bool(t["success"][-1]),
           "lift %.3f m" % t["rewards"][-1], "videos", videos)
 PY
+# The same dataset as a LeRobot v3 dataset (docs/lerobot.md): parquet + the camera videos
+# re-muxed, many episodes per file; LeRobotDataset(repo_id, root=...) loads it.
+"$ML" export-lerobot experiment_output experiment_lerobot -q
+"$PY" -c "import json, pyarrow.parquet as pq; i = json.load(open('experiment_lerobot/meta/info.json')); t = pq.read_table('experiment_lerobot/data/chunk-000/file-000.parquet'); print(i['codebase_version'], i['total_episodes'], 'episodes', i['total_frames'], 'frames', t.num_rows, 'rows', sorted(k for k in i['features'] if k.startswith(('observation', 'action'))))"
 # Robots are data (docs/robots.md): check and measure the second robot, a UFactory xArm7 built
 # from its published DH table, then run the same tutorial config with it, changing only the
 # robot's name (its aliases map the DROID camera names to its own).

@@ -25,14 +25,11 @@ constexpr const char* kHandPrefix = "graspgen_hand/";
 constexpr const char* kTargetBody = "graspgen_target";
 
 // Rigid protocol constants (docs/graspgen.md "Simulation").
-constexpr double kSimApproach = 0.02;      // m simulated before the grasp pose (the rest: geometry)
-constexpr int kApproachSteps = 20;         // over kSimApproach (1 m/s: the path is known free)
-constexpr int kHoldSteps = 10;             // open hand at the grasp pose
-constexpr double kApproachMotion = 0.002;  // m the object may move before closing
-constexpr double kApproachTurn = 0.05;     // rad
-constexpr double kSweepStep = 0.005;       // m between open-hand checks on the approach line
-constexpr int kSlipEvery = 10;    // steps between slip checks (contacts: at the load peaks)
-constexpr int kReturnSteps = 25;  // back at the grasp pose after each shake
+constexpr double kSimApproach = 0.02;  // m simulated before the grasp pose (the rest: geometry)
+constexpr int kApproachSteps = 20;     // over kSimApproach (1 m/s: the path is known free)
+constexpr int kHoldSteps = 10;         // open hand at the grasp pose
+constexpr double kSweepStep = 0.005;   // m between open-hand checks on the approach line
+constexpr int kReturnSteps = 25;       // back at the grasp pose after each shake
 
 // The shake profile over one period, x in [0, 1]: peaks of +-1 at x = 1/3 and 2/3, at rest
 // (zero velocity and acceleration) at both ends, so the hand never jerks the object.
@@ -118,17 +115,22 @@ int64_t GraspScene::Impl::Close(const mjModel* m, mjData* d,
   return n;
 }
 
-bool GraspScene::Impl::ApproachBlocked(const Mat4& tcp_in_root, double s_from, double s_to) const {
+bool GraspScene::Impl::HandPathBlocked(const Mat4& tcp_in_root, const Vec3& away, double s_from,
+                                       double s_to) const {
   if (!object_mesh) return false;
   const int n = std::max(1, static_cast<int>(std::ceil((s_to - s_from) / kSweepStep)));
-  const Vec3 z{tcp_in_root(0, 2), tcp_in_root(1, 2), tcp_in_root(2, 2)};
   for (int i = 0; i <= n; ++i) {
-    const double back = s_from + (s_to - s_from) * i / n;
+    const double s = s_from + (s_to - s_from) * i / n;
     Mat4 t = tcp_in_root;
-    for (int k = 0; k < 3; ++k) t(k, 3) -= back * z[k];
+    for (int k = 0; k < 3; ++k) t(k, 3) += s * away[k];
     if (HandCollides(*object_mesh, proxy, t)) return true;
   }
   return false;
+}
+
+bool GraspScene::Impl::ApproachBlocked(const Mat4& tcp_in_root, double s_from, double s_to) const {
+  const Vec3 back{-tcp_in_root(0, 2), -tcp_in_root(1, 2), -tcp_in_root(2, 2)};
+  return HandPathBlocked(tcp_in_root, back, s_from, s_to);
 }
 
 GraspScene::GraspScene(const std::filesystem::path& asset_file, const robots::RobotSpec& robot,

@@ -53,16 +53,23 @@ struct GraspScene::Impl {
   /// Steps the gripper closed (at least a few steps, until the fingers stop, at most a cap;
   /// sooner when `abort`, asked every 10 steps, says so). @returns the steps.
   int64_t Close(const mjModel* m, mjData* d, const std::function<bool()>& abort = {}) const;
-  /// True when the open hand (proxy) touches the object mesh anywhere on the approach line
-  /// TCP - s z, s in [s_from, s_to] (object-root-frame TCP pose).
+  /// True when the open hand (proxy) touches the object mesh anywhere on the line TCP + s
+  /// away, s in [s_from, s_to] (object-root-frame TCP pose and unit direction), checked every
+  /// 5 mm.
+  bool HandPathBlocked(const Mat4& tcp_in_root, const Vec3& away, double s_from, double s_to) const;
+  /// HandPathBlocked back along the approach line, away = -z of the TCP.
   bool ApproachBlocked(const Mat4& tcp_in_root, double s_from, double s_to) const;
-  /// The same along the object root frame's -z (a vertical descent onto the grasp).
-  bool DescentBlocked(const Mat4& tcp_in_root, double s_from, double s_to) const;
   /// The pick from the support of a grasp that passed the zero-gravity test: "" when the
   /// object is lifted by lift_height held by both fingers without slipping, else the reason.
   /// Adds its mj_step calls to `steps`.
   std::string TestOnSupport(const Mat4& tcp_in_root, mjData* d, int64_t& steps) const;
 };
+
+/// Rigid tests (zero gravity and on the support): how far the object may move before the
+/// fingers close, and the steps between slip checks (contacts: at the load peaks).
+inline constexpr double kApproachMotion = 0.002;  // m
+inline constexpr double kApproachTurn = 0.05;     // rad
+inline constexpr int kSlipEvery = 10;
 
 /// The support mocap body's half thickness (m) and its resting place between tests.
 inline constexpr double kSupportHalfThickness = 0.01;

@@ -25,9 +25,6 @@ constexpr int kDescentSteps = 20;             // over kSimDescent
 constexpr int kHoldSteps = 10;                // open hand at the grasp pose
 constexpr double kLiftTime = 0.5;             // s for lift_height, at rest at both ends
 constexpr int kLiftHoldSteps = 50;            // held up before the last check
-constexpr int kSlipEvery = 10;
-constexpr double kDescentMotion = 0.002;  // m the object may move before closing
-constexpr double kDescentTurn = 0.05;     // rad
 
 std::string Moved(double m, double rad) {
   char buf[64];
@@ -61,17 +58,6 @@ sim::ModelPtr SupportModel(const mjModel* m) {
   return copy;
 }
 
-bool GraspScene::Impl::DescentBlocked(const Mat4& tcp_in_root, double s_from, double s_to) const {
-  if (!object_mesh) return false;
-  const int n = std::max(1, static_cast<int>(std::ceil((s_to - s_from) / 0.005)));
-  for (int i = 0; i <= n; ++i) {
-    Mat4 t = tcp_in_root;
-    t(2, 3) += s_from + (s_to - s_from) * i / n;
-    if (HandCollides(*object_mesh, proxy, t)) return true;
-  }
-  return false;
-}
-
 bool GraspScene::AboveSupport(const Mat4& tcp) const {
   const Impl& s = *impl_;
   if (s.mode != Mode::kRigid || s.support_mocap < 0) return false;
@@ -90,7 +76,7 @@ bool GraspScene::AboveSupport(const Mat4& tcp) const {
 }
 
 bool GraspScene::SupportClear(const Mat4& tcp) const {
-  return AboveSupport(tcp) && !impl_->DescentBlocked(tcp, kSimDescent, kDescentCheck);
+  return AboveSupport(tcp) && !impl_->HandPathBlocked(tcp, {0, 0, 1}, kSimDescent, kDescentCheck);
 }
 
 std::string GraspScene::Impl::TestOnSupport(const Mat4& tcp_in_root, mjData* d,
@@ -128,7 +114,7 @@ std::string GraspScene::Impl::TestOnSupport(const Mat4& tcp_in_root, mjData* d,
     const Mat4 now = BodyMat4(d, object);
     return std::pair{TranslationDistance(rest, now), RotationAngle(rest, now)};
   };
-  if (const auto [dist, angle] = moved(); dist > kDescentMotion || angle > kDescentTurn) {
+  if (const auto [dist, angle] = moved(); dist > kApproachMotion || angle > kApproachTurn) {
     return "descent moved the object on the support: " + Moved(dist, angle);
   }
   steps += Close(m, d, [&] { return moved().first > 0.02; });

@@ -19,7 +19,6 @@ constexpr double kSlideStep = 0.01;                            // m between wayp
 constexpr double kApproachBack = 0.12;   // joint-space travel ends this far behind the grasp
 constexpr double kRetryBack = 0.08;      // a retry first backs off this far
 constexpr double kRetreat = 0.10;        // after release
-constexpr double kMaxJointSpeed = 1.0;   // rad/s, joint-space travel
 constexpr double kMinApproachCos = 0.5;  // approach within 60 deg of base -> grasp
 
 // `pose` moved by `dist` along its own -z (back along the approach axis).
@@ -208,9 +207,7 @@ PlanFailure OpenClosePlanner::Plan(const mjData* d) {
 
   const SegmentTiming fast{config_.speed_fast, 1.0};
   const SegmentTiming slow{config_.speed_slow, 1.0};
-  Primitive open;
-  open.phase = PolicyPhase::kGripperOpen;
-  open.gripper = robot_->spec().gripper_open_ctrl;
+  const Primitive open = Gripper(PolicyPhase::kGripperOpen, robot_->spec().gripper_open_ctrl, 0);
   Primitive approach;
   approach.move = true;
   approach.settle = config_.move_settle_time;
@@ -227,22 +224,13 @@ PlanFailure OpenClosePlanner::Plan(const mjData* d) {
     }
   }
   const Mat4 behind = Back(grasp_, kApproachBack);
-  double joint_span = 0;
-  for (size_t i = 0; i < q_from.size(); ++i) {
-    joint_span = std::max(joint_span, std::abs(q_back[i] - q_from[i]));
-  }
-  Segment travel = Line(from, behind, fast, PolicyPhase::kPregrasp);
-  travel.duration = std::max(travel.duration, joint_span / kMaxJointSpeed);
-  travel.q_start = q_from;
-  travel.q_end = q_back;
-  approach.segments.push_back(travel);
+  approach.segments.push_back(
+      JointTravel(from, behind, q_from, q_back, fast, PolicyPhase::kPregrasp));
   const Mat4 pregrasp = Back(grasp_, config_.pregrasp_z_offset);
   approach.segments.push_back(Line(behind, pregrasp, fast, PolicyPhase::kPregrasp));
   approach.segments.push_back(Line(pregrasp, grasp_, slow, PolicyPhase::kGrasp));
-  Primitive close;
-  close.phase = PolicyPhase::kGripperClose;
-  close.gripper = robot_->spec().gripper_closed_ctrl;
-  close.duration = config_.gripper_close_duration;
+  const Primitive close = Gripper(PolicyPhase::kGripperClose, robot_->spec().gripper_closed_ctrl,
+                                  config_.gripper_close_duration);
   Primitive articulate;
   articulate.move = true;
   articulate.holding = true;
@@ -250,10 +238,8 @@ PlanFailure OpenClosePlanner::Plan(const mjData* d) {
   for (size_t k = 1; k < waypoints.size(); ++k) {
     articulate.segments.push_back(Line(waypoints[k - 1], waypoints[k], slow, PolicyPhase::kLift));
   }
-  Primitive release;
-  release.phase = PolicyPhase::kGripperOpen;
-  release.gripper = robot_->spec().gripper_open_ctrl;
-  release.duration = config_.gripper_close_duration;
+  const Primitive release = Gripper(PolicyPhase::kGripperOpen, robot_->spec().gripper_open_ctrl,
+                                    config_.gripper_close_duration);
   Primitive retreat;
   retreat.move = true;
   retreat.settle = 0;

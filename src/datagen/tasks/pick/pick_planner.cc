@@ -83,6 +83,29 @@ PickPlanner::Segment PickPlanner::Line(const Mat4& start, const Mat4& end,
   return s;
 }
 
+PickPlanner::Segment PickPlanner::JointTravel(const Mat4& start, const Mat4& end,
+                                              std::vector<double> q_start,
+                                              std::vector<double> q_end,
+                                              const SegmentTiming& timing, PolicyPhase phase) {
+  double joint_span = 0;
+  for (size_t i = 0; i < q_start.size(); ++i) {
+    joint_span = std::max(joint_span, std::abs(q_end[i] - q_start[i]));
+  }
+  Segment s = Line(start, end, timing, phase);
+  s.duration = std::max(s.duration, joint_span / kMaxJointSpeed);
+  s.q_start = std::move(q_start);
+  s.q_end = std::move(q_end);
+  return s;
+}
+
+PickPlanner::Primitive PickPlanner::Gripper(PolicyPhase phase, double ctrl, double duration) {
+  Primitive p;
+  p.phase = phase;
+  p.gripper = ctrl;
+  p.duration = duration;
+  return p;
+}
+
 void PickPlanner::Fail(PlanFailure failure, std::string message) {
   failure_ = failure;
   message_ = std::move(message);
@@ -198,10 +221,7 @@ PlanFailure PickPlanner::Plan(const mjData* d) {
 
   SegmentTiming fast{config_.speed_fast, 1.0};
   SegmentTiming slow{config_.speed_slow, 1.0};
-  Primitive open;
-  open.phase = PolicyPhase::kGripperOpen;
-  open.gripper = robot_->spec().gripper_open_ctrl;
-  open.duration = 0;
+  const Primitive open = Gripper(PolicyPhase::kGripperOpen, robot_->spec().gripper_open_ctrl, 0);
   Primitive approach;
   approach.move = true;
   approach.settle = config_.move_settle_time;
@@ -221,22 +241,13 @@ PlanFailure PickPlanner::Plan(const mjData* d) {
     if (!SolveIk(lift, q_above, true)) {
       return finish(PlanFailure::kIkFail, "lift has no IK solution");
     }
-    double joint_span = 0;
-    for (size_t i = 0; i < q_now.size(); ++i) {
-      joint_span = std::max(joint_span, std::abs(q_above[i] - q_now[i]));
-    }
-    Segment travel = Line(tcp, lift, fast, PolicyPhase::kPregrasp);
-    travel.duration = std::max(travel.duration, joint_span / kMaxJointSpeed);
-    travel.q_start = q_now;
-    travel.q_end = q_above;
-    approach.segments.push_back(travel);
+    approach.segments.push_back(
+        JointTravel(tcp, lift, q_now, std::move(q_above), fast, PolicyPhase::kPregrasp));
   }
   approach.segments.push_back(Line(lift, pregrasp, fast, PolicyPhase::kPregrasp));
   approach.segments.push_back(Line(pregrasp, grasp_, slow, PolicyPhase::kGrasp));
-  Primitive close;
-  close.phase = PolicyPhase::kGripperClose;
-  close.gripper = robot_->spec().gripper_closed_ctrl;
-  close.duration = config_.gripper_close_duration;
+  const Primitive close = Gripper(PolicyPhase::kGripperClose, robot_->spec().gripper_closed_ctrl,
+                                  config_.gripper_close_duration);
   Primitive raise;
   raise.move = true;
   raise.holding = true;

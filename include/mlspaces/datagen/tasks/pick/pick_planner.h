@@ -168,6 +168,13 @@ class MLSPACES_API PickPlanner {
   /// A Cartesian segment timed by `timing`.
   static Segment Line(const Mat4& start, const Mat4& end, const SegmentTiming& timing,
                       PolicyPhase phase);
+  /// Joint-space travel from q_start (at pose start) to q_end (at end): Line's duration, or
+  /// longer so no joint moves faster than 1 rad/s.
+  static Segment JointTravel(const Mat4& start, const Mat4& end, std::vector<double> q_start,
+                             std::vector<double> q_end, const SegmentTiming& timing,
+                             PolicyPhase phase);
+  /// A gripper primitive: `ctrl` held for `duration` s.
+  static Primitive Gripper(PolicyPhase phase, double ctrl, double duration);
   /// Fills primitives_ (and grasp_, grasp_index_, stats_) from the state in `d`.
   virtual PlanFailure Plan(const mjData* d);
   void Fail(PlanFailure failure, std::string message);

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -95,6 +96,39 @@ def run_datagen_module(project: Path, spec: str, *args: str) -> subprocess.Compl
     return subprocess.run(
         [sys.executable, "-m", "mlspaces.datagen", spec, "--output", "run", "--seed", "0", "-q",
          *args], cwd=project, env=env, capture_output=True, text=True)
+
+
+SMALL_CAMERA_SIZE = (96, 64)  # (width, height), multiples of 16: videos hold exactly this size
+
+
+def small_camera_run(folder: Path, episodes: int) -> Path:
+    """The tutorial (a copy of examples/custom_assets in `folder`) run through
+    `python -m mlspaces.datagen` with SMALL_CAMERA_SIZE wrist and exo images, no shadows or
+    reflections (rendering dominates otherwise), `episodes` successful episodes in house_0;
+    returns the run folder."""
+    width, height = SMALL_CAMERA_SIZE
+    config = f"""
+from datagen import FrankaPickDroidDataGenConfig
+from mlspaces.configs import FrankaDroidCameraSystem, PickTaskSamplerConfig
+from mlspaces.data_generation.config_registry import register_config
+
+_SAMPLER = FrankaPickDroidDataGenConfig.model_fields["task_sampler_config"].default
+
+
+@register_config("SmallCameraConfig")
+class SmallCameraConfig(FrankaPickDroidDataGenConfig):
+    camera_config: FrankaDroidCameraSystem = FrankaDroidCameraSystem(
+        img_resolution=({width}, {height}), shadows=False, reflections=False)
+    task_sampler_config: PickTaskSamplerConfig = _SAMPLER.model_copy(
+        update={{"samples_per_house": {episodes}}})
+"""
+    project = folder / "custom_assets"
+    shutil.copytree(EXAMPLE_DIR, project, ignore=shutil.ignore_patterns("experiment_output"))
+    (project / "small_camera_config.py").write_text(config)
+    out = run_datagen_module(project, "small_camera_config:SmallCameraConfig")
+    assert out.returncode == 0, out.stderr
+    assert f"Success count: {episodes}, Total count: {episodes}" in out.stdout
+    return project / "run"
 
 
 def jitter_robot_base(env, task_config, noise: float = 0.05) -> None:

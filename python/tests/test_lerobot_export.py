@@ -20,39 +20,17 @@ from mlspaces.errors import MlspacesError, UsageError
 from mlspaces.lerobot import export_lerobot
 from mlspaces.reader import read_dataset
 
-from conftest import EXAMPLE_DIR, run_datagen_module
+from conftest import SMALL_CAMERA_SIZE, small_camera_run
 
-WIDTH, HEIGHT = 96, 64
+WIDTH, HEIGHT = SMALL_CAMERA_SIZE
 CAMERAS = ["exo_camera_1", "wrist_camera"]
 INDEX_COLUMNS = ["timestamp", "frame_index", "episode_index", "index", "task_index"]
-
-SMALL_CONFIG = f"""
-from datagen import FrankaPickDroidDataGenConfig
-from mlspaces.configs import FrankaDroidCameraSystem, PickTaskSamplerConfig
-from mlspaces.data_generation.config_registry import register_config
-
-_SAMPLER = FrankaPickDroidDataGenConfig.model_fields["task_sampler_config"].default
-
-
-@register_config("SmallLeRobotConfig")
-class SmallLeRobotConfig(FrankaPickDroidDataGenConfig):
-    camera_config: FrankaDroidCameraSystem = FrankaDroidCameraSystem(
-        img_resolution=({WIDTH}, {HEIGHT}), shadows=False, reflections=False)
-    task_sampler_config: PickTaskSamplerConfig = _SAMPLER.model_copy(
-        update={{"samples_per_house": 3}})
-"""
 
 
 @pytest.fixture(scope="module")
 def run_folder(tmp_path_factory) -> Path:
     """A run folder of 3 successful episodes with wrist and exo camera videos."""
-    project = tmp_path_factory.mktemp("lerobot") / "custom_assets"
-    shutil.copytree(EXAMPLE_DIR, project, ignore=shutil.ignore_patterns("experiment_output"))
-    (project / "small_lerobot_config.py").write_text(SMALL_CONFIG)
-    out = run_datagen_module(project, "small_lerobot_config:SmallLeRobotConfig")
-    assert out.returncode == 0, out.stderr
-    assert "Success count: 3, Total count: 3" in out.stdout
-    return project / "run"
+    return small_camera_run(tmp_path_factory.mktemp("lerobot"), 3)
 
 
 @pytest.fixture(scope="module")

@@ -20,39 +20,16 @@ from mlspaces import _core
 from mlspaces.errors import MlspacesError
 from mlspaces.reader import CameraFrames, Dataset, Episode, read_dataset
 
-from conftest import EXAMPLE_DIR, run_datagen_module
+from conftest import SMALL_CAMERA_SIZE, small_camera_run
 
-WIDTH, HEIGHT = 96, 64  # multiples of 16: the videos hold exactly this size
+WIDTH, HEIGHT = SMALL_CAMERA_SIZE
 CAMERAS = ["exo_camera_1", "wrist_camera"]
-
-# The tutorial's config with small, cheap camera images (rendering dominates otherwise).
-SMALL_CONFIG = f"""
-from datagen import FrankaPickDroidDataGenConfig
-from mlspaces.configs import FrankaDroidCameraSystem, PickTaskSamplerConfig
-from mlspaces.data_generation.config_registry import register_config
-
-_SAMPLER = FrankaPickDroidDataGenConfig.model_fields["task_sampler_config"].default
-
-
-@register_config("SmallReaderConfig")
-class SmallReaderConfig(FrankaPickDroidDataGenConfig):
-    camera_config: FrankaDroidCameraSystem = FrankaDroidCameraSystem(
-        img_resolution=({WIDTH}, {HEIGHT}), shadows=False, reflections=False)
-    task_sampler_config: PickTaskSamplerConfig = _SAMPLER.model_copy(
-        update={{"samples_per_house": 2}})
-"""
 
 
 @pytest.fixture(scope="module")
 def run_folder(tmp_path_factory) -> Path:
     """A run folder of 2 episodes (house_0, one batch), wrist and exo camera videos."""
-    project = tmp_path_factory.mktemp("reader") / "custom_assets"
-    shutil.copytree(EXAMPLE_DIR, project, ignore=shutil.ignore_patterns("experiment_output"))
-    (project / "small_reader_config.py").write_text(SMALL_CONFIG)
-    out = run_datagen_module(project, "small_reader_config:SmallReaderConfig")
-    assert out.returncode == 0, out.stderr
-    assert "Success count: 2, Total count: 2" in out.stdout
-    return project / "run"
+    return small_camera_run(tmp_path_factory.mktemp("reader"), 2)
 
 
 def _batch_file(run: Path) -> Path:

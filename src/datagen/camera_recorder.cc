@@ -143,20 +143,29 @@ void CameraSystem::AppendParams(const sim::CameraView& v, int width, int height,
   params[int_param.name].Append({f, 0, 0.5 * width, 0, f, 0.5 * height, 0, 0, 1});
 }
 
+std::unique_ptr<sim::Renderer> MakeCameraRenderer(const mjModel* m,
+                                                  const CameraSystemConfig& config,
+                                                  sim::GlBackend backend) {
+  sim::RenderOptions options;
+  options.width = static_cast<int>(config.img_resolution[0]);
+  options.height = static_cast<int>(config.img_resolution[1]);
+  options.backend = backend;
+  options.shadow_size = static_cast<int>(config.shadow_size);
+  options.multisamples = static_cast<int>(config.multisamples);
+  auto renderer = std::make_unique<sim::Renderer>(m, options);
+  renderer->scene().flags[mjRND_SHADOW] = config.shadows ? 1 : 0;
+  renderer->scene().flags[mjRND_REFLECTION] = config.reflections ? 1 : 0;
+  return renderer;
+}
+
 CameraRecorder::CameraRecorder(const mjModel* m, const CameraSystemConfig& config, double fps,
                                sim::GlBackend backend)
     : system_(m, config), config_(config) {
   video_.fps = fps;
   video_.crf = static_cast<int>(config.video_crf);
   video_.preset = config.video_preset;
-  sim::RenderOptions options;
-  options.width = system_.width();
-  options.height = system_.height();
-  options.backend = backend;
-  renderer_ = std::make_unique<sim::Renderer>(m, options);
-  renderer_->scene().flags[mjRND_SHADOW] = config.shadows ? 1 : 0;
-  renderer_->scene().flags[mjRND_REFLECTION] = config.reflections ? 1 : 0;
-  const size_t pixels = static_cast<size_t>(options.width) * options.height;
+  renderer_ = MakeCameraRenderer(m, config, backend);
+  const size_t pixels = static_cast<size_t>(system_.width()) * system_.height();
   rgb_buf_.resize(3 * pixels);
   if (config.record_depth) {
     depth_buf_.resize(pixels);

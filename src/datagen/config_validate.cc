@@ -175,6 +175,10 @@ void Validate(const ExperimentConfig& c, const fs::path& origin) {
               cam.img_resolution[0] <= 8192 && cam.img_resolution[1] <= 8192,
           "camera_config.img_resolution", "width and height must be in 16..8192");
   k.Check(cam.depth_max_m > 0, "camera_config.depth_max_m", "must be > 0");
+  k.Check(cam.shadow_size == 0 || (cam.shadow_size >= 64 && cam.shadow_size <= 16384),
+          "camera_config.shadow_size", "must be 0 (the scene's) or in 64..16384");
+  k.Check(cam.multisamples >= -1 && cam.multisamples <= 16, "camera_config.multisamples",
+          "must be -1 (the scene's) or in 0..16");
   k.Check(cam.video_crf >= 0 && cam.video_crf <= 51, "camera_config.video_crf", "must be in 0..51");
   static const std::set<std::string> kPresets = {"ultrafast", "superfast", "veryfast", "faster",
                                                  "fast",      "medium",    "slow",     "slower",

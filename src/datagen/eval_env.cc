@@ -147,13 +147,7 @@ void EvalEnv::Render(size_t index, unsigned char* rgb) {
                      : "render before reset: call reset first");
   }
   if (!renderer_) {
-    sim::RenderOptions render;
-    render.width = cameras_->width();
-    render.height = cameras_->height();
-    render.backend = options_.gl_backend;
-    renderer_ = std::make_unique<sim::Renderer>(env_->model(), render);
-    renderer_->scene().flags[mjRND_SHADOW] = config_.camera_config.shadows ? 1 : 0;
-    renderer_->scene().flags[mjRND_REFLECTION] = config_.camera_config.reflections ? 1 : 0;
+    renderer_ = MakeCameraRenderer(env_->model(), config_.camera_config, options_.gl_backend);
   }
   if (index >= cameras_->size()) {
     throw Error("camera index " + std::to_string(index) + " out of range (" +

@@ -31,6 +31,7 @@
 #include "mlspaces/datagen/preflight.h"
 #include "mlspaces/datagen/recorder.h"
 #include "mlspaces/library/registry.h"
+#include "mlspaces/sim/renderer.h"
 
 namespace mlspaces::datagen {
 namespace fs = std::filesystem;
@@ -337,8 +338,8 @@ class ItemRunner {
 
 // A forked worker: runs its items, reports through `fd`; returns the exit status.
 int WorkerMain(int fd, pid_t parent, const ExperimentConfig& config, const Registry& registry,
-               TaskSampler& sampler, const fs::path& folder, sim::GlBackend gl, int workers,
-               const std::vector<AttemptRecord>& earlier,
+               TaskSampler& sampler, const fs::path& folder, sim::GlBackend gl, int worker,
+               int workers, const std::vector<AttemptRecord>& earlier,
                const std::vector<std::pair<size_t, WorkItem>>& items) {
   ::prctl(PR_SET_PDEATHSIG, SIGKILL);  // a killed parent takes its workers along
   if (::getppid() != parent) ::_exit(3);
@@ -349,6 +350,7 @@ int WorkerMain(int fd, pid_t parent, const ExperimentConfig& config, const Regis
     const long cores = std::max(1L, ::sysconf(_SC_NPROCESSORS_ONLN));
     ::setenv("LP_NUM_THREADS", std::to_string(std::max(1L, cores / workers)).c_str(), 1);
   }
+  sim::SetRenderWorker(worker);  // EGL devices are taken in turn by the workers
   int code = 0;
   auto emit = [fd](const Json& message) {
     if (!WriteAll(fd, message.dump() + "\n")) ::_exit(4);
@@ -609,7 +611,7 @@ RunReport RunDatagen(const ExperimentConfig& input, const TaskSamplerRegistry& s
           if (options.after_fork_child) options.after_fork_child();
           for (const Child& earlier_worker : pool) ::close(earlier_worker.fd());
           return WorkerMain(fd, self, config, registry, *sampler, report.folder, options.gl_backend,
-                            workers, earlier, mine);
+                            w, workers, earlier, mine);
         }));
       } catch (...) {
         if (options.after_fork_parent) options.after_fork_parent();

@@ -8,8 +8,12 @@
 #include <GL/osmesa.h>
 
 #include <algorithm>
+#include <atomic>
+#include <charconv>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
+#include <map>
 #include <mutex>
 #include <optional>
 #include <string>
@@ -83,6 +87,8 @@ struct EglApi {
   PFNEGLGETPLATFORMDISPLAYEXTPROC get_platform_display = nullptr;
   // EGL_EXT_device_enumeration (null without it): the device platform's devices.
   PFNEGLQUERYDEVICESEXTPROC query_devices = nullptr;
+  PFNEGLQUERYDEVICESTRINGEXTPROC query_device_string = nullptr;
+  bool has_surfaceless = false;  // EGL_MESA_platform_surfaceless
 };
 
 // Loaded once per process; a failed load is retried by the next call.
@@ -121,17 +127,17 @@ const EglApi& LoadEgl() {
     a.make_current = Symbol<decltype(a.make_current)>(b, a.lib, "eglMakeCurrent");
     a.get_current_context =
         Symbol<decltype(a.get_current_context)>(b, a.lib, "eglGetCurrentContext");
-    const char* ext = a.query_string(EGL_NO_DISPLAY, EGL_EXTENSIONS);
-    if (ext == nullptr ||
-        std::string_view(ext).find("EGL_MESA_platform_surfaceless") == std::string_view::npos) {
-      Fail(b, "EGL has no EGL_MESA_platform_surfaceless (install libegl-mesa0)");
-    }
+    const char* ext_c = a.query_string(EGL_NO_DISPLAY, EGL_EXTENSIONS);
+    const std::string_view ext = ext_c ? ext_c : "";
+    a.has_surfaceless = ext.find("EGL_MESA_platform_surfaceless") != std::string_view::npos;
     a.get_platform_display = reinterpret_cast<PFNEGLGETPLATFORMDISPLAYEXTPROC>(
         a.get_proc_address("eglGetPlatformDisplayEXT"));
     if (a.get_platform_display == nullptr) Fail(b, "EGL has no eglGetPlatformDisplayEXT");
-    if (std::string_view(ext).find("EGL_EXT_platform_device") != std::string_view::npos) {
+    if (ext.find("EGL_EXT_platform_device") != std::string_view::npos) {
       a.query_devices =
           reinterpret_cast<PFNEGLQUERYDEVICESEXTPROC>(a.get_proc_address("eglQueryDevicesEXT"));
+      a.query_device_string = reinterpret_cast<PFNEGLQUERYDEVICESTRINGEXTPROC>(
+          a.get_proc_address("eglQueryDeviceStringEXT"));
     }
     return a;
   }();
@@ -144,51 +150,74 @@ std::string EglErrorText(const EglApi& egl) {
   return buf;
 }
 
-// The EGL display of each platform, initialised while any EGL Renderer on it lives
-// (eglInitialize and eglTerminate act on the display as a whole, so they are
-// reference-counted).
+// The EGL devices (EGL_EXT_device_enumeration), queried once per process.
+std::vector<EGLDeviceEXT> QueryEglDevices(const EglApi& egl) {
+  if (egl.query_devices == nullptr) {
+    Fail(GlBackend::kEgl, "EGL has no device platform (EGL_EXT_platform_device)");
+  }
+  EGLint count = 0;
+  if (!egl.query_devices(0, nullptr, &count) || count < 1) {
+    Fail(GlBackend::kEgl, "no EGL device (" + EglErrorText(egl) + ")");
+  }
+  std::vector<EGLDeviceEXT> devices(static_cast<size_t>(count));
+  if (!egl.query_devices(count, devices.data(), &count)) {
+    Fail(GlBackend::kEgl, "eglQueryDevicesEXT failed (" + EglErrorText(egl) + ")");
+  }
+  devices.resize(static_cast<size_t>(count));
+  return devices;
+}
+
+const std::vector<EGLDeviceEXT>& EglDeviceHandles(const EglApi& egl) {
+  static const std::vector<EGLDeviceEXT> devices = QueryEglDevices(egl);
+  return devices;
+}
+
+// The EGL display of each device (key: device index; -1 for the surfaceless platform),
+// initialised while any EGL Renderer on it lives (eglInitialize and eglTerminate act on the
+// display as a whole, so they are reference-counted).
 std::mutex g_egl_mutex;
 struct EglDisplaySlot {
   EGLDisplay display = EGL_NO_DISPLAY;
   int users = 0;
 };
-EglDisplaySlot g_egl_displays[2];  // indexed by EglPlatform
+std::map<int, EglDisplaySlot> g_egl_displays;
 
-const char* EglPlatformName(EglPlatform p) {
-  return p == EglPlatform::kDevice ? "device" : "surfaceless";
+std::string EglDisplayName(int device) {
+  return device < 0 ? std::string("the surfaceless EGL display")
+                    : "EGL device " + std::to_string(device);
 }
 
-// The display of `platform`: Mesa's surfaceless platform (no window system, no GPU needed), or
-// the device platform (EGL_EXT_platform_device: the first EGL device, a GPU where a driver
-// exposes one; Mesa's software device otherwise).
-EGLDisplay OpenEglDisplay(const EglApi& egl, EglPlatform platform) {
-  if (platform == EglPlatform::kSurfaceless) {
+// The display of `device` (an index of the device list), or of Mesa's surfaceless platform
+// (no window system, no GPU needed) for -1.
+EGLDisplay OpenEglDisplay(const EglApi& egl, int device) {
+  if (device < 0) {
+    if (!egl.has_surfaceless) {
+      Fail(GlBackend::kEgl, "EGL has no EGL_MESA_platform_surfaceless (install libegl-mesa0)");
+    }
     return egl.get_platform_display(EGL_PLATFORM_SURFACELESS_MESA, EGL_DEFAULT_DISPLAY, nullptr);
   }
-  if (egl.query_devices == nullptr) {
-    Fail(GlBackend::kEgl, "EGL has no device platform (EGL_EXT_platform_device)");
+  const std::vector<EGLDeviceEXT>& devices = EglDeviceHandles(egl);
+  if (static_cast<size_t>(device) >= devices.size()) {
+    throw UsageError("egl renderer: no EGL device " + std::to_string(device) + " (there are " +
+                     std::to_string(devices.size()) + ")");
   }
-  EGLDeviceEXT device = nullptr;
-  EGLint count = 0;
-  if (!egl.query_devices(1, &device, &count) || count < 1) {
-    Fail(GlBackend::kEgl, "no EGL device (" + EglErrorText(egl) + ")");
-  }
-  return egl.get_platform_display(EGL_PLATFORM_DEVICE_EXT, device, nullptr);
+  return egl.get_platform_display(EGL_PLATFORM_DEVICE_EXT, devices[static_cast<size_t>(device)],
+                                  nullptr);
 }
 
-EGLDisplay AcquireEglDisplay(const EglApi& egl, EglPlatform platform) {
+EGLDisplay AcquireEglDisplay(const EglApi& egl, int device) {
   std::lock_guard lock(g_egl_mutex);
-  EglDisplaySlot& slot = g_egl_displays[static_cast<int>(platform)];
+  EglDisplaySlot& slot = g_egl_displays[device];
   if (slot.users == 0) {
-    EGLDisplay dpy = OpenEglDisplay(egl, platform);
+    EGLDisplay dpy = OpenEglDisplay(egl, device);
     if (dpy == EGL_NO_DISPLAY) {
-      Fail(GlBackend::kEgl, std::string("no ") + EglPlatformName(platform) + " EGL display (" +
-                                EglErrorText(egl) + ")");
+      Fail(GlBackend::kEgl,
+           "no display for " + EglDisplayName(device) + " (" + EglErrorText(egl) + ")");
     }
     EGLint major = 0, minor = 0;
     if (!egl.initialize(dpy, &major, &minor)) {
-      Fail(GlBackend::kEgl, std::string("cannot initialise the ") + EglPlatformName(platform) +
-                                " EGL display (" + EglErrorText(egl) + ")");
+      Fail(GlBackend::kEgl,
+           "cannot initialise " + EglDisplayName(device) + " (" + EglErrorText(egl) + ")");
     }
     slot.display = dpy;
   }
@@ -196,9 +225,9 @@ EGLDisplay AcquireEglDisplay(const EglApi& egl, EglPlatform platform) {
   return slot.display;
 }
 
-void ReleaseEglDisplay(const EglApi& egl, EglPlatform platform) {
+void ReleaseEglDisplay(const EglApi& egl, int device) {
   std::lock_guard lock(g_egl_mutex);
-  EglDisplaySlot& slot = g_egl_displays[static_cast<int>(platform)];
+  EglDisplaySlot& slot = g_egl_displays[device];
   if (--slot.users == 0) {
     egl.terminate(slot.display);
     slot.display = EGL_NO_DISPLAY;
@@ -250,8 +279,9 @@ void ClaimProcessBackend(GlBackend backend) {
 
 class GlContext {
  public:
-  GlContext(GlBackend backend, EglPlatform platform, int width, int height)
-      : backend_(backend), platform_(platform) {
+  // `device`: for EGL, an index of the device list, or -1 for the surfaceless platform.
+  GlContext(GlBackend backend, int device, int width, int height)
+      : backend_(backend), device_(device) {
     if (backend == GlBackend::kOsMesa) {
       const OsMesaApi& api = LoadOsMesa();
       osmesa_ = api.create_context_ext(OSMESA_RGBA, 24, 8, 8, nullptr);
@@ -265,7 +295,7 @@ class GlContext {
       }
     } else {
       const EglApi& egl = LoadEgl();
-      display_ = AcquireEglDisplay(egl, platform_);
+      display_ = AcquireEglDisplay(egl, device_);
       const EGLint attribs[] = {EGL_RED_SIZE,
                                 8,
                                 EGL_GREEN_SIZE,
@@ -300,8 +330,8 @@ class GlContext {
         egl.destroy_context(display_, egl_);
       }
       if (!problem.empty()) {
-        ReleaseEglDisplay(egl, platform_);
-        Fail(backend, problem);
+        ReleaseEglDisplay(egl, device_);
+        Fail(backend, problem + " on " + EglDisplayName(device_));
       }
     }
   }
@@ -320,7 +350,7 @@ class GlContext {
           egl.make_current(display_, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
         }
         egl.destroy_context(display_, egl_);
-        ReleaseEglDisplay(egl, platform_);
+        ReleaseEglDisplay(egl, device_);
       }
     } catch (...) {}
   }
@@ -348,7 +378,7 @@ class GlContext {
 
  private:
   GlBackend backend_;
-  EglPlatform platform_;
+  int device_ = -1;
   OSMesaContext osmesa_ = nullptr;
   std::vector<unsigned char> osmesa_buffer_;
   int width_ = 0, height_ = 0;
@@ -383,8 +413,96 @@ std::optional<GlBackend> ProcessGlBackend() {
   return g_process_backend;
 }
 
+// ---------------------------------------------------------------------------------------------
+// EGL devices
+
+namespace {
+
+std::atomic<int> g_render_worker{0};
+
+std::string DescribeEglDevices(const std::vector<EglDevice>& devices) {
+  std::string out;
+  for (const EglDevice& d : devices) {
+    if (!out.empty()) out += ", ";
+    out += std::to_string(d.index) + " (" + d.name + ")";
+  }
+  return out;
+}
+
+// MLSPACES_EGL_DEVICE's indices; empty when it is unset or empty.
+std::vector<int> EnvEglDevices(const std::vector<EglDevice>& devices) {
+  const char* env = std::getenv("MLSPACES_EGL_DEVICE");
+  std::vector<int> out;
+  if (env == nullptr || *env == '\0') return out;
+  const std::string_view text = env;
+  auto bad = [&](const std::string& why) {
+    throw UsageError("MLSPACES_EGL_DEVICE=" + std::string(text) + ": " + why +
+                     " (devices: " + DescribeEglDevices(devices) + ")");
+  };
+  size_t start = 0;
+  while (start <= text.size()) {
+    const size_t comma = std::min(text.find(',', start), text.size());
+    const std::string_view part = text.substr(start, comma - start);
+    int value = -1;
+    const auto [ptr, ec] = std::from_chars(part.data(), part.data() + part.size(), value);
+    if (part.empty() || ec != std::errc() || ptr != part.data() + part.size() || value < 0) {
+      bad("expected a device index or a comma-separated list of them");
+    }
+    if (static_cast<size_t>(value) >= devices.size()) {
+      bad("no EGL device " + std::to_string(value));
+    }
+    out.push_back(value);
+    start = comma + 1;
+  }
+  return out;
+}
+
+// The devices that automatic choice takes in turn: the hardware ones, else all.
+std::vector<int> AutoEglDevices(const std::vector<EglDevice>& devices) {
+  std::vector<int> hardware, all;
+  for (const EglDevice& d : devices) {
+    all.push_back(d.index);
+    if (!d.software) hardware.push_back(d.index);
+  }
+  return hardware.empty() ? all : hardware;
+}
+
+}  // namespace
+
+std::vector<EglDevice> ListEglDevices() {
+  const EglApi& egl = LoadEgl();
+  const std::vector<EGLDeviceEXT>& handles = EglDeviceHandles(egl);
+  std::vector<EglDevice> out;
+  for (size_t i = 0; i < handles.size(); ++i) {
+    EglDevice d;
+    d.index = static_cast<int>(i);
+    const char* ext =
+        egl.query_device_string ? egl.query_device_string(handles[i], EGL_EXTENSIONS) : nullptr;
+    d.software = ext != nullptr &&
+                 std::string_view(ext).find("EGL_MESA_device_software") != std::string_view::npos;
+    const char* file = nullptr;
+    if (ext != nullptr &&
+        std::string_view(ext).find("EGL_EXT_device_drm") != std::string_view::npos) {
+      file = egl.query_device_string(handles[i], EGL_DRM_DEVICE_FILE_EXT);
+    }
+    d.name = file != nullptr ? file : d.software ? "software" : "device " + std::to_string(i);
+    out.push_back(std::move(d));
+  }
+  return out;
+}
+
+int ChooseEglDevice(int worker) {
+  const std::vector<EglDevice> devices = ListEglDevices();
+  std::vector<int> pool = EnvEglDevices(devices);
+  if (pool.empty()) pool = AutoEglDevices(devices);
+  return pool[static_cast<size_t>(std::max(0, worker)) % pool.size()];
+}
+
+void SetRenderWorker(int worker) { g_render_worker = std::max(0, worker); }
+
 struct Renderer::Impl {
   RenderOptions options;
+  int egl_device = -1;
   // Declared first, destroyed last: the MuJoCo objects below are freed with it current.
   std::optional<GlContext> gl;
   ModelPtr model;  // private copy with a big enough offscreen buffer
@@ -418,15 +536,62 @@ Renderer::Renderer(const mjModel* m, RenderOptions options) : impl_(std::make_un
   if (options.max_geom <= 0) throw UsageError("Renderer: max_geom must be positive");
   const GlBackend backend = options.backend;
   CheckProcessBackend(backend);
+  if (options.shadow_size < 0) {
+    throw UsageError("Renderer: shadow_size must be >= 0 (0: the model's), got " +
+                     std::to_string(options.shadow_size));
+  }
+  if (options.multisamples < -1) {
+    throw UsageError("Renderer: multisamples must be >= -1 (-1: the model's), got " +
+                     std::to_string(options.multisamples));
+  }
   Impl& s = *impl_;
   s.options = options;
-  s.gl.emplace(backend, options.egl_platform, options.width, options.height);
+  if (backend == GlBackend::kOsMesa || options.egl_platform == EglPlatform::kSurfaceless) {
+    s.gl.emplace(backend, -1, options.width, options.height);
+  } else {
+    // The device platform: the device asked for, or this worker's, then (automatic choice
+    // without MLSPACES_EGL_DEVICE only) the other devices of the pool until one works.
+    const std::vector<EglDevice> devices = ListEglDevices();
+    std::vector<int> candidates;
+    if (options.egl_device >= 0) {
+      if (static_cast<size_t>(options.egl_device) >= devices.size()) {
+        throw UsageError("Renderer: no EGL device " + std::to_string(options.egl_device) +
+                         " (devices: " + DescribeEglDevices(devices) + ")");
+      }
+      candidates = {options.egl_device};
+    } else {
+      const int first = ChooseEglDevice(g_render_worker);
+      candidates = {first};
+      if (EnvEglDevices(devices).empty()) {
+        for (int d : AutoEglDevices(devices)) {
+          if (d != first) candidates.push_back(d);
+        }
+      }
+    }
+    std::string failures;
+    for (const int d : candidates) {
+      try {
+        s.gl.emplace(backend, d, options.width, options.height);
+        s.egl_device = d;
+        break;
+      } catch (const Error& e) {
+        if (!failures.empty()) failures += "; ";
+        failures += e.what();
+      }
+    }
+    if (!s.gl) {
+      if (candidates.size() == 1) throw Error(failures);
+      Fail(backend, "no EGL device works: " + failures);
+    }
+  }
   try {
     s.model.reset(mj_copyModel(nullptr, m));
     if (!s.model) Fail(backend, "mj_copyModel failed");
     mjModel* mc = s.model.get();
     mc->vis.global.offwidth = std::max(mc->vis.global.offwidth, options.width);
     mc->vis.global.offheight = std::max(mc->vis.global.offheight, options.height);
+    if (options.shadow_size > 0) mc->vis.quality.shadowsize = options.shadow_size;
+    if (options.multisamples >= 0) mc->vis.quality.offsamples = options.multisamples;
     s.znear = static_cast<float>(mc->vis.map.znear * mc->stat.extent);
     s.zfar = static_cast<float>(mc->vis.map.zfar * mc->stat.extent);
 
@@ -574,6 +739,7 @@ CameraView Renderer::ModelCamera(const mjModel* m, const mjData* d, int camera_i
 int Renderer::width() const { return impl_->options.width; }
 int Renderer::height() const { return impl_->options.height; }
 GlBackend Renderer::backend() const { return impl_->options.backend; }
+int Renderer::egl_device() const { return impl_->egl_device; }
 mjvScene& Renderer::scene() { return impl_->scn; }
 mjvOption& Renderer::vis_option() { return impl_->opt; }
 

@@ -7,6 +7,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <ostream>
 #include <string>
 #include <thread>
@@ -274,11 +275,13 @@ TEST_P(RendererTest, RendersTheBoxFromAboveWithDepth) {
 TEST(EglDevicePlatform, RendersTheSamePictureAsSurfaceless) {
   RUN_IN_CHILD_IF_OTHER_BACKEND(GlBackend::kEgl);
   const World w = LoadWorld();
-  MAKE_RENDERER_OR_SKIP(surfaceless, w.m.get(), RenderOptions{.backend = GlBackend::kEgl});
+  MAKE_RENDERER_OR_SKIP(
+      surfaceless, w.m.get(),
+      RenderOptions{.backend = GlBackend::kEgl, .egl_platform = EglPlatform::kSurfaceless});
+  EXPECT_EQ(surfaceless->egl_device(), -1);
   std::unique_ptr<Renderer> device;
   try {
-    device = std::make_unique<Renderer>(
-        w.m.get(), RenderOptions{.backend = GlBackend::kEgl, .egl_platform = EglPlatform::kDevice});
+    device = std::make_unique<Renderer>(w.m.get(), RenderOptions{.backend = GlBackend::kEgl});
   } catch (const Error& e) {
     const std::string what = e.what();
     EXPECT_EQ(what.find('\n'), std::string::npos) << what;
@@ -295,6 +298,151 @@ TEST(EglDevicePlatform, RendersTheSamePictureAsSurfaceless) {
   long far = 0;
   for (size_t i = 0; i < a.rgb.size(); ++i) far += std::abs(int(a.rgb[i]) - int(b.rgb[i])) > 8;
   EXPECT_LE(far, static_cast<long>(a.rgb.size() / 100));
+}
+
+// Sets an environment variable for the scope (unsets it when `value` is null).
+class ScopedEnv {
+ public:
+  ScopedEnv(const char* name, const char* value) : name_(name) {
+    if (const char* old = std::getenv(name)) old_ = old;
+    if (value) {
+      ::setenv(name, value, 1);
+    } else {
+      ::unsetenv(name);
+    }
+  }
+  ~ScopedEnv() {
+    if (old_) {
+      ::setenv(name_.c_str(), old_->c_str(), 1);
+    } else {
+      ::unsetenv(name_.c_str());
+    }
+  }
+  ScopedEnv(const ScopedEnv&) = delete;
+  ScopedEnv& operator=(const ScopedEnv&) = delete;
+
+ private:
+  std::string name_;
+  std::optional<std::string> old_;
+};
+
+// The device list, or a skip reason when EGL has no device platform here.
+std::vector<EglDevice> DevicesOrSkip(std::string* skip) {
+  try {
+    return ListEglDevices();
+  } catch (const Error& e) {
+    *skip = std::string("no EGL devices here: ") + e.what();
+    return {};
+  }
+}
+
+TEST(EglDevices, WorkersTakeTheDevicesInTurnAndMlspacesEglDeviceChooses) {
+  RUN_IN_CHILD_IF_OTHER_BACKEND(GlBackend::kEgl);
+  std::string skip;
+  const std::vector<EglDevice> devices = DevicesOrSkip(&skip);
+  if (devices.empty()) GTEST_SKIP() << skip;
+  bool any_hardware = false;
+  for (size_t i = 0; i < devices.size(); ++i) {
+    EXPECT_EQ(devices[i].index, static_cast<int>(i));
+    EXPECT_FALSE(devices[i].name.empty());
+    any_hardware |= !devices[i].software;
+  }
+  {
+    ScopedEnv env("MLSPACES_EGL_DEVICE", nullptr);
+    // Unset: hardware devices in turn (Mesa's software device when there is none).
+    for (int worker = 0; worker < 5; ++worker) {
+      const int d = ChooseEglDevice(worker);
+      ASSERT_GE(d, 0);
+      ASSERT_LT(d, static_cast<int>(devices.size()));
+      EXPECT_EQ(devices[d].software, !any_hardware) << devices[d].name;
+    }
+  }
+  {
+    ScopedEnv env("MLSPACES_EGL_DEVICE", "0");
+    EXPECT_EQ(ChooseEglDevice(0), 0);
+    EXPECT_EQ(ChooseEglDevice(3), 0);
+  }
+  {
+    // A list: worker k takes entry k mod n.
+    ScopedEnv env("MLSPACES_EGL_DEVICE", "0,0,0");
+    EXPECT_EQ(ChooseEglDevice(2), 0);
+  }
+  for (const char* bad : {"99", "x", "0,,0", "-1", "1.5"}) {
+    SCOPED_TRACE(bad);
+    ScopedEnv env("MLSPACES_EGL_DEVICE", bad);
+    mlspaces::testing::ExpectError([] { ChooseEglDevice(0); },
+                                   {"MLSPACES_EGL_DEVICE=" + std::string(bad), "devices: 0 ("});
+    EXPECT_THROW(ChooseEglDevice(0), UsageError);
+  }
+}
+
+TEST(EglDevices, ARendererOnTheChosenDeviceRendersTheScene) {
+  RUN_IN_CHILD_IF_OTHER_BACKEND(GlBackend::kEgl);
+  std::string skip;
+  const std::vector<EglDevice> devices = DevicesOrSkip(&skip);
+  if (devices.empty()) GTEST_SKIP() << skip;
+  const World w = LoadWorld();
+  const int last = static_cast<int>(devices.size()) - 1;
+  Renderer r(
+      w.m.get(),
+      RenderOptions{.width = 64, .height = 48, .backend = GlBackend::kEgl, .egl_device = last});
+  EXPECT_EQ(r.egl_device(), last);
+  Image img(r);
+  r.RenderCamera(w.d.get(), 0, img.rgb.data());
+  EXPECT_TRUE(Is(img.At(24, 32), Hue::kRed));
+  // MLSPACES_EGL_DEVICE steers a Renderer that leaves the choice to it.
+  {
+    ScopedEnv env("MLSPACES_EGL_DEVICE", std::to_string(last).c_str());
+    Renderer chosen(w.m.get(), RenderOptions{.width = 8, .height = 8, .backend = GlBackend::kEgl});
+    EXPECT_EQ(chosen.egl_device(), last);
+  }
+  // A device that does not exist: one line naming it and listing the devices.
+  mlspaces::testing::ExpectError(
+      [&] {
+        Renderer(w.m.get(),
+                 RenderOptions{
+                     .width = 8, .height = 8, .backend = GlBackend::kEgl, .egl_device = last + 7});
+      },
+      {"no EGL device " + std::to_string(last + 7), "devices: 0 ("});
+  {
+    ScopedEnv env("MLSPACES_EGL_DEVICE", "42");
+    mlspaces::testing::ExpectError(
+        [&] {
+          Renderer(w.m.get(), RenderOptions{.width = 8, .height = 8, .backend = GlBackend::kEgl});
+        },
+        {"MLSPACES_EGL_DEVICE=42", "no EGL device 42"});
+  }
+}
+
+TEST_P(RendererTest, ShadowSizeAndMultisamplesOverrideTheModelsQuality) {
+  RUN_IN_CHILD_IF_OTHER_BACKEND(GetParam());
+  const World w = LoadWorld();
+  ASSERT_EQ(w.m->vis.quality.shadowsize, 4096);
+  ASSERT_EQ(w.m->vis.quality.offsamples, 4);
+  const RenderOptions base{.width = 160, .height = 120, .backend = GetParam()};
+  MAKE_RENDERER_OR_SKIP(model_own, w.m.get(), base);
+  RenderOptions same = base;
+  same.shadow_size = 4096;
+  same.multisamples = 4;
+  RenderOptions cheap = base;
+  cheap.shadow_size = 256;
+  cheap.multisamples = 0;
+  Renderer explicit_same(w.m.get(), same), cheaper(w.m.get(), cheap);
+  const int cam = mj_name2id(w.m.get(), mjOBJ_CAMERA, "oblique");
+  Image a(*model_own), b(explicit_same), c(cheaper);
+  model_own->RenderCamera(w.d.get(), cam, a.rgb.data());
+  explicit_same.RenderCamera(w.d.get(), cam, b.rgb.data());
+  cheaper.RenderCamera(w.d.get(), cam, c.rgb.data());
+  EXPECT_EQ(a.rgb, b.rgb);                       // 0 / -1 mean the model's own settings
+  EXPECT_NE(a.rgb, c.rgb);                       // the cheaper settings take effect ...
+  EXPECT_TRUE(Is(c.At(60, 80), Hue::kRed));      // ... and draw the same scene
+  EXPECT_EQ(w.m->vis.quality.shadowsize, 4096);  // on the renderer's copy only
+  for (const auto& [shadow, samples] : {std::pair{-1, 0}, std::pair{1024, -2}}) {
+    RenderOptions bad = base;
+    bad.shadow_size = shadow;
+    bad.multisamples = samples;
+    EXPECT_THROW(Renderer(w.m.get(), bad), UsageError);
+  }
 }
 
 TEST_P(RendererTest, FreeCameraEqualsMuJoCosFixedCamera) {

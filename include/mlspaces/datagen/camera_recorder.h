@@ -73,6 +73,12 @@ class MLSPACES_API CameraSystem {
   int width_ = 0, height_ = 0;
 };
 
+/// A Renderer for `config`'s cameras on `m`: its image size, shadow_size, multisamples,
+/// shadows and reflections. @throws Error as sim::Renderer's constructor.
+MLSPACES_API std::unique_ptr<sim::Renderer> MakeCameraRenderer(const mjModel* m,
+                                                               const CameraSystemConfig& config,
+                                                               sim::GlBackend backend);
+
 /// Renders and encodes the cameras of one env, episode after episode. One per worker
 /// (it owns a GL context).
 class MLSPACES_API CameraRecorder {

@@ -336,10 +336,16 @@ struct MLSPACES_API CameraSystemConfig {
   /// H.264 encoding of the videos: x264 constant rate factor (0-51) and preset.
   int64_t video_crf = 25;
   std::string video_preset = "veryfast";
-  /// MuJoCo's shadows and floor reflections (on by default). Without both a frame renders
-  /// about 5x faster on the CPU (llvmpipe).
+  /// MuJoCo's shadows and floor reflections (on by default, as the original's).
   bool shadows = true;
   bool reflections = true;
+  /// Shadow-map side in texels (0: the scene's vis.quality.shadowsize, 4096 unless it sets
+  /// one) and offscreen multisampling (-1: the scene's offsamples, 4 unless set; 0: off). The
+  /// defaults render several times faster than the original's settings at mean SSIM >= 0.97
+  /// against them (docs/sim.md, "Render speed and quality"); `shadow_size: 0, multisamples: -1`
+  /// renders as the original does.
+  int64_t shadow_size = 1024;
+  int64_t multisamples = 0;
 
   /// FrankaDroidCameraSystem's two cameras: wrist_camera and exo_camera_1.
   static std::vector<CameraConfig> DroidCameras();
@@ -355,6 +361,8 @@ struct MLSPACES_API CameraSystemConfig {
     a->Visit("video_preset", video_preset);
     a->Visit("shadows", shadows);
     a->Visit("reflections", reflections);
+    a->Visit("shadow_size", shadow_size);
+    a->Visit("multisamples", multisamples);
   }
 };
 

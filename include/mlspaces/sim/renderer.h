@@ -14,7 +14,9 @@
 #include <array>
 #include <memory>
 #include <optional>
+#include <string>
 #include <string_view>
+#include <vector>
 
 // MuJoCo's structs, declared as <mujoco/mujoco.h> declares them (include it to use them).
 // NOLINTBEGIN(modernize-use-using): MuJoCo's own form of these declarations
@@ -41,18 +43,53 @@ MLSPACES_API std::string_view GlBackendName(GlBackend backend);
 /// MuJoCo's render context; nullopt before that.
 MLSPACES_API std::optional<GlBackend> ProcessGlBackend();
 
-/// Which EGL display an EGL Renderer uses: Mesa's surfaceless platform (CPU, llvmpipe), or
-/// the first device of EGL_EXT_platform_device (a GPU where the driver exposes one).
-enum class EglPlatform { kSurfaceless, kDevice };
+/// Which EGL display an EGL Renderer uses: a device of EGL_EXT_platform_device (a GPU where a
+/// driver exposes one, else Mesa's software device), or Mesa's surfaceless platform (llvmpipe).
+enum class EglPlatform { kDevice, kSurfaceless };
+
+// ============================================================================================
+// EGL devices
+
+/// One device of EGL_EXT_device_enumeration.
+struct MLSPACES_API EglDevice {
+  int index = 0;          ///< position in eglQueryDevicesEXT's list (MLSPACES_EGL_DEVICE's numbers)
+  std::string name;       ///< the DRM device file, or "software" for Mesa's software device
+  bool software = false;  ///< EGL_MESA_device_software (llvmpipe on the CPU)
+};
+
+/// The EGL devices, in the driver's order. Loads libEGL (so the process renders with EGL).
+/// @throws Error when libEGL is missing or has no device enumeration.
+MLSPACES_API std::vector<EglDevice> ListEglDevices();
+
+/// The device that worker `worker` (0-based) of a pool renders on, as an index of
+/// ListEglDevices(): MLSPACES_EGL_DEVICE when set, an index ("1") or a comma-separated list
+/// that workers take in turn ("0,2,3"); unset, the hardware devices in turn (Mesa's software
+/// device when there is none). @throws UsageError for a malformed MLSPACES_EGL_DEVICE or an
+/// index past the devices (the message lists them); Error as ListEglDevices.
+MLSPACES_API int ChooseEglDevice(int worker);
+
+/// Declares this process worker `worker` of a pool (set by datagen's forked workers): a
+/// Renderer on the device platform with egl_device < 0 takes ChooseEglDevice(worker).
+/// Processes that never call it are worker 0.
+MLSPACES_API void SetRenderWorker(int worker);
 
 struct MLSPACES_API RenderOptions {
   int width = 640;
   int height = 368;
   GlBackend backend = GlBackend::kOsMesa;
   /// For backend kEgl only.
-  EglPlatform egl_platform = EglPlatform::kSurfaceless;
+  EglPlatform egl_platform = EglPlatform::kDevice;
+  /// For the device platform: an index of ListEglDevices(), or -1 for ChooseEglDevice(this
+  /// process's worker), falling back to the other devices in turn when that one fails.
+  int egl_device = -1;
   /// Capacity of the abstract scene (mjv_makeScene); geoms beyond it are not drawn.
   int max_geom = 10000;
+  /// Side of the shadow maps in texels (the model's vis.quality.shadowsize when 0; MuJoCo's
+  /// default is 4096). The shadow passes dominate a frame's cost: docs/sim.md has the curve.
+  int shadow_size = 0;
+  /// Multisampling of the offscreen buffer (the model's vis.quality.offsamples when -1;
+  /// MuJoCo's default is 4); 0 turns it off.
+  int multisamples = -1;
 };
 
 /// A camera in the world. `xmat` is MuJoCo's camera frame (as in mjData::cam_xmat): a
@@ -118,6 +155,9 @@ class MLSPACES_API Renderer {
   int width() const;
   int height() const;
   GlBackend backend() const;
+  /// The EGL device this Renderer renders on (an index of ListEglDevices()); -1 for OSMesa
+  /// and the surfaceless platform.
+  int egl_device() const;
   /// The abstract scene: its flags (scene().flags[mjRND_SHADOW], mjRND_REFLECTION,
   /// mjRND_SKYBOX, ...) may be changed between renders. Owned by the Renderer, valid while
   /// it lives.

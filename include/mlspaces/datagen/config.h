@@ -344,7 +344,7 @@ struct MLSPACES_API CameraSystemConfig {
   /// defaults render several times faster than the original's settings at mean SSIM >= 0.97
   /// against them (docs/sim.md, "Render speed and quality"); `shadow_size: 0, multisamples: -1`
   /// renders as the original does.
-  int64_t shadow_size = 1024;
+  int64_t shadow_size = 2048;
   int64_t multisamples = 0;
 
   /// FrankaDroidCameraSystem's two cameras: wrist_camera and exo_camera_1.

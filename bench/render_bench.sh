@@ -1,0 +1,53 @@
+#!/usr/bin/env bash
+# Camera rendering benchmark (issue 33), in one run:
+#  1. the speed/quality curve of the render settings on the states of real tutorial episodes
+#     (build/bench/datagen_render_quality_bench: ms per camera frame, frames/s, SSIM per camera
+#     against the full-quality frame, the per-episode cost of physics, render and encode);
+#  2. `mlspaces datagen` on the tutorial with WORKERS workers: successful episodes per hour with
+#     cameras at the default settings, at the original's full quality, and without cameras.
+#
+#   bench/render_bench.sh [BUILD_DIR]      (default build)
+#   GL=egl EPISODES=2 RUN_EPISODES=8 WORKERS=2 bench/render_bench.sh
+# GL: osmesa (default) or egl (the EGL device platform: a GPU where one is installed).
+# On llvmpipe each worker renders with one rasteriser thread (LP_NUM_THREADS=1, as datagen sets
+# it with one worker per core), so figures are per core.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+BUILD=${1:-build}
+GL=${GL:-osmesa}
+EPISODES=${EPISODES:-2}
+RUN_EPISODES=${RUN_EPISODES:-8}
+WORKERS=${WORKERS:-$(nproc)}
+BENCH=$BUILD/bench/datagen_render_quality_bench
+CLI=$BUILD/apps/mlspaces/mlspaces
+for f in "$BENCH" "$CLI"; do
+  [[ -x $f ]] || { echo "render_bench: $f is missing (build it: scripts/build.sh)" >&2; exit 2; }
+done
+TMP=$(mktemp -d)
+trap 'rm -rf "$TMP"' EXIT
+
+echo "== render settings: speed and SSIM against full quality ($GL, $EPISODES episodes)"
+LP_NUM_THREADS=${LP_NUM_THREADS:-1} "$BENCH" --gl "$GL" --episodes "$EPISODES"
+
+# run NAME EXTRA...: one datagen run; prints wall time and successful episodes per hour.
+run() {
+  local name=$1
+  shift
+  local t0 t1
+  t0=$(date +%s.%N)
+  "$CLI" datagen examples/custom_assets/datagen.yaml -q --gl "$GL" --seed 1 --workers "$WORKERS" \
+    --episodes "$RUN_EPISODES" --output "$TMP/$name" \
+    --set task_sampler_config.episodes_per_batch=1 "$@"
+  t1=$(date +%s.%N)
+  local ok
+  ok=$(grep -c '"outcome":"success"' "$TMP/$name"/journal*.jsonl || true)
+  awk -v n="$name" -v w="$WORKERS" -v t0="$t0" -v t1="$t1" -v ok="$ok" 'BEGIN {
+    d = t1 - t0
+    printf "%-12s workers %d  %6.1f s  %d successful  %8.0f successful episodes/h (%.0f per worker)\n",
+           n, w, d, ok, 3600 * ok / d, 3600 * ok / d / w }'
+}
+
+echo "== mlspaces datagen, tutorial, $RUN_EPISODES episodes, $WORKERS workers ($GL)"
+run default
+run full --set camera_config.shadow_size=0 --set camera_config.multisamples=-1
+run no_cameras --set task_config.enable_rendering=false

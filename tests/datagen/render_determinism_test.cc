@@ -1,0 +1,74 @@
+// Camera videos are the same bytes for the same config and seed on each renderer (OSMesa, and
+// EGL through its device platform with two workers taking devices in turn), with shadows and
+// reflections and without multisampling, as the defaults render.
+#include <filesystem>
+#include <map>
+#include <string>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "mlspaces/datagen/config.h"
+#include "test_util.h"
+
+namespace mlspaces::datagen {
+namespace {
+
+namespace fs = std::filesystem;
+
+const fs::path kExample = fs::path(MLSPACES_EXAMPLES_DIR) / "custom_assets";
+
+// The MP4s of a run folder by file name.
+std::map<std::string, std::string> Videos(const fs::path& folder) {
+  std::map<std::string, std::string> out;
+  for (const auto& e : fs::recursive_directory_iterator(folder)) {
+    if (e.path().extension() == ".mp4") out[e.path().filename()] = testing::Slurp(e.path());
+  }
+  return out;
+}
+
+// Two episodes in two batches (so two workers each render one) at a small size, with shadows
+// and reflections (small shadow maps: they are most of a frame's cost).
+testing::CliResult RunTutorial(const fs::path& out, const std::string& gl, int workers) {
+  return testing::RunCli(
+      {"datagen", (kExample / "datagen.yaml").string(), "--output", out.string(), "--episodes", "2",
+       "--seed", "4", "-q", "--gl", gl, "--workers", std::to_string(workers), "--set",
+       "task_sampler_config.episodes_per_batch=1", "--set", "camera_config.img_resolution=[96, 64]",
+       "--set", "camera_config.shadow_size=256"});
+}
+
+TEST(RenderDeterminismTest, DefaultSettingsRenderWithShadowsAndWithoutMultisampling) {
+  const CameraSystemConfig c;
+  EXPECT_TRUE(c.shadows);
+  EXPECT_TRUE(c.reflections);
+  EXPECT_EQ(c.shadow_size, 2048);
+  EXPECT_EQ(c.multisamples, 0);
+}
+
+class RenderDeterminismTest : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(RenderDeterminismTest, SameConfigAndSeedGiveTheSameVideoBytes) {
+  testing::TempDir dir;
+  const testing::CliResult a = RunTutorial(dir / "a", GetParam(), 2);
+  if (a.exit_code != 0 && GetParam() == "egl" &&
+      a.err.find("cannot load the GL library") != std::string::npos) {
+    GTEST_SKIP() << "EGL is not available here: " << a.err;
+  }
+  ASSERT_EQ(a.exit_code, 0) << a.err;
+  const testing::CliResult b = RunTutorial(dir / "b", GetParam(), 1);
+  ASSERT_EQ(b.exit_code, 0) << b.err;
+  const auto va = Videos(dir / "a"), vb = Videos(dir / "b");
+  EXPECT_EQ(va.size(), 4u);  // 2 episodes x 2 cameras
+  ASSERT_EQ(va.size(), vb.size());
+  for (const auto& [name, bytes] : va) {
+    ASSERT_TRUE(vb.count(name)) << name;
+    EXPECT_TRUE(vb.at(name) == bytes) << name << " differs between the runs";
+    EXPECT_GT(bytes.size(), 1000u) << name;
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Renderers, RenderDeterminismTest, ::testing::Values("osmesa", "egl"),
+                         [](const auto& info) { return info.param; });
+
+}  // namespace
+}  // namespace mlspaces::datagen

@@ -365,6 +365,13 @@ SimOutcome GraspScene::TestRigid(const Mat4& tcp, mjData* data) const {
         std::string(s.FingerContacts(data, run.object_bodies) == 0 ? "not held after closing"
                                                                    : "one finger after closing") +
         ": object moved " + Mm(dist) + ", " + Deg(angle);
+    // Floating free, such an object also swings out of one finger at the first one's push.
+    if (s.params.support_test && SupportClear(tcp) &&
+        s.TestOnSupport(tcp, data, run.steps).empty()) {
+      out.reason.clear();
+      out.success = true;
+      out.tcp = tcp;  // the pose the data engine commands, which held on the support
+    }
     out.steps = run.steps;
     return out;
   }
@@ -409,6 +416,13 @@ SimOutcome GraspScene::TestRigid(const Mat4& tcp, mjData* data) const {
   }
   if (reason.empty() && s.params.support_test && SupportClear(out.tcp)) {
     reason = s.TestOnSupport(out.tcp, data, run.steps);
+  } else if (!reason.empty() && s.params.support_test && SupportClear(tcp)) {
+    // Shaken in zero gravity, a heavy object held far from its centre of mass slips; resting
+    // on its support and lifted, as the data engine picks it, it may hold: decided there.
+    if (s.TestOnSupport(tcp, data, run.steps).empty()) {
+      reason.clear();
+      out.tcp = tcp;  // the pose the data engine commands, which held on the support
+    }
   }
   out.steps = run.steps;
   out.reason = reason;

@@ -59,8 +59,9 @@ struct GraspScene::Impl {
   bool HandPathBlocked(const Mat4& tcp_in_root, const Vec3& away, double s_from, double s_to) const;
   /// HandPathBlocked back along the approach line, away = -z of the TCP.
   bool ApproachBlocked(const Mat4& tcp_in_root, double s_from, double s_to) const;
-  /// The pick from the support of a grasp that passed the zero-gravity test: "" when the
-  /// object is lifted by lift_height held by both fingers without slipping, else the reason.
+  /// The pick from the support of a grasp that passed the zero-gravity test, or failed it but
+  /// clears the support: "" when the object is lifted by lift_height held by both fingers
+  /// without slipping at the grasp point (turning up to 30 degrees about it), else the reason.
   /// Adds its mj_step calls to `steps`.
   std::string TestOnSupport(const Mat4& tcp_in_root, mjData* d, int64_t& steps) const;
 };

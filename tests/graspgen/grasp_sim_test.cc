@@ -291,6 +291,31 @@ TEST(GraspgenSimTest, GraspsThatClearTheSupportArePickedFromIt) {
   EXPECT_LT(Distance(picked.tcp, floating.tcp), 1e-9);
 }
 
+TEST(GraspgenSimTest, AWideBowlHeldByItsRimIsPickedFromItsSupport) {
+  // bench/graspgen/make_mesh_library.py's 16 cm ceramic bowl (13 convex parts, 0.36 kg, body
+  // origin at its bottom). Held by the rim, 7 cm from its axis, it slips in the hand when
+  // shaken in zero gravity; resting on its support, the hand closes on the rim and lifts it,
+  // the bowl pivoting about the grasp point (the data engine picks it so: 3/3 with this grasp).
+  const auto path = std::filesystem::path(MLSPACES_SOURCE_DIR) /
+                    "tests/graspgen/testdata/bowl_large/bowl_large.xml";
+  SimParams on;
+  SimParams off;
+  off.support_test = false;
+  const GraspScene scene(path, Droid(), GraspScene::Mode::kRigid, on);
+  const GraspScene zero_g(path, Droid(), GraspScene::Mode::kRigid, off);
+  // Top-down on the +x wall, closing across it, the pads' centre 27 mm under the rim.
+  const Mat4 rim = Tcp({0.078, 0, 0.035}, {0, 1, 0}, {1, 0, 0}, {0, 0, -1});
+  ASSERT_TRUE(scene.SupportClear(rim));
+  sim::DataPtr data = sim::MakeData(scene.model());
+  const SimOutcome floating = zero_g.TestRigid(rim, data.get());
+  EXPECT_FALSE(floating.success);
+  EXPECT_EQ(ReasonClass(floating.reason), "slipped in the hand") << floating.reason;
+  const SimOutcome picked = scene.TestRigid(rim, data.get());
+  ASSERT_TRUE(picked.success) << picked.reason;
+  EXPECT_GT(picked.steps, floating.steps + 250);  // the lift from the support
+  EXPECT_LT(Distance(picked.tcp, rim), 1e-12);    // the commanded pose, which held
+}
+
 TEST(GraspgenSimTest, MugGraspsAreDeterministicWhateverTheThreads) {
   mlspaces::testing::TempDir dir;
   const auto asset = WriteMugAsset(dir.path());

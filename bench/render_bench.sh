@@ -37,7 +37,7 @@ run() {
   t0=$(date +%s.%N)
   "$CLI" datagen examples/custom_assets/datagen.yaml -q --gl "$GL" --seed 1 --workers "$WORKERS" \
     --episodes "$RUN_EPISODES" --output "$TMP/$name" \
-    --set task_sampler_config.episodes_per_batch=1 "$@"
+    --set task_sampler_config.episodes_per_batch=1 "$@" > "$TMP/$name.log"
   t1=$(date +%s.%N)
   local ok
   ok=$(grep -c '"outcome":"success"' "$TMP/$name"/journal*.jsonl || true)

@@ -48,15 +48,16 @@ cams=$("$py" -c "import json,sys; f=json.load(open(sys.argv[1]))['features']; pr
 size() { du -sb "$@" | awk '{s+=$1} END {print s}'; }
 h5=$(size "$run"/house_*/*.h5)
 mp4=$(size "$run"/house_*/*.mp4)
-pq=$(size "$work/out_copy/data" "$work/out_copy/meta")
+side=$(size "$work/out_copy/meta/mlspaces")  # import-lerobot's copy of the HDF5 episodes
+pq=$(( $(size "$work/out_copy/data" "$work/out_copy/meta") - side ))
 vid=$(size "$work/out_copy/videos")
 vid264=$(size "$work/out_h264/videos")
 vidav1=$(size "$work/out_av1/videos")
 printf 'export-lerobot, %d episodes, %d frames, cameras %s, %d cores\n' "$eps" "$frames" "$cams" "$(nproc)"
-"$py" - "$copy" "$h264" "$av1" "$eps" "$frames" "$h5" "$mp4" "$pq" "$vid" "$vid264" "$vidav1" <<'PY'
+"$py" - "$copy" "$h264" "$av1" "$eps" "$frames" "$h5" "$mp4" "$pq" "$vid" "$vid264" "$vidav1" "$side" <<'PY'
 import sys
 copy, h264, av1 = map(float, sys.argv[1:4])
-eps, frames, h5, mp4, pq, vid, vid264, vidav1 = map(int, sys.argv[4:])
+eps, frames, h5, mp4, pq, vid, vid264, vidav1, side = map(int, sys.argv[4:])
 mb = lambda b: b / 1e6  # noqa: E731
 print(f"{'codec':<8} {'seconds':>8} {'frames/s':>10} {'episodes/s':>11}")
 for name, s in (("copy", copy), ("h264", h264), ("av1", av1)):
@@ -64,5 +65,6 @@ for name, s in (("copy", copy), ("h264", h264), ("av1", av1)):
 print(f"size on disk (MB): mlspaces HDF5 {mb(h5):.2f} + MP4 {mb(mp4):.2f} = {mb(h5 + mp4):.2f}; "
       f"LeRobot parquet+meta {mb(pq):.2f} + videos {mb(vid):.2f} = {mb(pq + vid):.2f} "
       f"({(pq + vid) / (h5 + mp4):.2f}x); videos with --codec h264 {mb(vid264):.2f}, "
-      f"--codec av1 {mb(vidav1):.2f}")
+      f"--codec av1 {mb(vidav1):.2f}; meta/mlspaces (for import-lerobot; "
+      f"--no-mlspaces-meta leaves it out) {mb(side):.2f}")
 PY

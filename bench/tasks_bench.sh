@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # Per-task benchmark: success rate and episodes per hour of the open / close examples
-# (examples/open_close/datagen_{open,close}.yaml), cameras off, over N episode attempts per
-# task, with the failure reasons by class (journal outcome, and for open / close per joint).
+# (examples/open_close/datagen_{open,close}.yaml) and the pick-and-place ones
+# (examples/pick_and_place/datagen{,_next_to,_color}.yaml: tasks pick_and_place,
+# pick_and_place_next_to, pick_and_place_color), cameras off, over N episode attempts per
+# task, with the failure reasons by class (journal outcome, and per joint / receptacle).
 #
 #   bench/tasks_bench.sh [BUILD_DIR] [EPISODES] [TASKS...]
 #
@@ -26,12 +28,17 @@ cli="$build/apps/mlspaces/mlspaces"
 work="$(mktemp -d "${TMPDIR:-/tmp}/mlspaces_tasks_XXXXXX")"
 trap 'rm -rf "$work"' EXIT
 
-printf '%-6s %-13s %5s %9s %9s %8s %9s %10s %s\n' task robot seed episodes successes rate \
+printf '%-22s %-13s %5s %9s %9s %8s %9s %10s %s\n' task robot seed episodes successes rate \
   wall_s episodes/h "failures by class (outcome/joint)"
 for task in "${tasks[@]}"; do
   out="$work/$task"
   start="$(date +%s.%N)"
-  "$cli" datagen "$root/examples/open_close/datagen_$task.yaml" -q --seed "$seed" \
+  case "$task" in
+    pick_and_place) yaml="$root/examples/pick_and_place/datagen.yaml" ;;
+    pick_and_place_*) yaml="$root/examples/pick_and_place/datagen_${task#pick_and_place_}.yaml" ;;
+    *) yaml="$root/examples/open_close/datagen_$task.yaml" ;;
+  esac
+  "$cli" datagen "$yaml" -q --seed "$seed" \
     --episodes "$episodes" --output "$out" \
     --set robot_config.name="$robot" \
     --set 'camera_config.cameras=[]' \
@@ -44,14 +51,16 @@ path, task, robot, seed, start, end = sys.argv[1:]
 lines = [json.loads(l) for l in open(path)]
 n = len(lines)
 ok = sum(l["outcome"] == "success" for l in lines)
-per_joint = collections.Counter(l["extra"].get("joint", "?") for l in lines)
-ok_joint = collections.Counter(l["extra"].get("joint", "?") for l in lines if l["outcome"] == "success")
-fails = collections.Counter("%s/%s" % (l["outcome"], l["extra"].get("joint", "?"))
+def part(l):  # the joint (open / close) or the receptacle (pick-and-place)
+    return l["extra"].get("joint") or l["extra"].get("place_receptacle", "?")
+per_joint = collections.Counter(part(l) for l in lines)
+ok_joint = collections.Counter(part(l) for l in lines if l["outcome"] == "success")
+fails = collections.Counter("%s/%s" % (l["outcome"], part(l))
                             for l in lines if l["outcome"] != "success")
 wall = float(end) - float(start)
-print("%-6s %-13s %5s %9d %9d %7.1f%% %9.1f %10.0f %s" % (
+print("%-22s %-13s %5s %9d %9d %7.1f%% %9.1f %10.0f %s" % (
     task, robot, seed, n, ok, 100.0 * ok / max(n, 1), wall, 3600.0 * n / wall,
     dict(fails) or "-"))
-print("       per joint: " + ", ".join("%s %d/%d" % (j, ok_joint[j], c) for j, c in sorted(per_joint.items())))
+print("       per joint / receptacle: " + ", ".join("%s %d/%d" % (j, ok_joint[j], c) for j, c in sorted(per_joint.items())))
 PY
 done

@@ -6,7 +6,8 @@
 # demonstrations with camera videos from the tutorial's datagen config, validate the dataset
 # and load it with h5py; then run the tutorial's datagen.py with `python -m mlspaces.datagen`,
 # generate grasps for the red block and the example cabinet's joints, open and close the
-# cabinet's drawer and door (examples/open_close), and show a broken grasp file stopping a run
+# cabinet's drawer and door (examples/open_close), pick and place the block into a receptacle
+# and next to the bowl (examples/pick_and_place), and show a broken grasp file stopping a run
 # before it simulates.
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -45,10 +46,16 @@ export MLSPACES_REMOTE_URL="file://$OUT/remote" MLSPACES_PINNED_ASSETS_FILE=
 unset MLSPACES_CACHE_DIR MLSPACES_ASSETS_DIR MLSPACES_REMOTE_URL MLSPACES_PINNED_ASSETS_FILE
 "$ML" config datagen.yaml > resolved_datagen_config.yaml
 head -5 resolved_datagen_config.yaml
+# Pictures (docs/render.md): a contact sheet of the example library, the red block's grasps
+# drawn as gripper outlines, the scene as the data engine composes it.
+"$ML" render assets --libraries libraries.yaml --out pictures/assets.png -q
+"$ML" render grasps red_block --libraries libraries.yaml --out pictures/grasps.png -q
+"$ML" render scene datagen.yaml --out pictures/scene.png -q
 # The tutorial's last step: pick demonstrations of the Franka DROID robot, with the wrist and
 # exo camera videos, then a full check of the dataset (schema, videos, metadata).
 "$ML" datagen datagen.yaml --output experiment_output --seed 0 --episodes 3
 "$ML" validate-dataset experiment_output
+"$ML" render episode experiment_output --episode 0 --out pictures/episode_0.png -q
 "$PY" - <<'PY'
 import h5py, json
 f = h5py.File("experiment_output/house_0/trajectories_batch_1_of_1.h5", "r")
@@ -99,6 +106,24 @@ for run in ("open_output", "close_output"):
               "opened %.2f" % f[k]["obs/extra/joint_opened_fraction"][-1],
               "success", bool(f[k]["success"][-1]))
 PY
+# Pick up the block and place it into or onto a receptacle (tray, bowl: examples/objects),
+# then next to the bowl (docs/tasks.md): two episodes each, cameras off, the dataset check and
+# the recorded descriptions.
+"$ML" datagen "$ROOT/examples/pick_and_place/datagen.yaml" --output place_output --seed 1 \
+  --episodes 2 -q --set task_config.enable_rendering=false
+"$ML" datagen "$ROOT/examples/pick_and_place/datagen_next_to.yaml" --output next_to_output \
+  --seed 1 --episodes 2 -q --set task_config.enable_rendering=false
+"$ML" validate-dataset place_output
+"$ML" validate-dataset next_to_output
+"$PY" - <<'PY'
+import h5py, json
+for run in ("place_output", "next_to_output"):
+    f = h5py.File(run + "/house_0/trajectories_batch_1_of_1.h5", "r")
+    for k in sorted(f):
+        scene = json.loads(f[k]["obs_scene"][()])
+        print(run, k, repr(scene["task_description"]), scene["place_receptacle_name"],
+              "success", bool(f[k]["success"][-1]))
+PY
 # The same tutorial step as MolmoSpaces users run it: datagen.py (the seed tutorial's code,
 # imports renamed to mlspaces) through the Python package the build made (build/python).
 PYTHONPATH="$ROOT/build/python" "$PY" -m mlspaces.datagen datagen:CustomAssetsDataGenConfig \
@@ -147,3 +172,4 @@ set +x
 echo
 echo "Pick demonstrations: $OUT/experiment_output (CLI) and $OUT/python_output (datagen.py)"
 echo "  house_0/trajectories_batch_1_of_1.h5 (h5py), house_0/episode_*.mp4, journal.jsonl, summary.txt"
+echo "Pictures (mlspaces render): $OUT/pictures/{assets,grasps,scene,episode_0}.png"

@@ -21,6 +21,8 @@ PACKAGES=(
   libhdf5-dev
   # rendering: headless GL (OSMesa, EGL surfaceless) and video encoding (FFmpeg)
   libosmesa6-dev libegl-dev libavcodec-dev libavformat-dev libswscale-dev libavutil-dev
+  # pictures (`mlspaces render`): PNG files, and stb_easy_font for the labels (a header)
+  libpng-dev libstb-dev
   # LeRobot export tests: ffprobe checks the exported videos (docs/lerobot.md)
   ffmpeg
   # resources: packages (.tar.zst via libarchive + zstd), UID index hash, SHA-256, downloads

@@ -11,6 +11,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <set>
 #include <sstream>
 #include <string>
@@ -72,6 +73,20 @@ inline std::string Slurp(const std::filesystem::path& path) {
   std::stringstream ss;
   ss << in.rdbuf();
   return ss.str();
+}
+
+/// The bytes of every file under `dir` (recursive) whose extension is one of `extensions`
+/// (".h5", ".mp4", ...), by path relative to `dir`.
+inline std::map<std::string, std::string> FilesByExtension(
+    const std::filesystem::path& dir, std::initializer_list<std::string_view> extensions) {
+  std::map<std::string, std::string> out;
+  for (const auto& e : std::filesystem::recursive_directory_iterator(dir)) {
+    const std::string ext = e.path().extension().string();
+    for (std::string_view want : extensions) {
+      if (ext == want) out[e.path().lexically_relative(dir).generic_string()] = Slurp(e.path());
+    }
+  }
+  return out;
 }
 
 /// Every file name under `dir` (recursive, relative, '/'-separated).

@@ -16,6 +16,7 @@
 #include "mlspaces/library/registry.h"
 #ifdef MLSPACES_HAVE_DATAGEN
 #include "mlspaces/datagen/config.h"
+#include "mlspaces/datagen/run.h"
 #endif
 
 namespace mlspaces::cli {
@@ -90,11 +91,37 @@ struct DatagenConfigFlags {
 void AddConfig(CLI::App& app, Action& action);
 void AddDatagen(CLI::App& app, Action& action);
 void AddValidateDataset(CLI::App& app, Action& action);
+/// `render`: PNG pictures of assets, grasps, scenes and episodes (render*.cc).
+void AddRender(CLI::App& app, Action& action);
 #endif
 
 #ifdef MLSPACES_HAVE_LEROBOT
 /// `export-lerobot`: an mlspaces dataset as a LeRobot v3.0 dataset (lerobot_export.cc).
 void AddExportLeRobot(CLI::App& app, Action& action);
+/// `import-lerobot`: an mlspaces-made LeRobot dataset back into HDF5 + MP4 (lerobot_import.cc).
+void AddImportLeRobot(CLI::App& app, Action& action);
+#ifdef MLSPACES_LEROBOT_HELPER
+/// `validate-lerobot` (helper only; `validate-dataset` of a LeRobot folder runs it).
+void AddValidateLeRobot(CLI::App& app, Action& action);
+#else
+/// Replaces this process with `mlspaces-lerobot ARGS...` (beside this program), the helper that
+/// links Arrow C++. @throws Error when there is none (a build without Arrow C++).
+[[noreturn]] void ExecLeRobotHelper(std::vector<std::string> args);
+/// Runs `mlspaces-lerobot ARGS...` and @returns its exit status. @throws Error as above.
+int RunLeRobotHelper(std::vector<std::string> args);
+#ifdef MLSPACES_HAVE_DATAGEN
+/// datagen --format lerobot (lerobot_datagen.cc): the staging folder of OUTPUT's HDF5 run.
+std::filesystem::path LeRobotStaging(const std::filesystem::path& out, const datagen::Shard& shard);
+/// Points `config` at the staging folder and @returns OUTPUT; empty when OUTPUT is already a
+/// finished dataset and `resume`. @throws Error for an OUTPUT holding anything else.
+std::filesystem::path PrepareLeRobotRun(datagen::ExperimentConfig& config,
+                                        const datagen::Shard& shard, bool resume);
+/// Exports the finished HDF5 run in `staging` to `out` and removes `staging`.
+void FinishLeRobotRun(const std::filesystem::path& staging, const std::filesystem::path& out);
+/// `merge` of LeRobot datasets: imports, merges, exports. @returns false when no input is one.
+bool MergeLeRobot(const std::string& output, const std::vector<std::string>& inputs, bool partial);
+#endif
+#endif
 #endif
 
 /// The help formatter of every command (cli_app.cc): `--episodes N`, never `N:N` or a C++

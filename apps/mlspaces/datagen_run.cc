@@ -27,6 +27,7 @@ struct RunFlags {
   std::string shard;
   std::string gl;
   std::string license_policy;
+  std::string format = "hdf5";
 };
 
 // --workers W runs work items in parallel, never the episodes of one item: says so (one
@@ -90,10 +91,30 @@ int Run(const DatagenConfigFlags& flags, const RunFlags& run) {
     // Clear a progress bar line before printing; UIDs and file names from input escaped.
     std::fprintf(stderr, "%smlspaces: %s%s\n", tty ? "\r\033[K" : "", tag, Printable(line).c_str());
   };
+  // --format lerobot: the HDF5 run goes to a staging folder, exported at the end.
+  std::filesystem::path lerobot_out;
+  if (run.format == "lerobot") {
+#ifdef MLSPACES_HAVE_LEROBOT
+    lerobot_out = PrepareLeRobotRun(config, options.shard, options.resume);
+    if (lerobot_out.empty()) {
+      std::printf("run folder: %s (LeRobot v3.0): already complete\n",
+                  datagen::RunFolder(config).c_str());
+      return 0;
+    }
+#else
+    throw Error("this mlspaces was built without Arrow C++, so it has no --format lerobot",
+                "--format");
+#endif
+  }
   if (run.workers > 1) WarnIfWorkersCannotHelp(config, options.shard, run.workers);
   const datagen::RunReport report =
       datagen::RunDatagen(config, datagen::TaskSamplerRegistry::WithBuiltins(), options);
-  std::printf("run folder: %s\nseed: %llu\n", report.folder.c_str(),
+#ifdef MLSPACES_HAVE_LEROBOT
+  if (!lerobot_out.empty()) FinishLeRobotRun(report.folder, lerobot_out);
+#endif
+  std::printf("run folder: %s%s\nseed: %llu\n",
+              lerobot_out.empty() ? report.folder.c_str() : lerobot_out.c_str(),
+              lerobot_out.empty() ? "" : " (LeRobot v3.0)",
               static_cast<unsigned long long>(report.seed));
   if (report.items_skipped > 0) {
     std::printf("work items already done: %lld\n", static_cast<long long>(report.items_skipped));
@@ -107,6 +128,9 @@ int Run(const DatagenConfigFlags& flags, const RunFlags& run) {
 }
 
 int Merge(const std::string& output, const std::vector<std::string>& inputs, bool partial) {
+#ifdef MLSPACES_HAVE_LEROBOT
+  if (MergeLeRobot(output, inputs, partial)) return 0;  // LeRobot datasets (meta/info.json)
+#endif
   std::vector<std::filesystem::path> dirs(inputs.begin(), inputs.end());
   const datagen::MergeReport r = datagen::MergeRuns(dirs, output, partial);
   std::printf("merged %zu folders into %s: %lld batch files, %lld episodes, %lld attempts\n",
@@ -141,6 +165,10 @@ void AddDatagen(CLI::App& app, Action& action) {
                   "asset; scenes holding one are refused). Overrides the config's "
                   "license_policy; default from MLSPACES_LICENSE_POLICY, else all")
       ->type_name("all|commercial_safe");
+  sub->add_option("--format", run->format,
+                  "hdf5: HDF5 + MP4 (default); lerobot: a LeRobot v3.0 dataset, the same bytes "
+                  "as export-lerobot of the hdf5 run (docs/lerobot.md)")
+      ->check(CLI::IsMember({"hdf5", "lerobot"}));
   sub->callback([&action, flags, run] { action = [flags, run] { return Run(*flags, *run); }; });
 
   auto output = std::make_shared<std::string>();

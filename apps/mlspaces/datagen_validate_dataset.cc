@@ -2,6 +2,7 @@
 // one trajectory file (HDF5 schema, JSON rows, flags, provenance, videos); see
 // datagen/dataset_validate.h.
 #include <cstdio>
+#include <filesystem>
 #include <memory>
 #include <string>
 
@@ -16,6 +17,12 @@ std::string Count(int64_t n, const char* one, const char* many) {
 }
 
 int Run(const std::string& dir) {
+#ifdef MLSPACES_HAVE_LEROBOT
+  // A LeRobot dataset (export-lerobot, datagen --format lerobot): checked by the helper.
+  if (std::filesystem::is_regular_file(std::filesystem::path(dir) / "meta" / "info.json")) {
+    ExecLeRobotHelper({"validate-lerobot", dir});
+  }
+#endif
   const datagen::DatasetReport report = datagen::ValidateDataset(dir);
   for (const datagen::DatasetProblem& p : report.problems) {
     std::printf("%s\n", p.ToString().c_str());

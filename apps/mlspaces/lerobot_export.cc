@@ -5,7 +5,11 @@
 // Built twice: into `mlspaces`, where the command execs `mlspaces-lerobot` beside it, and, with
 // MLSPACES_LEROBOT_HELPER, into that helper, which does the export and is the only program
 // that links Arrow C++ (so `mlspaces` runs where the pyarrow wheel is not installed).
+#include <sys/wait.h>
 #include <unistd.h>
+
+#include <cerrno>
+#include <cstdlib>
 
 #include <cstdio>
 #include <filesystem>
@@ -21,17 +25,11 @@
 #endif
 
 namespace mlspaces::cli {
-namespace {
-
-struct Flags {
-  std::string dataset, out, repo_id, codec = "copy";
-  double fps = 0;
-  bool quiet = false;
-};
 
 #ifndef MLSPACES_LEROBOT_HELPER
-// The export itself runs in mlspaces-lerobot, beside this program.
-int Run(const Flags& flags) {
+namespace {
+// The helper beside this program (the LeRobot commands run there: it links Arrow C++).
+std::filesystem::path Helper() {
   std::error_code ec;
   const std::filesystem::path self = std::filesystem::read_symlink("/proc/self/exe", ec);
   const std::filesystem::path helper = self.parent_path() / "mlspaces-lerobot";
@@ -41,8 +39,57 @@ int Run(const Flags& flags) {
         "see docs/lerobot.md",
         helper.string());
   }
-  std::vector<std::string> args = {helper.string(), "export-lerobot", flags.dataset,
-                                   flags.out,       "--codec",        flags.codec};
+  return helper;
+}
+
+std::vector<char*> Argv(const std::filesystem::path& helper, std::vector<std::string>& args) {
+  args.insert(args.begin(), helper.string());
+  std::vector<char*> argv;
+  for (std::string& a : args) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  return argv;
+}
+}  // namespace
+
+void ExecLeRobotHelper(std::vector<std::string> args) {
+  const std::filesystem::path helper = Helper();
+  std::vector<char*> argv = Argv(helper, args);
+  std::fflush(nullptr);
+  ::execv(helper.c_str(), argv.data());
+  throw Error("cannot run the LeRobot helper", helper.string());
+}
+
+int RunLeRobotHelper(std::vector<std::string> args) {
+  const std::filesystem::path helper = Helper();
+  std::vector<char*> argv = Argv(helper, args);
+  std::fflush(nullptr);
+  const pid_t pid = ::fork();
+  if (pid < 0) throw Error("cannot fork for the LeRobot helper", helper.string());
+  if (pid == 0) {
+    ::execv(helper.c_str(), argv.data());
+    std::_Exit(127);
+  }
+  int status = 0;
+  while (::waitpid(pid, &status, 0) < 0) {
+    if (errno != EINTR) throw Error("cannot wait for the LeRobot helper", helper.string());
+  }
+  return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+}
+#endif
+
+namespace {
+
+struct Flags {
+  std::string dataset, out, repo_id, codec = "copy";
+  double fps = 0;
+  bool quiet = false;
+  bool no_mlspaces_meta = false;
+};
+
+#ifndef MLSPACES_LEROBOT_HELPER
+int Run(const Flags& flags) {
+  std::vector<std::string> args = {"export-lerobot", flags.dataset, flags.out, "--codec",
+                                   flags.codec};
   if (flags.fps > 0) {
     char buf[32];
     std::snprintf(buf, sizeof buf, "%.17g", flags.fps);
@@ -50,12 +97,8 @@ int Run(const Flags& flags) {
   }
   if (!flags.repo_id.empty()) args.insert(args.end(), {"--repo-id", flags.repo_id});
   if (flags.quiet) args.emplace_back("-q");
-  std::vector<char*> argv;
-  for (std::string& a : args) argv.push_back(a.data());
-  argv.push_back(nullptr);
-  std::fflush(nullptr);
-  ::execv(helper.c_str(), argv.data());
-  throw Error("cannot run the export helper", helper.string());
+  if (flags.no_mlspaces_meta) args.emplace_back("--no-mlspaces-meta");
+  ExecLeRobotHelper(args);
 }
 #else
 int Run(const Flags& flags) {
@@ -63,6 +106,7 @@ int Run(const Flags& flags) {
   ExportOptions options;
   options.fps = flags.fps;
   options.repo_id = flags.repo_id;
+  options.mlspaces_meta = !flags.no_mlspaces_meta;
   options.codec = flags.codec == "h264"  ? VideoCodec::kH264
                   : flags.codec == "av1" ? VideoCodec::kAv1
                                          : VideoCodec::kCopy;
@@ -116,6 +160,9 @@ void AddExportLeRobot(CLI::App& app, Action& action) {
                   "copy: re-mux the episodes' H.264 videos (default); h264 or av1: re-encode")
       ->check(CLI::IsMember({"copy", "h264", "av1"}));
   sub->add_flag("-q,--quiet", flags->quiet, "No progress bar");
+  sub->add_flag("--no-mlspaces-meta", flags->no_mlspaces_meta,
+                "Leave out meta/mlspaces/ (a copy of the HDF5 episodes that import-lerobot "
+                "needs; import-lerobot then refuses the dataset)");
   sub->callback([&action, flags] { action = [flags] { return Run(*flags); }; });
 }
 
@@ -129,6 +176,8 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   cli::Action action;
   cli::AddExportLeRobot(app, action);
+  cli::AddImportLeRobot(app, action);
+  cli::AddValidateLeRobot(app, action);
   return cli::ParseAndRun(app, action, argc, argv);
 }
 #endif

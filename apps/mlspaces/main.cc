@@ -53,9 +53,11 @@ int Run(int argc, char** argv) {
   cli::AddConfig(app, action);
   cli::AddDatagen(app, action);
   cli::AddValidateDataset(app, action);
+  cli::AddRender(app, action);
 #endif
 #ifdef MLSPACES_HAVE_LEROBOT
   cli::AddExportLeRobot(app, action);
+  cli::AddImportLeRobot(app, action);
 #endif
   if (argc >= 2 && argv[1][0] != '-') {
     std::vector<std::string> names;

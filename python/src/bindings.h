@@ -33,6 +33,8 @@ void BindIndex(nb::module_& m);
 void BindRobotsInspect(nb::module_& m);
 /// Robots as data: bundled robots, robot.yaml loading and checking (robots.cc).
 void BindRobots(nb::module_& m);
+/// mlspaces.render: pictures as numpy images, PNG files (render.cc).
+void BindRender(nb::module_& m);
 #ifdef MLSPACES_HAVE_GRASPGEN
 /// mlspaces.grasp_generation.generate_grasps (graspgen.cc).
 void BindGraspgen(nb::module_& m);

@@ -24,6 +24,7 @@ NB_MODULE(_core, m) {
   mlspaces::python::BindIndex(m);
   mlspaces::python::BindRobotsInspect(m);
   mlspaces::python::BindRobots(m);
+  mlspaces::python::BindRender(m);
 #ifdef MLSPACES_HAVE_GRASPGEN
   mlspaces::python::BindGraspgen(m);
 #endif

@@ -120,6 +120,19 @@ void FsyncPath(const fs::path& path, bool directory, const std::string& error_pa
   ::close(fd);
 }
 
+StagingFolder::StagingFolder(const std::filesystem::path& path) {
+  const std::filesystem::path parent = path.parent_path().empty() ? "." : path.parent_path();
+  CreateDirectories(parent);
+  RemoveDeadTempFiles(parent);
+  path_ = parent / (path.filename().string() + TempSuffix());
+}
+
+StagingFolder::~StagingFolder() {
+  if (path_.empty()) return;
+  std::error_code ec;
+  std::filesystem::remove_all(path_, ec);
+}
+
 size_t RemoveDeadTempFiles(const std::filesystem::path& dir) {
   size_t removed = 0;
   std::error_code ec;

@@ -154,6 +154,48 @@ void Validate(const ExperimentConfig& c, const fs::path& origin) {
             "OpenTaskSampler samples open / close tasks; task_type is " +
                 std::string(EnumName(c.task_type)));
   }
+  {
+    // pick_and_place* (docs/tasks.md): the sampler of the family, sane bands and limits.
+    const std::string cls = Lower(s.task_sampler_class);
+    const bool place = c.task_type == TaskType::kPickAndPlace ||
+                       c.task_type == TaskType::kPickAndPlaceNextTo ||
+                       c.task_type == TaskType::kPickAndPlaceColor;
+    const bool place_sampler = cls.starts_with("pickandplace") && cls.ends_with("tasksampler");
+    k.Check(!place || place_sampler, sp + "task_sampler_class",
+            "task_type " + std::string(EnumName(c.task_type)) +
+                " needs a sampler that chooses a place target (PickAndPlaceTaskSampler, "
+                "PickAndPlaceNextToTaskSampler, PickAndPlaceColorTaskSampler), not " +
+                s.task_sampler_class);
+    k.Check(place || !place_sampler, sp + "task_sampler_class",
+            s.task_sampler_class + " samples pick-and-place tasks; task_type is " +
+                std::string(EnumName(c.task_type)));
+    k.Positive(s.num_place_receptacles, sp + "num_place_receptacles");
+    k.NonNegative(s.episodes_per_receptacle, sp + "episodes_per_receptacle");
+    k.Positive(s.max_place_receptacle_sampling_attempts,
+               sp + "max_place_receptacle_sampling_attempts");
+    k.NonNegative(s.min_object_to_receptacle_dist, sp + "min_object_to_receptacle_dist");
+    k.Check(std::isfinite(s.max_object_to_receptacle_dist) &&
+                s.max_object_to_receptacle_dist >= s.min_object_to_receptacle_dist,
+            sp + "max_object_to_receptacle_dist",
+            "must be >= min_object_to_receptacle_dist (" +
+                std::to_string(s.min_object_to_receptacle_dist) + "), got " +
+                std::to_string(s.max_object_to_receptacle_dist));
+    k.PositiveReal(s.max_robot_to_place_receptacle_dist, sp + "max_robot_to_place_receptacle_dist");
+    const TaskConfig& t = c.task_config;
+    k.Check(
+        t.receptacle_supported_weight_frac >= 0 && t.receptacle_supported_weight_frac <= 1,
+        "task_config.receptacle_supported_weight_frac",
+        "must be a fraction in [0, 1], got " + std::to_string(t.receptacle_supported_weight_frac));
+    k.NonNegative(t.max_place_receptacle_pos_displacement,
+                  "task_config.max_place_receptacle_pos_displacement");
+    k.NonNegative(t.max_place_receptacle_rot_displacement,
+                  "task_config.max_place_receptacle_rot_displacement");
+    k.NonNegative(t.min_surface_to_surface_gap, "task_config.min_surface_to_surface_gap");
+    k.Check(t.max_surface_to_surface_gap >= t.min_surface_to_surface_gap,
+            "task_config.max_surface_to_surface_gap", "must be >= min_surface_to_surface_gap");
+    k.Check(!t.place_receptacle_name || !t.place_receptacle_name->empty(),
+            "task_config.place_receptacle_name", "must not be empty");
+  }
 
   const RobotConfig& r = c.robot_config;
   k.Check(!r.name.empty(), "robot_config.name", "must not be empty");

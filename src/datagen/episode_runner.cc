@@ -19,6 +19,9 @@
 #include "mlspaces/datagen/tasks/open_close/sampler.h"
 #include "mlspaces/datagen/tasks/open_close/success.h"
 #include "mlspaces/datagen/tasks/pick/success.h"
+#include "mlspaces/datagen/tasks/pick_and_place/planner.h"
+#include "mlspaces/datagen/tasks/pick_and_place/sampler.h"
+#include "mlspaces/datagen/tasks/pick_and_place/success.h"
 #include "mlspaces/library/license_policy.h"
 #include "mlspaces/library/scene_metadata.h"
 #include "mlspaces/sim/mj_pose.h"
@@ -127,6 +130,9 @@ std::unique_ptr<PickPlanner> MakePlanner(const Env& env, const robots::RobotView
   if (IsOpenCloseTask(config.task_type)) {
     return std::make_unique<OpenClosePlanner>(env, robot, config.policy_config, dt);
   }
+  if (IsPickAndPlaceTask(config.task_type)) {
+    return std::make_unique<PickAndPlacePlanner>(env, robot, config.policy_config, dt);
+  }
   return std::make_unique<PickPlanner>(env, robot, config.policy_config, dt);
 }
 
@@ -198,6 +204,10 @@ struct EpisodeRunner::Episode {
   // open / close: the joint and its verdict (which sets verdict.success and reward).
   int joint_id = -1;
   std::optional<OpenCloseVerdict> joint_verdict;
+  // pick_and_place*: the place target and its verdict (which sets verdict.success and reward).
+  int place_body = -1;
+  std::unique_ptr<PlaceJudge> place_judge;
+  std::optional<PlaceVerdict> place_verdict;
   int64_t step = 0;
   bool terminated = false, truncated = false;
 };
@@ -249,6 +259,16 @@ bool EpisodeRunner::SampleTask(Episode& e) {
     }
     e.attempt.extra["joint"] = e.task.joint->name;
   }
+  if (IsPickAndPlaceTask(config_.task_type)) {
+    if (!e.task.place) {
+      throw Error("task sampler '" + sampler_.name() + "' chose no place target; task_type " +
+                      std::string(EnumName(config_.task_type)) +
+                      " needs one (PickAndPlaceTaskSampler)",
+                  "", "task_sampler_config.task_sampler_class");
+    }
+    e.place_body = env_.BodyId(e.task.place->receptacle);
+    e.attempt.extra["place_receptacle"] = e.task.place->receptacle;
+  }
   return true;
 }
 
@@ -298,6 +318,11 @@ bool EpisodeRunner::Plan(Episode& e) {
     planned = static_cast<OpenClosePlanner&>(planner_).ResetJoint(
         env_.data(), e.joint_id, *e.task.joint, config_.task_type == TaskType::kOpen, min_fraction,
         e.grasps.poses);
+  } else if (e.task.place) {
+    const TaskConfig& t = config_.task_config;
+    planned = static_cast<PickAndPlacePlanner&>(planner_).ResetPlace(
+        env_.data(), e.object, e.place_body, config_.task_type == TaskType::kPickAndPlaceNextTo,
+        0.5 * (t.min_surface_to_surface_gap + t.max_surface_to_surface_gap), e.grasps.poses);
   } else {
     planned = planner_.Reset(env_.data(), e.object, e.grasps.poses);
   }
@@ -322,6 +347,11 @@ void EpisodeRunner::BeginRecording(Episode& e) {
   e.grasp_world = planner_.grasp_pose();
   e.start_z = e.task.pickup_obj_start_pose.pos[2];
   e.goal = ToMat4(e.task.pickup_obj_goal_pose);
+  if (e.task.place) {
+    e.place_judge =
+        std::make_unique<PlaceJudge>(m, e.object, e.place_body, e.task.place->receptacle_start_pose,
+                                     config_.task_type, config_.task_config, env_.robot().prefix);
+  }
   for (int b = 1; b < m->nbody; ++b) {
     const char* name = mj_id2name(m, mjOBJ_BODY, b);
     if (name == nullptr || m->body_parentid[b] != 0 || m->body_jntnum[b] != 1) continue;
@@ -380,6 +410,11 @@ void EpisodeRunner::Observe(Episode& e, const PlannerAction* action) {
     e.verdict.success = e.joint_verdict->success;
     e.verdict.reward = e.joint_verdict->reward;
   }
+  if (e.place_judge) {  // once per step, in order (the carry-forward memory)
+    e.place_verdict = e.place_judge->Evaluate(d);
+    e.verdict.success = e.place_verdict->success;
+    e.verdict.reward = e.place_verdict->reward;
+  }
   if (!options_.record) return;
   EpisodeRecord& rec = e.rec;
   const size_t artic_width = env_.robot().articulation_width;
@@ -426,6 +461,8 @@ void EpisodeRunner::Observe(Episode& e, const PlannerAction* action) {
                                                      {"opened_fraction", jv.opened_fraction},
                                                      {"success", jv.success},
                                                      {"episode_step", e.step}});
+  } else if (e.place_verdict) {
+    rec.extra_json["task_info"].steps.push_back(e.place_verdict->Info(config_.task_type, e.step));
   } else {
     rec.extra_json["task_info"].steps.push_back(
         Json{{"episode_step", e.step},
@@ -581,6 +618,7 @@ void EpisodeRunner::Rollout(Episode& e) {
   attempt.extra["retries"] = planner_.retries();
   attempt.extra["lift"] = e.verdict.lift;
   if (e.joint_verdict) attempt.extra["opened_fraction"] = e.joint_verdict->opened_fraction;
+  if (e.place_verdict) attempt.extra["place"] = e.place_verdict->Info(config_.task_type, e.step);
 }
 
 void EpisodeRunner::Judge(Episode& e) {
@@ -603,6 +641,10 @@ void EpisodeRunner::Judge(Episode& e) {
                       " at opened fraction " + std::to_string(e.joint_verdict->opened_fraction) +
                       " (reward " + std::to_string(e.joint_verdict->reward) + " below " +
                       std::to_string(OpenCloseThreshold(config_)) + ")";
+  } else if (e.place_verdict) {
+    attempt.outcome = Outcome::kGraspSlip;
+    attempt.message = "the plan finished but the object is not placed: " +
+                      e.place_verdict->Info(config_.task_type, e.step).dump();
   } else {
     attempt.outcome = Outcome::kGraspSlip;
     attempt.message = "the plan finished but the object is not held: lift " +
@@ -623,11 +665,21 @@ void EpisodeRunner::FinishRecord(Episode& e) {
   meta.scene = options_.scene_name;
   meta.source_episode = e.index;
   const std::string expr = Referral(task.pickup_obj_name, e.annotation.get());
-  std::string part;  // open / close: the joint body's name, when it is not the object's
+  std::string part;        // open / close: the joint body's name, when it is not the object's
+  std::string place_expr;  // pick_and_place*: the place target's referral expression
   if (task.joint) {
     part = sim::MjName(env_.model(), mjOBJ_BODY, env_.model()->jnt_bodyid[e.joint_id]);
     std::replace(part.begin(), part.end(), '_', ' ');
     meta.task_description = OpenCloseDescription(config_.task_type, expr, part);
+  } else if (task.place) {
+    const Json& objects = env_.metadata().value("objects", Json::object());
+    const auto entry = objects.find(task.place->receptacle);
+    std::string place_uid;
+    if (entry != objects.end() && entry->is_object()) place_uid = entry->value("asset_id", "");
+    place_expr = Referral(task.place->receptacle.substr(task.place->receptacle.rfind('/') + 1),
+                          place_uid.empty() ? nullptr : registry_.GetAnnotation(place_uid).get());
+    meta.task_description =
+        PlaceDescription(config_.task_type, expr, place_expr, task.place->color);
   } else {
     meta.task_description = "Pick up the " + expr;
   }
@@ -691,6 +743,26 @@ void EpisodeRunner::FinishRecord(Episode& e) {
       rec.obs_scene["frozen_config"][key] = value;
     }
     rec.obs_scene["joint"] = joint;
+  }
+  if (task.place) {
+    // The original's pick-and-place records (spec A.5.6), the colour variant's colours.
+    const TaskPlace& p = *task.place;
+    rec.obs_scene["text"] =
+        std::string(EnumName(config_.task_type)) + " " + task.pickup_obj_name + " " + p.receptacle;
+    rec.obs_scene["place_receptacle_name"] = p.receptacle;
+    rec.obs_scene["referral_expressions"] =
+        Json{{"pickup_name", Json::array({Json::array({expr, 1.0})})},
+             {"place_name", Json::array({Json::array({place_expr, 1.0})})}};
+    Json& frozen = rec.obs_scene["frozen_config"];
+    frozen["place_receptacle_name"] = p.receptacle;
+    frozen["place_receptacle_start_pose"] = ToArray7(p.receptacle_start_pose);
+    if (config_.task_type == TaskType::kPickAndPlaceColor) {
+      frozen["target_color"] = p.color;
+      frozen["other_receptacle_names"] = p.other_receptacles;
+      Json poses = Json::array();
+      for (const Pose& q : p.other_receptacle_start_poses) poses.push_back(ToArray7(q));
+      frozen["other_receptacle_start_poses"] = poses;
+    }
   }
   e.result.record = std::move(rec);
 }

@@ -10,6 +10,8 @@
 #include "mlspaces/datagen/policy_step.h"
 #include "mlspaces/datagen/tasks/open_close/sampler.h"
 #include "mlspaces/datagen/tasks/open_close/success.h"
+#include "mlspaces/datagen/tasks/pick_and_place/sampler.h"
+#include "mlspaces/datagen/tasks/pick_and_place/success.h"
 #include "mlspaces/sim/scene.h"
 
 namespace mlspaces::datagen {
@@ -66,8 +68,10 @@ void EvalEnv::LoadHouse(int64_t house) {
     env_.reset();
     house_ = -1;
     const std::filesystem::path& xml = scenes[static_cast<size_t>(house)];
+    sim::Scene composed = sim::Scene::Load(xml);
+    sampler_->AddAuxiliaryObjects(composed);  // pick-and-place: its receptacles
     env_ = std::make_unique<Env>(
-        Env::Create(sim::Scene::Load(xml),
+        Env::Create(std::move(composed),
                     RobotSpecFromConfig(config_.robot_config, {}, config_.libraries.assets_dir),
                     "house_" + std::to_string(house)));
     sampler_->PrepareEnv(*env_);
@@ -97,6 +101,21 @@ void EvalEnv::Reset(uint64_t seed, int64_t house, int64_t episode) {
       EvaluatePickSuccess(env_->model(), env_->data(), object_, task_.pickup_obj_start_pose.pos[2],
                           env_->robot().prefix, config_.task_config.succ_pos_threshold);
   JudgeJoint(config_, *env_, task_, verdict_);
+  place_judge_.reset();
+  if (IsPickAndPlaceTask(config_.task_type)) {  // docs/tasks.md: the place target's verdict
+    if (!task_.place) {
+      throw Error("the task sampler chose no place target; task_type " +
+                      std::string(EnumName(config_.task_type)) + " needs one",
+                  "", "task_sampler_config.task_sampler_class");
+    }
+    place_judge_ =
+        std::make_shared<PlaceJudge>(env_->model(), object_, env_->BodyId(task_.place->receptacle),
+                                     task_.place->receptacle_start_pose, config_.task_type,
+                                     config_.task_config, env_->robot().prefix);
+    const PlaceVerdict v = place_judge_->Evaluate(env_->data());
+    verdict_.success = v.success;
+    verdict_.reward = v.reward;
+  }
 }
 
 EvalStep EvalEnv::Step(std::span<const double> arm, double gripper) {
@@ -127,6 +146,11 @@ EvalStep EvalEnv::Step(std::span<const double> arm, double gripper) {
   verdict_ = EvaluatePickSuccess(m, d, object_, task_.pickup_obj_start_pose.pos[2],
                                  env_->robot().prefix, config_.task_config.succ_pos_threshold);
   JudgeJoint(config_, *env_, task_, verdict_);
+  if (place_judge_) {
+    const PlaceVerdict v = place_judge_->Evaluate(d);
+    verdict_.success = v.success;
+    verdict_.reward = v.reward;
+  }
   EvalStep out;
   out.verdict = verdict_;
   out.truncated = steps_ >= config_.task_horizon;

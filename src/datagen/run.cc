@@ -235,8 +235,10 @@ class ItemRunner {
     if (env_house_ != item.house) {
       runner_.reset();
       env_.reset();
+      sim::Scene composed = sim::Scene::Load(item.scene_xml);
+      sampler_.AddAuxiliaryObjects(composed);  // pick-and-place: its receptacles
       env_.emplace(Env::Create(
-          sim::Scene::Load(item.scene_xml),
+          std::move(composed),
           RobotSpecFromConfig(config_.robot_config, {}, config_.libraries.assets_dir), scene));
       sampler_.PrepareEnv(*env_);
       env_house_ = -1;  // a scene whose preflight throws is built again by the next item

@@ -10,6 +10,7 @@
 #include "mlspaces/core/strings.h"
 #include "mlspaces/core/transform.h"
 #include "mlspaces/datagen/tasks/open_close/sampler.h"
+#include "mlspaces/datagen/tasks/pick_and_place/sampler.h"
 
 namespace mlspaces::datagen {
 namespace {
@@ -72,6 +73,7 @@ Task TaskSampler::SampleTask(Env& env, int64_t episode) {
   task.pickup_obj_start_pose = *draft.pickup_obj_start_pose;
   task.pickup_obj_goal_pose = *draft.pickup_obj_goal_pose;
   task.joint = draft.joint;
+  task.place = draft.place;
   task.episode = episode;
   task.seed = seed;
   return task;
@@ -111,6 +113,7 @@ std::vector<std::string> TaskSampler::CandidateObjects(const Env& env) {
     if (m->jnt_type[m->body_jntadr[b]] != mjJNT_FREE) continue;
     std::string name = sim::MjName(m, mjOBJ_BODY, b);
     if (name.empty() || name.starts_with(env.robot().prefix)) continue;
+    if (name.starts_with("place_receptacle/")) continue;  // pick-and-place receptacles
     out.push_back(std::move(name));
   }
   return out;
@@ -159,6 +162,7 @@ TaskSamplerRegistry TaskSamplerRegistry::WithBuiltins() {
     return std::make_unique<BlockPickupTaskSampler>(config, seed);
   });
   RegisterOpenCloseSamplers(registry);
+  RegisterPickAndPlaceSamplers(registry);
   return registry;
 }
 

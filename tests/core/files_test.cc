@@ -1,4 +1,4 @@
-// POSIX helpers of src/core/files.cc: Errno and WriteAll.
+// Helpers of src/core/files.cc: Errno, WriteAll and StagingFolder.
 #include "mlspaces/core/files.h"
 
 #include <fcntl.h>
@@ -7,6 +7,7 @@
 
 #include <cerrno>
 #include <cstring>
+#include <filesystem>
 #include <string>
 
 #include <gtest/gtest.h>
@@ -15,6 +16,31 @@
 
 namespace mlspaces {
 namespace {
+
+namespace fs = std::filesystem;
+
+TEST(FilesTest, StagingFolderIsRemovedUnlessKept) {
+  testing::TempDir dir;
+  const fs::path out = dir / "sub" / "dataset";
+  fs::path dropped;
+  {
+    StagingFolder staging(out);
+    dropped = staging.path();
+    EXPECT_EQ(dropped.parent_path(), dir / "sub");  // the parent is made, the folder is not
+    EXPECT_TRUE(fs::is_directory(dir / "sub"));
+    EXPECT_FALSE(fs::exists(dropped));
+    EXPECT_TRUE(dropped.filename().string().starts_with("dataset.tmp."));
+    WriteFileAtomic(dropped / "a" / "file", "x");
+  }
+  EXPECT_FALSE(fs::exists(dropped));  // removed with its contents
+  {
+    StagingFolder staging(out);
+    WriteFileAtomic(staging.path() / "file", "y");
+    fs::rename(staging.path(), out);
+    staging.Keep();
+  }
+  EXPECT_EQ(testing::Slurp(out / "file"), "y");
+}
 
 TEST(FilesTest, ErrnoNamesWhatFailedAndWhy) {
   errno = ENOENT;

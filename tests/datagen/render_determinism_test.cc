@@ -18,15 +18,6 @@ namespace fs = std::filesystem;
 
 const fs::path kExample = fs::path(MLSPACES_EXAMPLES_DIR) / "custom_assets";
 
-// The MP4s of a run folder by file name.
-std::map<std::string, std::string> Videos(const fs::path& folder) {
-  std::map<std::string, std::string> out;
-  for (const auto& e : fs::recursive_directory_iterator(folder)) {
-    if (e.path().extension() == ".mp4") out[e.path().filename()] = testing::Slurp(e.path());
-  }
-  return out;
-}
-
 // Two episodes in two batches (so two workers each render one) at a small size, with shadows
 // and reflections (small shadow maps: they are most of a frame's cost).
 testing::CliResult RunTutorial(const fs::path& out, const std::string& gl, int workers) {
@@ -57,7 +48,8 @@ TEST_P(RenderDeterminismTest, SameConfigAndSeedGiveTheSameVideoBytes) {
   ASSERT_EQ(a.exit_code, 0) << a.err;
   const testing::CliResult b = RunTutorial(dir / "b", GetParam(), 1);
   ASSERT_EQ(b.exit_code, 0) << b.err;
-  const auto va = Videos(dir / "a"), vb = Videos(dir / "b");
+  const auto va = testing::FilesByExtension(dir / "a", {".mp4"});
+  const auto vb = testing::FilesByExtension(dir / "b", {".mp4"});
   EXPECT_EQ(va.size(), 4u);  // 2 episodes x 2 cameras
   ASSERT_EQ(va.size(), vb.size());
   for (const auto& [name, bytes] : va) {

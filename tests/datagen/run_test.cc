@@ -263,17 +263,6 @@ TEST(DatagenCliTest, BadInputGetsOneLineAndAnExitCode) {
 namespace mlspaces::datagen {
 namespace {
 
-// Every batch file and video of a run folder, by relative path, with its bytes.
-std::map<std::string, std::string> BatchFiles(const fs::path& run) {
-  std::map<std::string, std::string> out;
-  for (const auto& e : fs::recursive_directory_iterator(run)) {
-    if (e.path().extension() == ".h5" || e.path().extension() == ".mp4") {
-      out[e.path().lexically_relative(run).string()] = testing::Slurp(e.path());
-    }
-  }
-  return out;
-}
-
 // The journal lines without their timings, sorted.
 std::vector<std::string> JournalWithoutTimings(const fs::path& file) {
   std::vector<std::string> out;
@@ -294,7 +283,8 @@ ExperimentConfig FourBatches(const fs::path& output) {
 TEST(RunDatagenTest, WorkersAndShardsGiveTheSameBytes) {
   testing::TempDir dir;
   RunDatagen(FourBatches(dir / "one"), TaskSamplerRegistry::WithBuiltins());
-  const std::map<std::string, std::string> one = BatchFiles(dir / "one");
+  const std::map<std::string, std::string> one =
+      testing::FilesByExtension(dir / "one", {".h5", ".mp4"});
   ASSERT_EQ(one.size(), 4u);
 
   RunOptions two_workers;
@@ -303,7 +293,7 @@ TEST(RunDatagenTest, WorkersAndShardsGiveTheSameBytes) {
       RunDatagen(FourBatches(dir / "two"), TaskSamplerRegistry::WithBuiltins(), two_workers);
   EXPECT_EQ(r2.episodes_kept, 8);
   EXPECT_EQ(r2.summary.attempts, 8);
-  EXPECT_TRUE(BatchFiles(dir / "two") == one);
+  EXPECT_TRUE(testing::FilesByExtension(dir / "two", {".h5", ".mp4"}) == one);
   EXPECT_EQ(JournalWithoutTimings(dir / "two/journal.jsonl"),
             JournalWithoutTimings(dir / "one/journal.jsonl"));
 
@@ -314,7 +304,7 @@ TEST(RunDatagenTest, WorkersAndShardsGiveTheSameBytes) {
     RunDatagen(FourBatches(dir / ("s" + std::to_string(i))), TaskSamplerRegistry::WithBuiltins(),
                shard);
   }
-  EXPECT_EQ(BatchFiles(dir / "s0").size(), 2u);  // items 0 and 3
+  EXPECT_EQ(testing::FilesByExtension(dir / "s0", {".h5", ".mp4"}).size(), 2u);  // items 0 and 3
   testing::ExpectError(
       [&] {
         MergeRuns({dir / "s0", dir / "s1"}, dir / "partial");
@@ -324,7 +314,7 @@ TEST(RunDatagenTest, WorkersAndShardsGiveTheSameBytes) {
   EXPECT_EQ(merged.batch_files, 4);
   EXPECT_EQ(merged.episodes, 8);
   EXPECT_TRUE(merged.missing.empty());
-  EXPECT_TRUE(BatchFiles(dir / "merged") == one);
+  EXPECT_TRUE(testing::FilesByExtension(dir / "merged", {".h5", ".mp4"}) == one);
   EXPECT_EQ(JournalWithoutTimings(dir / "merged/journal.jsonl"),
             JournalWithoutTimings(dir / "one/journal.jsonl"));
   testing::ExpectError(
@@ -349,7 +339,7 @@ TEST(RunDatagenTest, WorkersAndShardsGiveTheSameBytes) {
     shard.shard = Shard{i, 2};
     RunDatagen(FourBatches(dir / "shared"), TaskSamplerRegistry::WithBuiltins(), shard);
   }
-  EXPECT_TRUE(BatchFiles(dir / "shared") == one);
+  EXPECT_TRUE(testing::FilesByExtension(dir / "shared", {".h5", ".mp4"}) == one);
   EXPECT_TRUE(fs::exists(dir / "shared/journal.shard_0_of_2.jsonl"));
   EXPECT_TRUE(fs::exists(dir / "shared/journal.shard_1_of_2.jsonl"));
 }
@@ -406,7 +396,8 @@ TEST(DatagenCliTest, KilledAtCountedStepsAndResumedGivesTheSameDataset) {
   const testing::CliResult whole = testing::RunCli(args("whole", "1"), crash.Counting());
   ASSERT_EQ(whole.exit_code, 0) << whole.err;
   const uint64_t steps = crash.Count();
-  const std::map<std::string, std::string> expected = BatchFiles(dir / "whole");
+  const std::map<std::string, std::string> expected =
+      testing::FilesByExtension(dir / "whole", {".h5", ".mp4"});
   ASSERT_EQ(expected.size(), 3u + 6 * 2);  // 3 batch files, 2 videos per episode
   // Per episode at least: its part file, its two videos, its journal line.
   ASSERT_GE(steps, 6u * 4);
@@ -440,7 +431,8 @@ TEST(DatagenCliTest, KilledAtCountedStepsAndResumedGivesTheSameDataset) {
     const testing::CliResult last = testing::RunCli(args(out, workers));
     ASSERT_EQ(last.exit_code, 0) << "trial " << trial << " (killed after step " << n << " of "
                                  << steps << ", then " << m << "): " << last.err;
-    const std::map<std::string, std::string> got = BatchFiles(dir / out);
+    const std::map<std::string, std::string> got =
+        testing::FilesByExtension(dir / out, {".h5", ".mp4"});
     EXPECT_TRUE(got == expected) << "trial " << trial << ": killed after step " << n;
     for (const auto& [name, bytes] : got) {
       const auto it = expected.find(name);
@@ -479,7 +471,7 @@ TEST(DatagenCliTest, KilledAtCountedStepsAndResumedGivesTheSameDataset) {
   }
   const testing::CliResult last = testing::RunCli(args("async", "2"));
   ASSERT_EQ(last.exit_code, 0) << last.err;
-  EXPECT_TRUE(BatchFiles(dir / "async") == expected);
+  EXPECT_TRUE(testing::FilesByExtension(dir / "async", {".h5", ".mp4"}) == expected);
   std::printf("[kills] %d of 2 asynchronous kills landed inside a run\n", async_landed);
 }
 

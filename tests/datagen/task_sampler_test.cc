@@ -164,8 +164,11 @@ TEST_F(TaskSamplerTest, CustomSubclassRegisteredByName) {
     return std::make_unique<FixedBaseSampler>(c, seed);
   });
   EXPECT_TRUE(registry_.Contains("fixedbase"));
-  EXPECT_EQ(registry_.names(),
-            (std::vector<std::string>{"block_pickup", "FixedBase", "OpenTaskSampler"}));
+  EXPECT_EQ(
+      registry_.names(),
+      (std::vector<std::string>{"block_pickup", "FixedBase", "OpenTaskSampler",
+                                "PickAndPlaceColorTaskSampler", "PickAndPlaceNextToTaskSampler",
+                                "PickAndPlaceReceptacleTaskSampler", "PickAndPlaceTaskSampler"}));
   config_.task_sampler_config.task_sampler_class = "fixedBASE";
   auto sampler = registry_.Create(config_, 1);
   EXPECT_EQ(sampler->name(), "FixedBase");

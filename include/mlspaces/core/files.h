@@ -44,6 +44,23 @@ MLSPACES_API std::string TempSuffix();
 /// Temp files of live processes (another run sharing the folder) are kept. @returns how many.
 MLSPACES_API size_t RemoveDeadTempFiles(const std::filesystem::path& dir);
 
+/// A temp folder to build `path` in before renaming it into place: `<path><TempSuffix()>` in
+/// the same parent (made with its missing parents; dead processes' leftovers there removed
+/// first). The folder itself is not made. It is removed with its contents when this object dies,
+/// unless Keep() was called once it was renamed into place.
+class MLSPACES_API StagingFolder {
+ public:
+  explicit StagingFolder(const std::filesystem::path& path);
+  ~StagingFolder();
+  StagingFolder(const StagingFolder&) = delete;
+  StagingFolder& operator=(const StagingFolder&) = delete;
+  const std::filesystem::path& path() const { return path_; }
+  void Keep() { path_.clear(); }
+
+ private:
+  std::filesystem::path path_;
+};
+
 /// Flushes the whole file system holding `dir` (syncfs): one call makes a batch of files
 /// written without fsync durable. Best effort: an unopenable folder is ignored.
 MLSPACES_API void SyncFileSystem(const std::filesystem::path& dir);

@@ -28,7 +28,14 @@ namespace mlspaces::datagen {
 // ---------------------------------------------------------------------------------------
 // Enums. Each has a name table (EnumNames below); YAML uses the names.
 
-enum class TaskType { kPick, kOpen, kClose };
+enum class TaskType {
+  kPick,
+  kOpen,
+  kClose,
+  kPickAndPlace,
+  kPickAndPlaceNextTo,
+  kPickAndPlaceColor
+};
 enum class SceneDataset { kUser };
 enum class LogLevel { kDebug, kInfo, kWarning, kError };
 enum class ActionDtype { kFloat32, kFloat64 };
@@ -42,7 +49,8 @@ template <class E>
 struct EnumNames;
 template <>
 struct EnumNames<TaskType> {
-  static constexpr std::array<std::string_view, 3> kNames{"pick", "open", "close"};
+  static constexpr std::array<std::string_view, 6> kNames{
+      "pick", "open", "close", "pick_and_place", "pick_and_place_next_to", "pick_and_place_color"};
 };
 template <>
 struct EnumNames<SceneDataset> {
@@ -109,6 +117,15 @@ struct MLSPACES_API TaskConfig {
   std::optional<std::string> joint_name;
   std::optional<double> task_success_threshold;
   bool any_inst_of_category = false;
+  // pick_and_place* (docs/tasks.md): a preset receptacle (body name; null = sampled), the
+  // support weight fraction, the receptacle's allowed displacement (m) and tilt (rad), the
+  // "next to" surface gap band (m).
+  std::optional<std::string> place_receptacle_name;
+  double receptacle_supported_weight_frac = 0.5;
+  double max_place_receptacle_pos_displacement = 0.1;
+  double max_place_receptacle_rot_displacement = 0.7853981633974483;
+  double min_surface_to_surface_gap = 0.0;
+  double max_surface_to_surface_gap = 0.05;
 
   template <class A>
   void Serialize(A* a) {
@@ -126,6 +143,12 @@ struct MLSPACES_API TaskConfig {
     a->Visit("joint_name", joint_name);
     a->Visit("task_success_threshold", task_success_threshold);
     a->Visit("any_inst_of_category", any_inst_of_category);
+    a->Visit("place_receptacle_name", place_receptacle_name);
+    a->Visit("receptacle_supported_weight_frac", receptacle_supported_weight_frac);
+    a->Visit("max_place_receptacle_pos_displacement", max_place_receptacle_pos_displacement);
+    a->Visit("max_place_receptacle_rot_displacement", max_place_receptacle_rot_displacement);
+    a->Visit("min_surface_to_surface_gap", min_surface_to_surface_gap);
+    a->Visit("max_surface_to_surface_gap", max_surface_to_surface_gap);
   }
 };
 
@@ -174,6 +197,16 @@ struct MLSPACES_API TaskSamplerConfig {
   double goal_offset_z = 0.05;  ///< metres
   /// open / close: the joint's initial opened fraction (null = 0 open, 0.5 close).
   std::optional<double> target_initial_state_open_percentage;
+  // pick_and_place*: receptacle assets (categories; empty = any annotated receptacle), how
+  // many are added to the scene, episodes per receptacle, the object-receptacle distance band
+  // (m), the robot-receptacle distance limit (m), placement tries.
+  std::vector<std::string> place_receptacle_types;
+  int64_t num_place_receptacles = 3;
+  int64_t episodes_per_receptacle = 2;
+  double min_object_to_receptacle_dist = 0.15;
+  double max_object_to_receptacle_dist = 0.5;
+  double max_robot_to_place_receptacle_dist = 0.7;
+  int64_t max_place_receptacle_sampling_attempts = 100;
 
   template <class A>
   void Serialize(A* a) {
@@ -201,6 +234,13 @@ struct MLSPACES_API TaskSamplerConfig {
     a->Visit("object_noise", object_noise);
     a->Visit("goal_offset_z", goal_offset_z);
     a->Visit("target_initial_state_open_percentage", target_initial_state_open_percentage);
+    a->Visit("place_receptacle_types", place_receptacle_types);
+    a->Visit("num_place_receptacles", num_place_receptacles);
+    a->Visit("episodes_per_receptacle", episodes_per_receptacle);
+    a->Visit("min_object_to_receptacle_dist", min_object_to_receptacle_dist);
+    a->Visit("max_object_to_receptacle_dist", max_object_to_receptacle_dist);
+    a->Visit("max_robot_to_place_receptacle_dist", max_robot_to_place_receptacle_dist);
+    a->Visit("max_place_receptacle_sampling_attempts", max_place_receptacle_sampling_attempts);
   }
 };
 
@@ -341,7 +381,7 @@ struct MLSPACES_API CameraSystemConfig {
   bool reflections = true;
   /// Shadow-map side in texels (0: the scene's vis.quality.shadowsize, 4096 unless it sets
   /// one) and offscreen multisampling (-1: the scene's offsamples, 4 unless set; 0: off). The
-  /// defaults render several times faster than the original's settings at mean SSIM >= 0.97
+  /// defaults render about 3x faster than the original's settings at mean SSIM >= 0.97
   /// against them (docs/sim.md, "Render speed and quality"); `shadow_size: 0, multisamples: -1`
   /// renders as the original does.
   int64_t shadow_size = 2048;
@@ -387,6 +427,8 @@ struct MLSPACES_API PolicyConfig {
   std::string policy_cls = "pick_planner";
   double pregrasp_z_offset = 0.04;
   double postgrasp_z_offset = 0.08;
+  double place_z_offset = 0.07;  ///< pick_and_place*: travel height above the target
+  double end_z_offset = 0.05;    ///< pick_and_place*: retreat after the release
   double speed_slow = 0.08;
   double speed_fast = 0.20;
   double move_settle_time = 0.1;
@@ -417,6 +459,8 @@ struct MLSPACES_API PolicyConfig {
     a->Visit("policy_cls", policy_cls);
     a->Visit("pregrasp_z_offset", pregrasp_z_offset);
     a->Visit("postgrasp_z_offset", postgrasp_z_offset);
+    a->Visit("place_z_offset", place_z_offset);
+    a->Visit("end_z_offset", end_z_offset);
     a->Visit("speed_slow", speed_slow);
     a->Visit("speed_fast", speed_fast);
     a->Visit("move_settle_time", move_settle_time);

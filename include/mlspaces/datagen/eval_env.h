@@ -33,6 +33,8 @@
 
 namespace mlspaces::datagen {
 
+class PlaceJudge;  // tasks/pick_and_place/success.h
+
 struct MLSPACES_API EvalEnvOptions {
   /// Render the configured cameras (Render()); off: no GL context is made.
   bool render = true;
@@ -113,6 +115,7 @@ class MLSPACES_API EvalEnv {
   int object_ = -1;
   Rng noise_rng_{0};
   PickSuccess verdict_;
+  std::shared_ptr<PlaceJudge> place_judge_;  // pick_and_place*: the episode's judge
   int64_t steps_ = 0;
 };
 

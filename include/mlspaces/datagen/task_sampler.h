@@ -57,6 +57,17 @@ struct MLSPACES_API TaskJoint {
   double start = 0;   ///< qpos written by the sampler
 };
 
+/// The place target of a pick-and-place task (tasks/pick_and_place/sampler.h): the receptacle
+/// body (or, "next to", the scene object), its start pose, and for the colour variant its
+/// colour name and the distractor receptacles.
+struct MLSPACES_API TaskPlace {
+  std::string receptacle;
+  Pose receptacle_start_pose;
+  std::string color;                           ///< pick_and_place_color: the target's colour
+  std::vector<std::string> other_receptacles;  ///< pick_and_place_color: the distractors
+  std::vector<Pose> other_receptacle_start_poses;
+};
+
 /// What the hooks fill; every field but `joint` is required after the hooks ran (`joint`:
 /// by task types open and close).
 struct MLSPACES_API TaskDraft {
@@ -65,6 +76,7 @@ struct MLSPACES_API TaskDraft {
   std::optional<Pose> pickup_obj_start_pose;
   std::optional<Pose> pickup_obj_goal_pose;
   std::optional<TaskJoint> joint;
+  std::optional<TaskPlace> place;
 };
 
 /// A sampled task, fixed once sampled. Poses: world, xyz + quat wxyz.
@@ -74,6 +86,7 @@ struct MLSPACES_API Task {
   Pose pickup_obj_start_pose;
   Pose pickup_obj_goal_pose;
   std::optional<TaskJoint> joint;  ///< open / close
+  std::optional<TaskPlace> place;  ///< pick_and_place*
   int64_t episode = 0;
   uint64_t seed = 0;
 };
@@ -100,6 +113,10 @@ class MLSPACES_API TaskSampler {
   /// and before anything else uses it (the Python binding shares the Env's model and data
   /// with Python here). Default: nothing.
   virtual void PrepareEnv(Env& env) { (void)env; }
+
+  /// Called on each scene before the robot is inserted and it is compiled (the original's
+  /// add_auxiliary_objects): pick-and-place adds its receptacles here. Default: nothing.
+  virtual void AddAuxiliaryObjects(sim::Scene& scene) { (void)scene; }
 
   // ===========================================================================================
   // Access (references valid while the sampler lives)

@@ -27,16 +27,21 @@ def engine_sampler_name(cls: Any) -> str | None:
     """The engine sampler that runs for ``task_sampler_class`` `cls`: ``"OpenTaskSampler"`` for
     ``OpenTaskSampler`` and its subclasses, else None. Raises ``MlspacesError`` for a subclass
     that overrides a hook."""
-    if not (isinstance(cls, type) and issubclass(cls, OpenTaskSampler)):
+    if not isinstance(cls, type):
+        return None
+    # The engine class: OpenTaskSampler, or one of pick_and_place_task_sampler's (the nearest
+    # class of the MRO that names an engine sampler).
+    engine = next((c for c in cls.__mro__ if "_engine_sampler" in c.__dict__), None)
+    if engine is None:
         return None
     overridden = [h for h in _HOOKS
-                  if getattr(cls, h, None) is not getattr(OpenTaskSampler, h, None)]
+                  if getattr(cls, h, None) is not getattr(engine, h, None)]
     if overridden:
         raise MlspacesError(
             f"task_sampler_config.task_sampler_class: {cls.__qualname__} overrides "
-            f"{', '.join(overridden)}; OpenTaskSampler's hooks run in the engine and cannot be "
+            f"{', '.join(overridden)}; {engine.__name__}'s hooks run in the engine and cannot be "
             "overridden from Python yet (docs/tasks.md)")
-    return cls._engine_sampler
+    return engine._engine_sampler
 
 
 __all__ = ["OpenTaskSampler", "engine_sampler_name"]

@@ -21,6 +21,7 @@
 #include "mlspaces/core/error.h"
 #include "mlspaces/core/files.h"
 #include "mlspaces/core/json.h"
+#include "sidecar.h"
 
 namespace mlspaces::datagen::lerobot {
 namespace fs = std::filesystem;
@@ -448,19 +449,11 @@ ExportReport ExportLeRobot(const fs::path& dataset_dir, const fs::path& out_dir,
   }
 
   // Pass 2: write into a temp folder beside `out`, rename at the end.
-  CreateDirectories(parent);
-  RemoveDeadTempFiles(parent);
-  const fs::path tmp = parent / (out.filename().string() + TempSuffix());
-  struct Cleanup {
-    fs::path p;
-    ~Cleanup() {
-      if (!p.empty()) {
-        std::error_code ec;
-        fs::remove_all(p, ec);
-      }
-    }
-  } cleanup{tmp};
+  StagingFolder staging(parent / out.filename());
+  const fs::path tmp = staging.path();
   Writer writer(tmp, info);
+  Sidecar sidecar;
+  sidecar.codec = options.codec;
   int64_t done = 0;
   for (const EpisodeRef& e : eps) {
     const std::string where = e.where();
@@ -496,15 +489,34 @@ ExportReport ExportLeRobot(const fs::path& dataset_dir, const fs::path& out_dir,
     for (const auto& [cam, file] : e.cameras) {
       ep.videos["observation.images." + cam] = e.file.parent_path() / file;
     }
-    writer.Add(ep);
+    const std::vector<VideoSegment> segments = writer.Add(ep);
+    // meta/mlspaces/: the episode's HDF5 group unchanged and where its video frames went.
+    SidecarEpisode se;
+    se.file = fs::weakly_canonical(e.file)
+                  .lexically_relative(fs::weakly_canonical(dataset_dir))
+                  .generic_string();
+    se.traj = e.traj;
+    char name[48];
+    std::snprintf(name, sizeof name, "hdf5/episode_%06zu.h5", sidecar.episodes.size());
+    se.hdf5 = name;
+    if (options.mlspaces_meta) CopyTrajectories({{e.file, e.traj}}, tmp / kSidecarDir / se.hdf5);
+    size_t c = 0;
+    for (const auto& [cam, file] : e.cameras) {
+      se.videos["observation.images." + cam] = SidecarVideo{file, segments.at(c++)};
+    }
+    sidecar.episodes.push_back(std::move(se));
     CrashPoint("lerobot episode");
     if (options.progress) options.progress(++done, static_cast<int64_t>(eps.size()));
   }
   writer.Finish();
+  if (options.mlspaces_meta) {
+    sidecar.run_files = CopyRunFiles(dataset_dir, tmp);
+    WriteFileAtomic(tmp / kSidecarJson, SidecarToJson(sidecar).dump(2) + "\n", /*sync=*/false);
+  }
   SyncFileSystem(tmp);
   CrashPoint("lerobot files");
   RenamePath(tmp, out);
-  cleanup.p.clear();
+  staging.Keep();
   FsyncPath(parent, true, parent.string());
   CrashPoint("lerobot dataset");
   report.episodes = writer.episodes();

@@ -252,6 +252,10 @@ struct VideoConcat::Impl {
         throw Error("cannot write a packet: " + AvError(ret), out.string());
       }
     }
+    seg.start = start;
+    seg.offset = offset;
+    seg.time_base_num = in_tb.num;
+    seg.time_base_den = in_tb.den;
     offset += end - start;
     seg.to_s = static_cast<double>(offset) * av_q2d(in_tb);
     seg.frames = count;

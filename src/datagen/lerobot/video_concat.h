@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <memory>
+#include <vector>
 
 #include "mlspaces/datagen/lerobot/writer.h"
 
@@ -25,11 +26,14 @@ struct PixelStats {
 /// this many spread evenly (as LeRobot samples frames for its image stats).
 inline constexpr int64_t kStatsFramesPerEpisode = 20;
 
-/// Where an episode landed in the joined file, in seconds from its start.
-struct Segment {
-  double from_s = 0, to_s = 0;
-  int64_t frames = 0;
-};
+using Segment = VideoSegment;
+
+/// Cuts the joined file `joined` (written with VideoCodec::kCopy) back into one MP4 per
+/// episode: `segments[i]` (in file order) goes to `outputs[i]`, the same packets with the
+/// episode's own timestamps, muxed as VideoWriter muxes. @throws Error naming the file when it
+/// is unreadable or holds fewer packets than the segments.
+void SplitVideo(const std::filesystem::path& joined, const std::vector<VideoSegment>& segments,
+                const std::vector<std::filesystem::path>& outputs);
 
 class VideoConcat {
  public:

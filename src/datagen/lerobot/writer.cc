@@ -186,7 +186,7 @@ Writer::~Writer() = default;
 int64_t Writer::episodes() const { return static_cast<int64_t>(impl_->episodes.size()); }
 int64_t Writer::frames() const { return static_cast<int64_t>(impl_->index.size()); }
 
-void Writer::Add(const EpisodeData& e) {
+std::vector<VideoSegment> Writer::Add(const EpisodeData& e) {
   Impl& m = *impl_;
   if (m.finished) throw Error("Add after Finish", m.dir.string());
   if (e.length <= 0) throw Error("an episode needs at least one frame", m.dir.string());
@@ -232,7 +232,9 @@ void Writer::Add(const EpisodeData& e) {
     m.index.push_back(ep.from + i);
     m.task_index.push_back(ep.task);
   }
+  std::vector<VideoSegment> segments = ep.videos;
   m.episodes.push_back(std::move(ep));
+  return segments;
 }
 
 void Writer::Finish() {

@@ -1,6 +1,9 @@
 // export-lerobot on real files: episodes written by the Recorder with real H.264 videos
-// (VideoWriter), exported, and read back with Arrow C++ (parquet), ProbeVideo and JSON.
+// (VideoWriter), exported, and read back with Arrow C++ (parquet), ProbeVideo and JSON; and
+// import-lerobot / ValidateLeRobot of such exports.
 #include "mlspaces/datagen/lerobot/export.h"
+#include "mlspaces/datagen/lerobot/import.h"
+#include "mlspaces/datagen/lerobot/validate.h"
 
 #include <arrow/api.h>
 #include <arrow/io/file.h>
@@ -324,6 +327,48 @@ TEST(LeRobotExport, KilledAtAnyStepLeavesNothingOrTheWholeDataset) {
       EXPECT_EQ(entry.path().filename().string().find(".tmp."), std::string::npos) << entry.path();
     }
   }
+}
+
+// import-lerobot gives back the exported episodes byte for byte (batch file, videos), keeping
+// the traj_<k> names of a batch with a left-out (failed) episode; validate-dataset's checks
+// pass on the export; a killed import leaves nothing under its name.
+TEST(LeRobotImport, GivesBackTheExportedEpisodesByteForByte) {
+  TempDir tmp;
+  const fs::path run = WriteRun(tmp / "run", {{.t = 3}, {.t = 4}, {.t = 5}});
+  ExportLeRobot(run, tmp / "ds");
+  const LeRobotReport check = ValidateLeRobot(tmp / "ds");
+  EXPECT_TRUE(check.ok()) << (check.problems.empty() ? "" : check.problems.front());
+  EXPECT_EQ(check.frames, 2 + 3 + 4);
+  const ImportReport r = ImportLeRobot(tmp / "ds", tmp / "back");
+  EXPECT_EQ(r.episodes, 3);
+  EXPECT_EQ(r.videos, 3);
+  for (const char* f : {"house_0/trajectories_batch_1_of_1.h5",
+                        "house_0/episode_00000000_wrist_camera_batch_1_of_1.mp4",
+                        "house_0/episode_00000002_wrist_camera_batch_1_of_1.mp4"}) {
+    EXPECT_EQ(ReadFile(tmp / "back" / f), ReadFile(run / f)) << f;
+  }
+  ExpectError([&] { ImportLeRobot(tmp / "ds", tmp / "back"); }, {"/back", "already exists"});
+  ExpectError([&] { ImportLeRobot(run, tmp / "x"); }, {"meta/info.json", "not a LeRobot dataset"});
+
+  // A failed middle episode: traj_0 and traj_2 come back under their names.
+  const fs::path gap = WriteRun(tmp / "gap", {{.t = 3}, {.t = 3, .end = End::kFailed}, {.t = 4}});
+  ExportLeRobot(gap, tmp / "gap_ds");
+  ImportLeRobot(tmp / "gap_ds", tmp / "gap_back");
+  const std::string back = ReadFile(tmp / "gap_back/house_0/trajectories_batch_1_of_1.h5");
+  EXPECT_NE(back.find("traj_2"), std::string::npos);
+  EXPECT_EQ(back.find("traj_1"), std::string::npos);
+  EXPECT_EQ(ReadFile(tmp / "gap_back/house_0/episode_00000002_wrist_camera_batch_1_of_1.mp4"),
+            ReadFile(gap / "house_0/episode_00000002_wrist_camera_batch_1_of_1.mp4"));
+
+  CrashPoints crash(tmp / "counter");
+  auto cli = RunCli({"import-lerobot", (tmp / "ds").string(), (tmp / "k").string(), "-q"},
+                    crash.KillAt(1));
+  ASSERT_TRUE(cli.sigkilled) << cli.err;
+  EXPECT_FALSE(fs::exists(tmp / "k"));
+  cli = RunCli({"import-lerobot", (tmp / "ds").string(), (tmp / "k").string(), "-q"});
+  ASSERT_EQ(cli.exit_code, 0) << cli.err;
+  EXPECT_EQ(ReadFile(tmp / "k/house_0/trajectories_batch_1_of_1.h5"),
+            ReadFile(run / "house_0/trajectories_batch_1_of_1.h5"));
 }
 
 }  // namespace

@@ -18,6 +18,9 @@ struct ExportOptions {
   /// Written nowhere in the files (LeRobot takes it from the caller); kept for messages.
   std::string repo_id;
   VideoCodec codec = VideoCodec::kCopy;
+  /// Write meta/mlspaces/ (each episode's HDF5 group unchanged, video cut points, the run's
+  /// config, journal and summary), which import-lerobot needs to give the dataset back exactly.
+  bool mlspaces_meta = true;
   /// Called after each exported episode with (done, total).
   std::function<void(int64_t, int64_t)> progress;
 };

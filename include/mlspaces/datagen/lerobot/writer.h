@@ -53,6 +53,17 @@ struct EpisodeData {
   std::map<std::string, std::filesystem::path> videos;
 };
 
+/// Where an episode's frames of one camera landed in the camera's joined file. For
+/// VideoCodec::kCopy also how to cut them out again (import-lerobot): the episode is `frames`
+/// packets; a packet's timestamp in the episode's own file (time base `time_base_num` /
+/// `time_base_den`) is its joined-file timestamp, in that time base, - `offset` + `start`.
+struct VideoSegment {
+  double from_s = 0, to_s = 0;  ///< seconds from the joined file's start
+  int64_t frames = 0;
+  int64_t start = 0, offset = 0;
+  int time_base_num = 0, time_base_den = 1;
+};
+
 /// Builds one dataset in `dir` (created; must not exist). Nothing in `dir` is complete until
 /// Finish() returns: write it into a temp folder and rename it into place afterwards.
 class Writer {
@@ -65,8 +76,9 @@ class Writer {
 
   /// Appends one episode (its frames, its video segments). @throws Error naming the column or
   /// video on a missing/short column, a missing video, a video whose fps, size or codec
-  /// parameters differ from the dataset's.
-  void Add(const EpisodeData& episode);
+  /// parameters differ from the dataset's. @returns the episode's segment per camera, in
+  /// DatasetInfo::cameras order.
+  std::vector<VideoSegment> Add(const EpisodeData& episode);
   /// Writes the parquet files, stats.json and info.json and closes the videos.
   /// @throws Error when no episode was added or a file cannot be written.
   void Finish();

@@ -40,16 +40,6 @@ ExperimentConfig Example(const std::string& task, const fs::path& output, int64_
   return c;
 }
 
-std::map<std::string, std::string> BatchFiles(const fs::path& run) {
-  std::map<std::string, std::string> out;
-  for (const auto& e : fs::recursive_directory_iterator(run)) {
-    if (e.path().extension() == ".h5") {
-      out[e.path().lexically_relative(run).string()] = testing::Slurp(e.path());
-    }
-  }
-  return out;
-}
-
 TEST(OpenCloseSuccessTest, FractionRewardThresholdAndDescription) {
   TaskJoint slide{"s", "s", 0.0, 0.25, 0.0, 0.25, 0.0};
   EXPECT_DOUBLE_EQ(OpenedFraction(slide, 0.125), 0.5);
@@ -161,18 +151,18 @@ TEST(OpenCloseRunTest, WorkersShardsAndResumeGiveTheSameBytes) {
     return c;
   };
   RunDatagen(config("one"), TaskSamplerRegistry::WithBuiltins());
-  const std::map<std::string, std::string> one = BatchFiles(dir / "one");
+  const std::map<std::string, std::string> one = testing::FilesByExtension(dir / "one", {".h5"});
   ASSERT_EQ(one.size(), 2u);
   RunOptions two;
   two.workers = 2;
   RunDatagen(config("two"), TaskSamplerRegistry::WithBuiltins(), two);
-  EXPECT_TRUE(BatchFiles(dir / "two") == one);
+  EXPECT_TRUE(testing::FilesByExtension(dir / "two", {".h5"}) == one);
   for (int i = 0; i < 2; ++i) {  // two shards sharing one folder
     RunOptions shard;
     shard.shard = Shard{i, 2};
     RunDatagen(config("shards"), TaskSamplerRegistry::WithBuiltins(), shard);
   }
-  EXPECT_TRUE(BatchFiles(dir / "shards") == one);
+  EXPECT_TRUE(testing::FilesByExtension(dir / "shards", {".h5"}) == one);
 
   RunOptions stop;
   stop.on_attempt = [&](const WorkItem&, const AttemptRecord&) {
@@ -183,7 +173,7 @@ TEST(OpenCloseRunTest, WorkersShardsAndResumeGiveTheSameBytes) {
   RunOptions resume;
   resume.resume = true;
   RunDatagen(config("cut"), TaskSamplerRegistry::WithBuiltins(), resume);
-  EXPECT_TRUE(BatchFiles(dir / "cut") == one);
+  EXPECT_TRUE(testing::FilesByExtension(dir / "cut", {".h5"}) == one);
 }
 
 }  // namespace

@@ -1,0 +1,68 @@
+// mlspaces render {assets,grasps,scene,episode}: PNG pictures through the headless renderer
+// (docs/render.md). This file holds the shared flags; each command is render_<command>.cc.
+#include "render.h"
+
+#include <cstdio>
+#include <cstdlib>
+#include <string>
+
+#include "mlspaces/core/error.h"
+#include "mlspaces/core/strings.h"
+
+namespace mlspaces::cli {
+
+void RenderFlags::AddTo(CLI::App& app, const std::string& default_size) {
+  size = default_size;
+  app.add_option("--out,-o", out, "The PNG to write")->required()->type_name("FILE.png");
+  app.add_option("--size", size, "Size of each picture in pixels (default " + default_size + ")")
+      ->type_name("WxH");
+  app.add_option("--gl", gl, "Headless GL: osmesa (default) or egl; default from MLSPACES_GL")
+      ->type_name("osmesa|egl");
+  app.add_option("--columns", columns, "Pictures per row (default: about square)")
+      ->check(PositiveInteger());
+  app.add_flag("-q,--quiet", quiet, "No progress lines");
+}
+
+sim::PictureOptions RenderFlags::Options() const {
+  sim::PictureOptions o;
+  int w = 0, h = 0;
+  char tail = 0;
+  if (std::sscanf(size.c_str(), "%dx%d%c", &w, &h, &tail) != 2 || w < 8 || h < 8 || w > 8192 ||
+      h > 8192) {
+    throw UsageError("--size: expected WxH with each in [8, 8192], got '" + size + "'");
+  }
+  o.width = w;
+  o.height = h;
+  std::string g = gl;
+  if (g.empty()) {
+    const char* env = std::getenv("MLSPACES_GL");
+    g = env != nullptr && *env != 0 ? env : "osmesa";
+  }
+  try {
+    o.backend = sim::ParseGlBackend(g);
+  } catch (const UsageError& e) {
+    throw UsageError(std::string(gl.empty() ? "MLSPACES_GL" : "--gl") + ": " + e.message());
+  }
+  return o;
+}
+
+void RenderFlags::Progress(const std::string& text) const {
+  if (!quiet) std::fprintf(stderr, "render: %s\n", Printable(text).c_str());
+}
+
+void RenderFlags::Write(const sim::Image& image) const {
+  sim::WritePng(out, image);
+  std::printf("wrote %s (%d x %d)\n", out.c_str(), image.width, image.height);
+}
+
+void AddRender(CLI::App& app, Action& action) {
+  CLI::App* sub = app.add_subcommand(
+      "render", "Pictures as PNG: a library's assets, an asset's grasps, a scene, an episode");
+  sub->require_subcommand(1);
+  AddRenderAssets(*sub, action);
+  AddRenderGrasps(*sub, action);
+  AddRenderScene(*sub, action);
+  AddRenderEpisode(*sub, action);
+}
+
+}  // namespace mlspaces::cli

@@ -10,20 +10,13 @@ extern "C" {
 #include <libswscale/swscale.h>
 }
 
+#include "av_util.h"
 #include "mlspaces/core/error.h"
 
 namespace mlspaces::datagen::lerobot {
 namespace fs = std::filesystem;
 
-namespace {
-
-std::string AvError(int ret) {
-  char buf[AV_ERROR_MAX_STRING_SIZE] = {};
-  av_strerror(ret, buf, sizeof buf);
-  return buf;
-}
-
-}  // namespace
+namespace {}  // namespace
 
 struct Av1Writer::Impl {
   fs::path path;

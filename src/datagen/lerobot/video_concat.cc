@@ -16,6 +16,7 @@ extern "C" {
 }
 
 #include "av1_writer.h"
+#include "av_util.h"
 #include "mlspaces/core/error.h"
 #include "mlspaces/datagen/video.h"
 
@@ -27,12 +28,6 @@ namespace {
 std::string Num(double v) {
   char buf[32];
   std::snprintf(buf, sizeof buf, "%.6g", v);
-  return buf;
-}
-
-std::string AvError(int ret) {
-  char buf[AV_ERROR_MAX_STRING_SIZE] = {};
-  av_strerror(ret, buf, sizeof buf);
   return buf;
 }
 
@@ -55,13 +50,6 @@ struct FrameFree {
 };
 struct SwsFree {
   void operator()(SwsContext* c) const { sws_freeContext(c); }
-};
-
-struct InputCloser {
-  void operator()(AVFormatContext* c) const { avformat_close_input(&c); }
-};
-struct PacketFree {
-  void operator()(AVPacket* p) const { av_packet_free(&p); }
 };
 
 }  // namespace

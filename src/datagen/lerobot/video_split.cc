@@ -8,6 +8,7 @@ extern "C" {
 #include <libavformat/avformat.h>
 }
 
+#include "av_util.h"
 #include "mlspaces/core/error.h"
 #include "video_concat.h"
 
@@ -15,19 +16,6 @@ namespace mlspaces::datagen::lerobot {
 namespace fs = std::filesystem;
 
 namespace {
-
-std::string AvError(int ret) {
-  char buf[AV_ERROR_MAX_STRING_SIZE] = {};
-  av_strerror(ret, buf, sizeof buf);
-  return buf;
-}
-
-struct InputCloser {
-  void operator()(AVFormatContext* c) const { avformat_close_input(&c); }
-};
-struct PacketFree {
-  void operator()(AVPacket* p) const { av_packet_free(&p); }
-};
 
 // One episode's MP4, muxed as VideoWriter does (bit-exact flags, the episode's time base).
 class Mux {

@@ -174,7 +174,7 @@ class Runner {
     bool any_file = std::any_of(report.objects.begin(), report.objects.end(), [](const auto& o) {
       return !o.output.empty() && fs::exists(o.output);
     });
-    if (any_file) {
+    if (any_file || removed_any_) {
       GraspIndexOptions index;
       index.overwrite = true;
       report.index = WriteGraspIndex(out_, index).output;
@@ -184,6 +184,14 @@ class Runner {
 
  private:
   void Finish(ObjectReport object, GenerateReport* report) {
+    // --overwrite asked for new grasps: an object that now gives none keeps no old file, which
+    // the index would otherwise still list.
+    std::error_code ec;
+    if (options_.overwrite && object.status == ObjectReport::Status::kFailed &&
+        !object.output.empty() && fs::exists(object.output, ec) && fs::remove(object.output, ec)) {
+      object.reason += " (removed the old " + object.output.filename().string() + ")";
+      removed_any_ = true;
+    }
     if (on_object_) on_object_(object);
     report->objects.push_back(std::move(object));
   }
@@ -295,15 +303,15 @@ class Runner {
     }
     Clock::time_point t0 = Clock::now();
     try {
-      TriMesh mesh = AssetCollisionMesh(object.asset);
+      // One compiled model per object: the scene's, whose collision mesh the candidates use.
+      GraspScene scene(object.asset, robot_, GraspScene::Mode::kRigid, sim_);
+      const MeshBvh& bvh = scene.object_mesh();
       uint64_t seed = DeriveSeed(options_.seed, {HashString(object.uid)});
-      MeshBvh bvh(mesh);
       CandidateSet set = GenerateCandidates(bvh, gripper_, params_, seed);
       Center(bvh, &set);
       if (set.candidates.empty()) {
         report.reason = NoCandidateReason(bvh.mesh(), set.stats, robot_.finger_range[1]);
       } else {
-        GraspScene scene(object.asset, robot_, GraspScene::Mode::kRigid, sim_);
         TestAndWrite(scene, set, nullptr, bvh.mesh(), DeriveSeed(seed, {1}), &report);
       }
     } catch (const std::exception& e) {
@@ -385,6 +393,7 @@ class Runner {
   GripperProxy gripper_;
   CandidateParams params_;
   SimParams sim_;
+  bool removed_any_ = false;  // a stale file removed: the index is rewritten
 };
 
 std::string Thousands(uint64_t n) {

@@ -166,7 +166,7 @@ GraspScene::GraspScene(const std::filesystem::path& asset_file, const robots::Ro
   o.impratio = 10;
   o.integrator = mjINT_IMPLICITFAST;
   o.cone = mjCONE_ELLIPTIC;
-  o.jacobian = mjJAC_SPARSE;
+  o.jacobian = mjJAC_DENSE;
   o.solver = mjSOL_NEWTON;
   o.noslip_iterations = 3;
   o.enableflags |= mjENBL_MULTICCD;
@@ -290,6 +290,8 @@ GraspScene::~GraspScene() = default;
 
 const mjModel* GraspScene::model() const { return impl_->model.get(); }
 
+const MeshBvh& GraspScene::object_mesh() const { return *impl_->object_mesh; }
+
 SimOutcome GraspScene::TestRigid(const Mat4& tcp, mjData* data) const {
   const Impl& s = *impl_;
   const mjModel* m = s.model.get();
@@ -378,17 +380,22 @@ SimOutcome GraspScene::TestRigid(const Mat4& tcp, mjData* data) const {
   run.object_in_tcp = InverseRigid(run.Tcp()) * run.Object();
   out.tcp = InverseRigid(run.Object()) * run.Tcp();
 
-  // Twist first (it rejects most of what fails after closing, so those stop soonest): one
-  // full turn about the approach axis through the TCP, contacts checked at each quarter.
+  // Twist first (it rejects most of what fails after closing, so those stop soonest):
+  // twist_angle about the approach axis through the TCP, contacts checked at each quarter.
+  // The shake then holds the turned pose (a half turn: the gripper's own pose again).
   std::string reason;
   const int twist =
       std::max(4, static_cast<int>(std::lround(s.params.twist_period / s.params.timestep)));
   const Mat4 to_tcp = Translate(Translation(target));
   const Mat4 from_tcp = Translate({-target(0, 3), -target(1, 3), -target(2, 3)});
+  const auto turned = [&](double angle) {
+    return to_tcp * AxisAngle(z, angle) * from_tcp * target;
+  };
   for (int k = 1; k <= twist + kReturnSteps && reason.empty(); ++k) {
     const double u = 2 * std::numbers::pi * std::min(k, twist) / twist;
-    const double angle = u - std::sin(u);  // 0 -> 2 pi, at rest at both ends
-    s.SetTcp(data, to_tcp * AxisAngle(z, angle) * from_tcp * target);
+    // 0 -> twist_angle, at rest at both ends.
+    const double angle = s.params.twist_angle * (u - std::sin(u)) / (2 * std::numbers::pi);
+    s.SetTcp(data, turned(angle));
     run.Step();
     if (k % (twist / 4) == 0 || k == twist + kReturnSteps) {
       reason = run.Check("twist");
@@ -396,6 +403,7 @@ SimOutcome GraspScene::TestRigid(const Mat4& tcp, mjData* data) const {
       reason = run.Check("twist", false);
     }
   }
+  const Mat4 held = turned(s.params.twist_angle);
   // Then the shake: one period of Shake() (peaks +-shake_amplitude) along world x, y, z; checked at
   // the two peaks and back at the grasp pose.
   const int period =
@@ -405,7 +413,7 @@ SimOutcome GraspScene::TestRigid(const Mat4& tcp, mjData* data) const {
     for (int k = 1; k <= period + kReturnSteps && reason.empty(); ++k) {
       Vec3 offset{0, 0, 0};
       if (k <= period) offset[axis] = s.params.shake_amplitude * Shake(double(k) / period);
-      s.SetTcp(data, Translate(offset) * target);
+      s.SetTcp(data, Translate(offset) * held);
       run.Step();
       if (k == period / 3 || k == 2 * period / 3 || k == period + kReturnSteps) {
         reason = run.Check(axes[axis]);

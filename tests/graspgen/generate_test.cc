@@ -119,6 +119,21 @@ TEST(GraspgenGenerateTest, WritesFloat16GraspsIndexAndReasons) {
   EXPECT_EQ(index.grasp_paths.at("droid").size(), 1u);
   IndexReport ignored;
   EXPECT_EQ(Slurp(report.index), BuildGraspIndex(lib, &ignored).Serialize());
+
+  // --overwrite of an object that now gives no grasps removes its old file (the index would
+  // still list it); without --overwrite the file is skipped, never touched.
+  fs::create_directories(lib / "big" / "droid");
+  fs::copy_file(box.output, lib / "big" / "droid" / "grasps.npz");
+  o.uids = {"big"};
+  GenerateReport kept = GenerateGrasps(o);
+  EXPECT_EQ(kept.objects.at(0).status, ObjectReport::Status::kSkipped);
+  EXPECT_TRUE(fs::exists(lib / "big" / "droid" / "grasps.npz"));
+  o.overwrite = true;
+  GenerateReport again = GenerateGrasps(o);
+  EXPECT_EQ(again.objects.at(0).status, ObjectReport::Status::kFailed);
+  EXPECT_THAT(again.objects.at(0).reason, HasSubstr("(removed the old grasps.npz)"));
+  EXPECT_FALSE(fs::exists(lib / "big" / "droid" / "grasps.npz"));
+  EXPECT_EQ(GraspIndex::Load(again.index).grasp_paths.at("droid").count("big"), 0u);
 }
 
 TEST(GraspgenGenerateTest, KeepsGraspsThatClearTheSupport) {

@@ -34,11 +34,12 @@ struct MLSPACES_API SimParams {
   int threads = 0;          ///< <= 0: all cores; results do not depend on it
   // Rigid test
   double approach_distance = 0.3;  ///< m, start of the approach behind the grasp
-  double shake_amplitude = 0.1;    ///< m, per world axis
-  double shake_period = 0.6;       ///< s, one at-rest-to-rest period per axis (orig.: 2 x 4 s)
-  double twist_period = 2.0;       ///< s, the 360 deg turn about the approach (original: 10 s)
-  double max_slip = 0.01;          ///< m, object drift in the hand (TCP frame) that fails
-  double max_slip_angle = 0.2;     ///< rad, object turn in the hand that fails
+  double shake_amplitude = 0.045;  ///< m, per world axis (original: 0.1)
+  double shake_period = 0.4;       ///< s, one at-rest-to-rest period per axis (orig.: 2 x 4 s)
+  double twist_angle = 3.141592653589793;  ///< rad turned about the approach (original: 2 pi)
+  double twist_period = 1.0;               ///< s, for twist_angle (original: 10 s)
+  double max_slip = 0.01;                  ///< m, object drift in the hand (TCP frame) that fails
+  double max_slip_angle = 0.2;             ///< rad, object turn in the hand that fails
   /// Rigid grasps whose open hand clears the object's support plane (the plane under its
   /// lowest point, perpendicular to its body z) are also tested as a pick from that support:
   /// gravity on, vertical descent, close, lift by lift_height (docs/graspgen.md).
@@ -98,6 +99,10 @@ class MLSPACES_API GraspScene {
 
   /// The compiled model; valid while the scene lives.
   const mjModel* model() const;
+  /// The object's collision geometry (its root body's subtree, in the root body frame at
+  /// qpos0: what AssetCollisionMesh gives for the file), from this scene's compiled model;
+  /// valid while the scene lives.
+  const MeshBvh& object_mesh() const;
 
   /// Rigid test of one candidate (TCP pose in the object body frame) on `data` (an mjData of
   /// model(), reset here).

@@ -44,6 +44,18 @@ struct LibraryFlags {
   std::filesystem::path AssetsDir() const;
 };
 
+/// A UID's grasps as `grasps` and `render grasps` find them: the file of the first grasp
+/// library that has one for (uid, joint), among the libraries of `robot` when it is not empty,
+/// and `num` of its grasps drawn with `seed` (all when num is SIZE_MAX). Defined in grasps.cc.
+/// @throws Error naming the UID when no library (of `robot`) has a file.
+struct FoundGrasps {
+  GraspFileLocation file;
+  GraspSet grasps;
+};
+FoundGrasps FindAndLoadGrasps(const Registry& registry, const std::string& uid,
+                              const std::string& joint, const std::string& robot, size_t num,
+                              uint64_t seed);
+
 // Each Add* registers one subcommand on `app` and sets `action` when it is chosen.
 void AddIndexAssets(CLI::App& app, Action& action);
 void AddIndexGrasps(CLI::App& app, Action& action);
@@ -110,13 +122,14 @@ void AddValidateLeRobot(CLI::App& app, Action& action);
 /// Runs `mlspaces-lerobot ARGS...` and @returns its exit status. @throws Error as above.
 int RunLeRobotHelper(std::vector<std::string> args);
 #ifdef MLSPACES_HAVE_DATAGEN
-/// datagen --format lerobot (lerobot_datagen.cc): the staging folder of OUTPUT's HDF5 run.
+/// datagen --format lerobot (lerobot_datagen.cc): the staging folder of OUTPUT's run (episode
+/// records and MP4s, no HDF5).
 std::filesystem::path LeRobotStaging(const std::filesystem::path& out, const datagen::Shard& shard);
 /// Points `config` at the staging folder and @returns OUTPUT; empty when OUTPUT is already a
 /// finished dataset and `resume`. @throws Error for an OUTPUT holding anything else.
 std::filesystem::path PrepareLeRobotRun(datagen::ExperimentConfig& config,
                                         const datagen::Shard& shard, bool resume);
-/// Exports the finished HDF5 run in `staging` to `out` and removes `staging`.
+/// Writes the finished run in `staging` as the LeRobot dataset `out` and removes `staging`.
 void FinishLeRobotRun(const std::filesystem::path& staging, const std::filesystem::path& out);
 /// `merge` of LeRobot datasets: imports, merges, exports. @returns false when no input is one.
 bool MergeLeRobot(const std::string& output, const std::vector<std::string>& inputs, bool partial);

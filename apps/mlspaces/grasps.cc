@@ -27,11 +27,12 @@ struct GraspsFlags {
   LibraryFlags libraries;
 };
 
-/// The grasp libraries to walk: all (empty filter), or those whose robot is --robot.
-std::vector<std::string> RobotFilter(const Registry& registry, const GraspsFlags& flags) {
+/// The grasp libraries to walk: all (empty filter), or those whose robot is `robot`.
+std::vector<std::string> RobotFilter(const Registry& registry, const std::string& uid,
+                                     const std::string& robot) {
   std::vector<std::string> filter;
-  if (flags.robot.empty()) return filter;
-  std::vector<std::string> candidates = registry.GraspLibrariesFor(flags.uid);
+  if (robot.empty()) return filter;
+  std::vector<std::string> candidates = registry.GraspLibrariesFor(uid);
   if (candidates.empty()) {
     // A UID in no asset library (joint grasps of iTHOR articulated objects): every library.
     for (const std::string& asset_lib : registry.asset_libraries()) {
@@ -42,11 +43,10 @@ std::vector<std::string> RobotFilter(const Registry& registry, const GraspsFlags
   }
   for (const std::string& name : candidates) {
     const GraspLibraryInfo* info = registry.FindGraspLibrary(name);
-    if (info != nullptr && info->robot == flags.robot) filter.push_back(name);
+    if (info != nullptr && info->robot == robot) filter.push_back(name);
   }
   if (filter.empty()) {
-    throw Error("no grasp library for robot " + flags.robot + " serves " + flags.uid, "", "",
-                flags.uid);
+    throw Error("no grasp library for robot " + robot + " serves " + uid, "", "", uid);
   }
   return filter;
 }
@@ -63,18 +63,10 @@ int Run(const GraspsFlags& flags) {
   const Registry registry = flags.libraries.Build();
   const bool joint = !flags.joint.empty();
   if (!joint) registry.LocateOrThrow(flags.uid);  // unknown UID: name every library
-  GraspQuery query{flags.uid, flags.joint, RobotFilter(registry, flags)};
-  std::optional<GraspFileLocation> file = registry.FindGraspFile(query);
-  if (!file) {
-    throw Error(joint ? "No joint grasp file found for " + flags.uid + "/" + flags.joint
-                      : "No grasp file found for " + flags.uid,
-                "", "", flags.uid);
-  }
-  // Load from the file found, so the library printed is the one used.
-  query.libraries = {file->library};
   const size_t num = flags.num == 0 ? std::numeric_limits<size_t>::max() : flags.num;
-  const GraspSet grasps = registry.LoadGrasps(query, num, flags.seed);
-  std::printf("library: %s\npath: %s\n", file->library.c_str(), grasps.source.c_str());
+  const auto [file, grasps] =
+      FindAndLoadGrasps(registry, flags.uid, flags.joint, flags.robot, num, flags.seed);
+  std::printf("library: %s\npath: %s\n", file.library.c_str(), grasps.source.c_str());
   std::printf("count: %zu (stored %s)\n", grasps.poses.size(),
               DTypeDescr(grasps.stored_dtype).c_str());
   const size_t shown = grasps.poses.size() <= kPrintAll ? grasps.poses.size() : kPrintFirst;
@@ -97,6 +89,22 @@ int Run(const GraspsFlags& flags) {
 }
 
 }  // namespace
+
+FoundGrasps FindAndLoadGrasps(const Registry& registry, const std::string& uid,
+                              const std::string& joint, const std::string& robot, size_t num,
+                              uint64_t seed) {
+  GraspQuery query{uid, joint, RobotFilter(registry, uid, robot)};
+  std::optional<GraspFileLocation> file = registry.FindGraspFile(query);
+  if (!file) {
+    throw Error(joint.empty() ? "No grasp file found for " + uid
+                              : "No joint grasp file found for " + uid + "/" + joint,
+                "", "", uid);
+  }
+  // Load from the file found, so the library named is the one used.
+  query.libraries = {file->library};
+  GraspSet grasps = registry.LoadGrasps(query, num, seed);
+  return {std::move(*file), std::move(grasps)};
+}
 
 void AddGrasps(CLI::App& app, Action& action) {
   auto flags = std::make_shared<GraspsFlags>();

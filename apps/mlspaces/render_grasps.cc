@@ -25,21 +25,6 @@ struct GraspsFlags {
   RenderFlags render;
 };
 
-/// The grasp libraries serving the UID whose robot folder is --robot (all when empty).
-std::vector<std::string> RobotFilter(const Registry& registry, const GraspsFlags& flags) {
-  std::vector<std::string> filter;
-  if (flags.robot.empty()) return filter;
-  for (const std::string& name : registry.GraspLibrariesFor(flags.uid)) {
-    const GraspLibraryInfo* info = registry.FindGraspLibrary(name);
-    if (info != nullptr && info->robot == flags.robot) filter.push_back(name);
-  }
-  if (filter.empty()) {
-    throw Error("no grasp library for robot " + flags.robot + " serves " + flags.uid, "", "",
-                flags.uid);
-  }
-  return filter;
-}
-
 int Run(const GraspsFlags& flags) {
   const sim::PictureOptions options = flags.render.Options();
   const Registry registry = flags.libraries.Build();
@@ -49,18 +34,10 @@ int Run(const GraspsFlags& flags) {
       robots::LoadRobotDescription(robots::FindRobot(flags.gripper, {}, "--gripper"));
   sim::GripperOutline outline;
   outline.opening = gripper.gripper.finger_range[1];
-  GraspQuery query{flags.uid, flags.joint, RobotFilter(registry, flags)};
-  const std::optional<GraspFileLocation> file = registry.FindGraspFile(query);
-  if (!file) {
-    throw Error(flags.joint.empty()
-                    ? "No grasp file found for " + flags.uid
-                    : "No joint grasp file found for " + flags.uid + "/" + flags.joint,
-                "", "", flags.uid);
-  }
-  query.libraries = {file->library};
-  const GraspSet grasps = registry.LoadGrasps(query, flags.num, flags.seed);
+  const auto [file, grasps] =
+      FindAndLoadGrasps(registry, flags.uid, flags.joint, flags.robot, flags.num, flags.seed);
   flags.render.Progress(flags.uid + ": " + std::to_string(grasps.poses.size()) + " grasps from " +
-                        file->library + " (" + grasps.source.string() + ")");
+                        file.library + " (" + grasps.source.string() + ")");
   flags.render.Write(sim::GraspPicture(registry, flags.uid, grasps.poses, outline, options,
                                        flags.views, flags.joint));
   return 0;

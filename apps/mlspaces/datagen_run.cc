@@ -91,10 +91,12 @@ int Run(const DatagenConfigFlags& flags, const RunFlags& run) {
     // Clear a progress bar line before printing; UIDs and file names from input escaped.
     std::fprintf(stderr, "%smlspaces: %s%s\n", tty ? "\r\033[K" : "", tag, Printable(line).c_str());
   };
-  // --format lerobot: the HDF5 run goes to a staging folder, exported at the end.
+  // --format lerobot: no HDF5; the episodes' records go to a staging folder, written as the
+  // LeRobot dataset at the end (lerobot_datagen.cc).
   std::filesystem::path lerobot_out;
   if (run.format == "lerobot") {
 #ifdef MLSPACES_HAVE_LEROBOT
+    options.hdf5 = false;
     lerobot_out = PrepareLeRobotRun(config, options.shard, options.resume);
     if (lerobot_out.empty()) {
       std::printf("run folder: %s (LeRobot v3.0): already complete\n",

@@ -1,9 +1,11 @@
 // datagen --format lerobot and merge of LeRobot folders (docs/lerobot.md, "Direct from
-// datagen"): the run writes its HDF5 + MP4 episodes into a staging folder beside OUTPUT
-// (<OUTPUT>.hdf5-staging, per shard <OUTPUT>.<shard>.hdf5-staging), which --resume continues;
-// when every work item is done, export-lerobot (the helper) writes OUTPUT from it and the
-// staging folder is removed. So OUTPUT is the bytes export-lerobot gives for the HDF5 run,
-// holds no HDF5 trajectory file outside meta/mlspaces/, and appears complete or not at all.
+// datagen"): the run writes no HDF5. Its workers keep each episode, as it ends, as its
+// EpisodeRecord (house_<h>/trajectories_batch_<b>_of_<n>.parts/traj_<k>.rec, recorder.h) and
+// its MP4s in a staging folder beside OUTPUT (<OUTPUT>.partial, per shard
+// <OUTPUT>.<shard>.partial), which --resume continues; when every work item is done, the helper
+// (export-lerobot --episode-records) writes OUTPUT from the records through a temp folder
+// renamed into place, and the staging folder is removed. So OUTPUT is the bytes export-lerobot
+// gives for the HDF5 run and appears complete or not at all.
 #include <cstdio>
 #include <filesystem>
 #include <string>
@@ -35,12 +37,12 @@ fs::path LeRobotStaging(const fs::path& out, const datagen::Shard& shard) {
   const fs::path abs = fs::absolute(out).lexically_normal();
   const fs::path o = abs.has_filename() ? abs : abs.parent_path();
   const std::string shard_part = shard.count > 1 ? "." + shard.Name() : "";
-  return o.parent_path() / (o.filename().string() + shard_part + ".hdf5-staging");
+  return o.parent_path() / (o.filename().string() + shard_part + ".partial");
 }
 
 fs::path PrepareLeRobotRun(datagen::ExperimentConfig& config, const datagen::Shard& shard,
                            bool resume) {
-  const fs::path out = fs::absolute(datagen::RunFolder(config)).lexically_normal();
+  fs::path out = fs::absolute(datagen::RunFolder(config)).lexically_normal();
   const fs::path staging = LeRobotStaging(out, shard);
   if (IsLeRobot(out)) {
     if (!resume) {
@@ -57,8 +59,8 @@ fs::path PrepareLeRobotRun(datagen::ExperimentConfig& config, const datagen::Sha
     if (!fs::is_directory(out) || !fs::is_empty(out)) {
       throw Error(
           "exists and is not a LeRobot dataset; datagen --format lerobot writes a new folder "
-          "(its HDF5 run goes to " +
-              staging.filename().string() + " beside it until the export)",
+          "(its episodes go to " +
+              staging.filename().string() + " beside it until the run ends)",
           out.string());
     }
     fs::remove(out);
@@ -68,8 +70,8 @@ fs::path PrepareLeRobotRun(datagen::ExperimentConfig& config, const datagen::Sha
 }
 
 void FinishLeRobotRun(const fs::path& staging, const fs::path& out) {
-  Helper({"export-lerobot", staging.string(), out.string(), "-q"}, "the LeRobot export of the run",
-         staging);
+  Helper({"export-lerobot", staging.string(), out.string(), "-q", "--episode-records"},
+         "writing the LeRobot dataset of the run", staging);
   RemoveAll(staging);
 }
 

@@ -84,6 +84,7 @@ struct Flags {
   double fps = 0;
   bool quiet = false;
   bool no_mlspaces_meta = false;
+  bool records = false;  // DATASET_DIR is datagen --format lerobot's staging run folder
 };
 
 #ifndef MLSPACES_LEROBOT_HELPER
@@ -98,6 +99,7 @@ int Run(const Flags& flags) {
   if (!flags.repo_id.empty()) args.insert(args.end(), {"--repo-id", flags.repo_id});
   if (flags.quiet) args.emplace_back("-q");
   if (flags.no_mlspaces_meta) args.emplace_back("--no-mlspaces-meta");
+  if (flags.records) args.emplace_back("--episode-records");
   ExecLeRobotHelper(args);
 }
 #else
@@ -122,7 +124,8 @@ int Run(const Flags& flags) {
     }
     bar->Update(static_cast<size_t>(done));
   };
-  const ExportReport r = ExportLeRobot(flags.dataset, flags.out, options);
+  const ExportReport r = flags.records ? ExportLeRobotRecords(flags.dataset, flags.out, options)
+                                       : ExportLeRobot(flags.dataset, flags.out, options);
   if (bar) bar->Finish();
   for (const std::string& s : r.skipped) std::fprintf(stderr, "left out: %s\n", s.c_str());
   std::string cams;
@@ -163,6 +166,10 @@ void AddExportLeRobot(CLI::App& app, Action& action) {
   sub->add_flag("--no-mlspaces-meta", flags->no_mlspaces_meta,
                 "Leave out meta/mlspaces/ (a copy of the HDF5 episodes that import-lerobot "
                 "needs; import-lerobot then refuses the dataset)");
+  // datagen --format lerobot's last step (lerobot_datagen.cc): not for users, so not listed.
+  sub->add_flag("--episode-records", flags->records,
+                "DATASET_DIR is the staging folder of a datagen --format lerobot run")
+      ->group("");
   sub->callback([&action, flags] { action = [flags] { return Run(*flags); }; });
 }
 

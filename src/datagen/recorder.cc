@@ -25,9 +25,10 @@ namespace {
 
 constexpr size_t kVideoNameLen = 100;  // obs/sensor_data/<cam>: (100,) uint8, as the original
 
-std::string PartName(int k) {
+// traj_<k:08d>.h5, or .rec for an EpisodeRecord part (RecorderOptions::hdf5 false).
+std::string PartName(int k, bool hdf5) {
   char buf[32];
-  std::snprintf(buf, sizeof buf, "traj_%08d.h5", k);
+  std::snprintf(buf, sizeof buf, "traj_%08d.%s", k, hdf5 ? "h5" : "rec");
   return buf;
 }
 
@@ -182,9 +183,14 @@ namespace {
 /// identical bytes.
 class Writer {
  public:
-  Writer(const fs::path& file, int compression_level)
+  /// `in_memory`: the file is HDF5's core driver's image only (`file` names it in messages).
+  Writer(const fs::path& file, int compression_level, bool in_memory = false)
       : path_(file.string()), level_(compression_level) {
     Handle fapl(Check(H5Pcreate(H5P_FILE_ACCESS), "H5Pcreate", path_, ""), H5Pclose);
+    if (in_memory) {
+      Check(H5Pset_fapl_core(fapl.get(), 1 << 20, /*backing_store=*/false), "H5Pset_fapl_core",
+            path_, "");
+    }
     Check(H5Pset_libver_bounds(fapl.get(), H5F_LIBVER_EARLIEST, H5F_LIBVER_V18),
           "H5Pset_libver_bounds", path_, "");
     Check(H5Pset_fclose_degree(fapl.get(), H5F_CLOSE_STRONG), "H5Pset_fclose_degree", path_, "");
@@ -492,16 +498,18 @@ Recorder::Recorder(RecorderOptions options) : options_(std::move(options)) {
     }
     int k = -1;
     char tail = 0;
-    if (std::sscanf(name.c_str(), "traj_%8d.h%c", &k, &tail) == 2 && name == PartName(k)) {
+    if (std::sscanf(name.c_str(), "traj_%8d.%c", &k, &tail) == 2 &&
+        name == PartName(k, options_.hdf5)) {
       found.insert(k);
     }
   }
   for (int k = 0; k < static_cast<int>(found.size()); ++k) {
     if (found.count(k) == 0) {
-      throw Error("episode part " + PartName(k) + " is missing (parts are written in order)",
-                  parts.string());
+      throw Error(
+          "episode part " + PartName(k, options_.hdf5) + " is missing (parts are written in order)",
+          parts.string());
     }
-    parts_.push_back(parts / PartName(k));
+    parts_.push_back(parts / PartName(k, options_.hdf5));
   }
 }
 
@@ -512,6 +520,7 @@ std::string BatchFileStem(int batch, int num_batches) {
 Json Recorder::PartProvenance(int k) const {
   if (k < 0 || k >= next_index()) throw UsageError("no part " + std::to_string(k));
   const std::string path = parts_[k].string();
+  if (!options_.hdf5) return ProvenanceJson(DecodeEpisodeRecord(ReadFile(parts_[k]), path), k);
   const std::string group = "traj_" + std::to_string(k);
   h5::QuietErrors quiet;
   h5::Handle file(
@@ -548,7 +557,9 @@ int64_t CountEpisodes(const fs::path& file) {
   return n;
 }
 
-fs::path Recorder::batch_file() const { return options_.dir / (stem_ + ".h5"); }
+fs::path Recorder::batch_file() const {
+  return options_.dir / (stem_ + (options_.hdf5 ? ".h5" : ".episodes"));
+}
 
 fs::path Recorder::parts_dir() const { return options_.dir / (stem_ + ".parts"); }
 
@@ -561,7 +572,7 @@ std::string Recorder::VideoFileName(int episode_index, const std::string& camera
 
 int Recorder::Write(const EpisodeRecord& record) {
   const int k = next_index();
-  const fs::path target = parts_dir() / PartName(k);
+  const fs::path target = parts_dir() / PartName(k, options_.hdf5);
   if (finished_) throw Error("recorder already finished", batch_file().string());
   try {
     ValidateEpisode(record, options_.dir);
@@ -572,8 +583,15 @@ int Recorder::Write(const EpisodeRecord& record) {
   std::error_code ec;
   fs::create_directories(parts_dir(), ec);
   if (ec) throw Error("cannot create folder: " + ec.message(), parts_dir().string());
-  h5::QuietErrors quiet;
-  WriteHdf5Atomic(target, options_.compression_level, [&](Writer& w) { WriteTraj(w, record, k); });
+  if (options_.hdf5) {
+    h5::QuietErrors quiet;
+    WriteHdf5Atomic(target, options_.compression_level,
+                    [&](Writer& w) { WriteTraj(w, record, k); });
+  } else {
+    WriteFileAtomic(target, EncodeEpisodeRecord(record));
+    FsyncPath(parts_dir(), true, parts_dir().string());
+    CrashPoint("episode record written");
+  }
   parts_.push_back(target);
   return k;
 }
@@ -583,6 +601,15 @@ bool Recorder::Finish() {
   if (parts_.empty()) {
     finished_ = true;
     return false;
+  }
+  if (!options_.hdf5) {
+    // The records stay as they are; the folder's new name marks the batch finished.
+    RenamePath(parts_dir(), batch_file());
+    FsyncPath(options_.dir, true, options_.dir.string());
+    CrashPoint("episode records finished");
+    parts_.clear();
+    finished_ = true;
+    return true;
   }
   h5::QuietErrors quiet;
   WriteHdf5Atomic(batch_file(), options_.compression_level, [&](Writer& w) {
@@ -601,6 +628,25 @@ bool Recorder::Finish() {
   parts_.clear();
   finished_ = true;
   return true;
+}
+
+void WriteEpisodeFile(const EpisodeRecord& record, int k, const fs::path& file,
+                      int compression_level) {
+  const std::string group = schema::TrajGroup(k);
+  try {
+    ValidateEpisode(record);
+  } catch (const Error& e) {
+    throw Error(e.message(), file.string(), group + "/" + e.field(), e.uid());
+  }
+  h5::QuietErrors quiet;
+  // Written in memory as the recorder writes a part, then copied out as a batch file's group
+  // is copied (so the bytes are export-lerobot's).
+  Writer part(file.string() + " (in memory)", compression_level, /*in_memory=*/true);
+  WriteTraj(part, record, k);
+  Writer out(file, compression_level);
+  Check(H5Ocopy(part.file(), group.c_str(), out.file(), group.c_str(), H5P_DEFAULT, H5P_DEFAULT),
+        "H5Ocopy", out.path(), group);
+  out.Close();
 }
 
 }  // namespace mlspaces::datagen

@@ -172,11 +172,12 @@ class ItemRunner {
   // `registry` and `sampler` are the run's (a forked worker uses its own copies of them).
   ItemRunner(const ExperimentConfig& config, const Registry& registry, TaskSampler& sampler,
              const fs::path& folder, const std::vector<AttemptRecord>& earlier, sim::GlBackend gl,
-             Emit emit)
+             bool hdf5, Emit emit)
       : config_(config),
         folder_(folder),
         earlier_(earlier),
         gl_(gl),
+        hdf5_(hdf5),
         emit_(std::move(emit)),
         registry_(registry),
         sampler_(sampler),
@@ -188,6 +189,7 @@ class ItemRunner {
     rec_options.dir = folder_ / scene;
     rec_options.batch = item.batch;
     rec_options.num_batches = item.num_batches;
+    rec_options.hdf5 = hdf5_;
     Recorder recorder(rec_options);
     // Where the item stopped: after its last journaled attempt, or after its last written
     // episode when the kill came between writing it and journaling it (that attempt's line
@@ -329,6 +331,7 @@ class ItemRunner {
   fs::path folder_;
   const std::vector<AttemptRecord>& earlier_;
   sim::GlBackend gl_;
+  bool hdf5_;  // RunOptions::hdf5
   Emit emit_;
   const Registry& registry_;
   TaskSampler& sampler_;
@@ -340,8 +343,8 @@ class ItemRunner {
 
 // A forked worker: runs its items, reports through `fd`; returns the exit status.
 int WorkerMain(int fd, pid_t parent, const ExperimentConfig& config, const Registry& registry,
-               TaskSampler& sampler, const fs::path& folder, sim::GlBackend gl, int worker,
-               int workers, const std::vector<AttemptRecord>& earlier,
+               TaskSampler& sampler, const fs::path& folder, sim::GlBackend gl, bool hdf5,
+               int worker, int workers, const std::vector<AttemptRecord>& earlier,
                const std::vector<std::pair<size_t, WorkItem>>& items) {
   ::prctl(PR_SET_PDEATHSIG, SIGKILL);  // a killed parent takes its workers along
   if (::getppid() != parent) ::_exit(3);
@@ -358,7 +361,7 @@ int WorkerMain(int fd, pid_t parent, const ExperimentConfig& config, const Regis
     if (!WriteAll(fd, message.dump() + "\n")) ::_exit(4);
   };
   try {
-    ItemRunner runner(config, registry, sampler, folder, earlier, gl, emit);
+    ItemRunner runner(config, registry, sampler, folder, earlier, gl, hdf5, emit);
     for (const auto& [index, item] : items) runner.Run(index, item);
   } catch (const std::exception& e) {
     emit(Json{{"error", e.what()}});
@@ -503,7 +506,8 @@ RunReport RunDatagen(const ExperimentConfig& input, const TaskSamplerRegistry& s
     total_episodes += item.episodes;
     const fs::path dir = report.folder / item.scene_name();
     const std::string stem = BatchFileStem(item.batch, item.num_batches);
-    if (IsFile(dir / (stem + ".h5"))) {
+    // Finished: its batch file (without HDF5: its folder of episode records, recorder.h).
+    if (IsFile(dir / (stem + ".h5")) || fs::is_directory(dir / (stem + ".episodes"), ec)) {
       fs::remove_all(dir / (stem + ".parts"), ec);  // left by a kill after the merge
       ++report.items_skipped;
       done_episodes += item.episodes;
@@ -598,7 +602,7 @@ RunReport RunDatagen(const ExperimentConfig& input, const TaskSamplerRegistry& s
                                          static_cast<int64_t>(todo.size())));
   if (workers <= 1) {
     ItemRunner runner(config, registry, *sampler, report.folder, earlier, options.gl_backend,
-                      handle);
+                      options.hdf5, handle);
     for (const auto& [index, item] : todo) runner.Run(index, item);
   } else {
     std::vector<Child> pool;
@@ -613,7 +617,7 @@ RunReport RunDatagen(const ExperimentConfig& input, const TaskSamplerRegistry& s
           if (options.after_fork_child) options.after_fork_child();
           for (const Child& earlier_worker : pool) ::close(earlier_worker.fd());
           return WorkerMain(fd, self, config, registry, *sampler, report.folder, options.gl_backend,
-                            w, workers, earlier, mine);
+                            options.hdf5, w, workers, earlier, mine);
         }));
       } catch (...) {
         if (options.after_fork_parent) options.after_fork_parent();

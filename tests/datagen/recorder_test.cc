@@ -295,6 +295,52 @@ TEST(RecorderTest, SameRecordsGiveByteIdenticalFiles) {
   EXPECT_FALSE(a.second == c.second) << "different data, same bytes?";
 }
 
+// Without HDF5 (datagen --format lerobot) an episode is kept as its record, which a reopened
+// Recorder (a resumed run) continues after and reads the provenance of, and which decodes to
+// the same episode (NaN, integers past 2^63); Finish() renames the parts folder.
+TEST(RecorderTest, WithoutHdf5EpisodesAreRecordsThatDecodeToTheSameEpisode) {
+  TempDir tmp;
+  RecorderOptions options{tmp / "rec"};
+  options.hdf5 = false;
+  const EpisodeRecord r0 = MakeEpisode(5);
+  {
+    Recorder rec(options);
+    EpisodeRecord r = r0;
+    AddVideo(rec, r);
+    EXPECT_EQ(rec.Write(r), 0);
+  }
+  Recorder h5({tmp / "h5"});
+  EpisodeRecord r = r0;
+  AddVideo(h5, r);
+  h5.Write(r);
+  Recorder rec(options);
+  EXPECT_EQ(rec.next_index(), 1);
+  EXPECT_EQ(rec.PartProvenance(0), h5.PartProvenance(0));
+  const std::string bytes = Slurp(rec.parts_dir() / "traj_00000000.rec");
+  const EpisodeRecord back = DecodeEpisodeRecord(bytes, "traj_00000000.rec");
+  EXPECT_EQ(EncodeEpisodeRecord(back), bytes);
+  EXPECT_EQ(back.meta.seed, 18446744073709551557ull);
+  const std::string pts = "object_image_points/pickup_obj/wrist_camera/points";
+  EXPECT_TRUE(back.extra.at(pts).bytes() == r0.extra.at(pts).bytes());
+  EXPECT_EQ(back.obs_scene.dump(), r0.obs_scene.dump());
+  WriteEpisodeFile(back, 0, tmp / "a.h5");
+  WriteEpisodeFile(r, 0, tmp / "b.h5");  // r: r0 with its video named as in the record
+  EXPECT_TRUE(Slurp(tmp / "a.h5") == Slurp(tmp / "b.h5"));
+  EpisodeRecord r1 = MakeEpisode(3, true);
+  AddVideo(rec, r1);
+  EXPECT_EQ(rec.Write(r1), 1);
+  EXPECT_TRUE(rec.Finish());
+  EXPECT_EQ(rec.batch_file(), tmp / "rec/trajectories_batch_1_of_1.episodes");
+  EXPECT_FALSE(fs::exists(rec.parts_dir()));
+  EXPECT_THAT(ListFiles(tmp / "rec"),
+              ElementsAre("episode_00000000_wrist_camera_batch_1_of_1.mp4",
+                          "episode_00000001_wrist_camera_batch_1_of_1.mp4",
+                          "trajectories_batch_1_of_1.episodes/traj_00000000.rec",
+                          "trajectories_batch_1_of_1.episodes/traj_00000001.rec"));
+  ExpectError([&] { DecodeEpisodeRecord("not cbor", "x.rec"); },
+              {"x.rec", "not an episode record"});
+}
+
 TEST(RecorderTest, BadInputNamesTheFieldAndWritesNothing) {
   TempDir tmp;
   Recorder rec({tmp.path()});

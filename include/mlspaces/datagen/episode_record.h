@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <map>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "mlspaces/core/json.h"
@@ -40,6 +41,10 @@ class MLSPACES_API Series {
   void Append(std::initializer_list<double> row) { Append(std::vector<double>(row)); }
   /// Appends one row of integers (exact for int64 values beyond 2^53).
   void AppendInts(const std::vector<int64_t>& row);
+  /// A series of `steps` rows given as their raw bytes (what bytes() returns).
+  /// @throws Error if `bytes` is not steps * row_size() elements of `dtype`.
+  static Series FromBytes(DType dtype, std::vector<size_t> row_shape, size_t steps,
+                          std::vector<unsigned char> bytes);
 
   DType dtype() const { return dtype_; }
   const std::vector<size_t>& row_shape() const { return row_shape_; }
@@ -145,6 +150,14 @@ struct MLSPACES_API EpisodeRecord {
 
 /// Number of observations T (the size of qpos).
 inline size_t NumSteps(const EpisodeRecord& r) { return r.qpos.size(); }
+
+/// `record` as bytes (CBOR) that DecodeEpisodeRecord turns back into an equal record: every
+/// number exact (NaN included), JSON key order kept. datagen --format lerobot keeps its
+/// episodes so until the dataset is written (docs/lerobot.md).
+MLSPACES_API std::string EncodeEpisodeRecord(const EpisodeRecord& record);
+/// @throws Error naming `path_for_errors` when `bytes` are not an EncodeEpisodeRecord output.
+MLSPACES_API EpisodeRecord DecodeEpisodeRecord(std::string_view bytes,
+                                               const std::string& path_for_errors);
 
 /// Python's json.dumps(value, sort_keys=True, separators=(",", ":")) (ASCII, non-ASCII escaped;
 /// NaN and infinities as Python writes them: NaN, Infinity, -Infinity).

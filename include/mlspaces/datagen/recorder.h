@@ -22,6 +22,11 @@ struct MLSPACES_API RecorderOptions {
   /// Deflate level 0-9 for every dataset but obs_scene (0 = uncompressed). Deflate is built
   /// into every HDF5 reader (docs/dataset.md).
   int compression_level = 4;
+  /// false (datagen --format lerobot, docs/lerobot.md): no HDF5 at all. Each episode's part is
+  /// its EpisodeRecord (EncodeEpisodeRecord) in <batch stem>.parts/traj_<k:08d>.rec, and
+  /// Finish() renames <batch stem>.parts to <batch stem>.episodes (batch_file()) instead of
+  /// writing the batch file; WriteEpisodeFile makes the HDF5 later.
+  bool hdf5 = true;
 };
 
 /// The name of a batch's files without extension: "trajectories_batch_<batch>_of_<num_batches>"
@@ -53,7 +58,8 @@ class MLSPACES_API Recorder {
   // ===========================================================================================
   // Names
 
-  /// The final batch file: <dir>/trajectories_batch_<b>_of_<n>.h5.
+  /// The final batch file: <dir>/trajectories_batch_<b>_of_<n>.h5 (without hdf5: the folder
+  /// <dir>/trajectories_batch_<b>_of_<n>.episodes of the finished batch's records).
   std::filesystem::path batch_file() const;
   /// The folder holding the per-episode part files until Finish().
   std::filesystem::path parts_dir() const;
@@ -91,6 +97,13 @@ class MLSPACES_API Recorder {
   std::vector<std::filesystem::path> parts_;  // parts_[k] holds traj_k
   bool finished_ = false;
 };
+
+/// Writes `record` as traj_<k> alone into the new file `file` (not replaced if it exists), with
+/// the bytes that copying traj_<k> out of a batch file into a new file gives (H5Ocopy, HDF5 1.8
+/// format bounds: export-lerobot's meta/mlspaces/hdf5/ files). No other file is written.
+/// @throws Error naming the field or the file, as Write().
+MLSPACES_API void WriteEpisodeFile(const EpisodeRecord& record, int k,
+                                   const std::filesystem::path& file, int compression_level = 4);
 
 /// Number of traj_<k> groups in a trajectories file. @throws Error naming the file.
 MLSPACES_API int64_t CountEpisodes(const std::filesystem::path& file);

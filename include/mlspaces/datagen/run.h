@@ -104,6 +104,10 @@ struct MLSPACES_API RunOptions {
   /// thing in the worker. The Python binding updates the interpreter's state here
   /// (PyOS_BeforeFork / PyOS_AfterFork_*), so Python samplers run in forked workers.
   std::function<void()> before_fork, after_fork_parent, after_fork_child;
+  /// false: no HDF5 (datagen --format lerobot, docs/lerobot.md): episodes are kept as
+  /// EpisodeRecord parts (RecorderOptions::hdf5) and a finished work item is its folder
+  /// house_<h>/trajectories_batch_<b>_of_<n>.episodes instead of a batch file.
+  bool hdf5 = true;
 };
 
 struct MLSPACES_API RunReport {

@@ -1,6 +1,8 @@
 // export-lerobot: reads mlspaces episodes (HDF5, docs/dataset.md) and hands them to the LeRobot
-// Writer. Frame t of an episode is observation row t with the command that followed it (action
-// row t + 1), so an episode of T observations gives T - 1 frames (docs/lerobot.md).
+// Writer; datagen --format lerobot's episode records go the same way, each first written as
+// the HDF5 file meta/mlspaces/ keeps of it. Frame t of an episode is observation row t with the
+// command that followed it (action row t + 1), so an episode of T observations gives T - 1 frames
+// (docs/lerobot.md).
 #include "mlspaces/datagen/lerobot/export.h"
 
 #include <hdf5.h>
@@ -21,6 +23,7 @@
 #include "mlspaces/core/error.h"
 #include "mlspaces/core/files.h"
 #include "mlspaces/core/json.h"
+#include "mlspaces/datagen/recorder.h"
 #include "sidecar.h"
 
 namespace mlspaces::datagen::lerobot {
@@ -56,6 +59,24 @@ struct EpisodeRef {
   std::map<std::string, Array> arrays;  // obs/extra/…, env_states/…, obs/sensor_param/…
   std::string where() const { return file.string() + ": " + traj; }
 };
+
+// Where an episode's HDF5 group is and what it is called in the dataset it came from.
+struct Source {
+  fs::path file;      // the HDF5 file holding group `traj`
+  std::string traj;   // "traj_<k>"
+  std::string batch;  // its batch file, relative to the run folder ("house_0/…h5")
+  fs::path video_dir;
+  // `file` is already the episode's meta/mlspaces/hdf5/ file (written from its record).
+  bool own = false;
+};
+
+// Why an episode is left out, or null: export-lerobot writes successful complete episodes.
+const char* SkipReason(bool success, bool truncated, int64_t t) {
+  if (truncated) return "truncated";
+  if (!success) return "failed";
+  if (t < 2) return "fewer than 2 observations";
+  return nullptr;
+}
 
 std::optional<int64_t> Number(const std::string& name, const std::regex& re) {
   std::smatch m;
@@ -323,20 +344,11 @@ std::string Join(const std::map<std::string, std::string>& m) {
   return s.empty() ? "none" : s;
 }
 
-}  // namespace
-
-ExportReport ExportLeRobot(const fs::path& dataset_dir, const fs::path& out_dir,
-                           const ExportOptions& options) {
-  h5::QuietErrors quiet;
-  ExportReport report;
-  const fs::path out = fs::absolute(out_dir).lexically_normal();
-  const fs::path parent = out.has_filename() ? out.parent_path() : out.parent_path().parent_path();
-  if (fs::exists(out))
-    throw Error("already exists; remove it or choose another folder", out.string());
-
-  // Pass 1: what every episode holds; which ones are exported.
+// The episodes of the batch files of `dataset_dir`, in mlspaces.reader's order.
+std::vector<Source> BatchSources(const fs::path& dataset_dir) {
   static const std::regex traj_re(R"(traj_(\d+))");
-  std::vector<EpisodeRef> eps;
+  const fs::path root = fs::weakly_canonical(dataset_dir);
+  std::vector<Source> sources;
   for (const fs::path& file : BatchFiles(dataset_dir)) {
     Handle f = OpenFile(file);
     std::vector<std::pair<int64_t, std::string>> trajs;
@@ -344,27 +356,99 @@ ExportReport ExportLeRobot(const fs::path& dataset_dir, const fs::path& out_dir,
       if (auto k = Number(name, traj_re)) trajs.emplace_back(*k, name);
     }
     std::sort(trajs.begin(), trajs.end());
+    const std::string batch = fs::weakly_canonical(file).lexically_relative(root).generic_string();
     for (const auto& [_, traj] : trajs) {
-      EpisodeRef e = Scan(f.get(), file, traj);
-      Handle g(H5Gopen2(f.get(), traj.c_str(), H5P_DEFAULT), H5Gclose);
-      const std::string where = e.where();
-      const std::vector<int8_t> success = ReadFlags(g.get(), "success", where);
-      const std::vector<int8_t> truncated = ReadFlags(g.get(), "truncated", where);
-      if (truncated.empty() || truncated.back() != 0) {
-        report.skipped.push_back(where + ": truncated");
-      } else if (success.back() == 0) {
-        report.skipped.push_back(where + ": failed");
-      } else if (e.t < 2) {
-        report.skipped.push_back(where + ": fewer than 2 observations");
-      } else {
-        eps.push_back(std::move(e));
+      sources.push_back({file, traj, batch, file.parent_path(), false});
+    }
+  }
+  return sources;
+}
+
+// The entries of `dir` whose names match `re` (group 1 a number), by that number.
+std::vector<fs::path> Numbered(const fs::path& dir, const std::regex& re) {
+  std::vector<std::pair<int64_t, fs::path>> found;
+  for (const fs::path& p : ListFolder(dir)) {
+    if (auto n = Number(p.filename().string(), re)) found.emplace_back(*n, p);
+  }
+  std::sort(found.begin(), found.end());
+  std::vector<fs::path> out;
+  out.reserve(found.size());
+  for (auto& [_, p] : found) out.push_back(std::move(p));
+  return out;
+}
+
+// The episode records of a run made without HDF5 (RunOptions::hdf5 false), in the order their
+// batch files would have: each exported one written as its meta/mlspaces/hdf5/ file in `tmp`.
+std::vector<Source> RecordSources(const fs::path& run_dir, const fs::path& tmp,
+                                  ExportReport& report) {
+  static const std::regex house(R"(house_(\d+))"),
+      batch(R"(trajectories_batch_(\d+)_of_\d+\.episodes)"), record(R"(traj_(\d{8})\.rec)");
+  if (!fs::is_directory(run_dir)) throw Error("not a folder", run_dir.string());
+  std::vector<Source> sources;
+  for (const fs::path& h : Numbered(run_dir, house)) {
+    for (const fs::path& b : Numbered(h, batch)) {
+      for (const fs::path& r : Numbered(b, record)) {
+        const EpisodeRecord rec = DecodeEpisodeRecord(ReadFile(r), r.string());
+        const int k = static_cast<int>(*Number(r.filename().string(), record));
+        const std::string traj = "traj_" + std::to_string(k);
+        const auto t = static_cast<int64_t>(NumSteps(rec));
+        if (const char* why =
+                SkipReason(t > 0 && rec.success.back(), t == 0 || rec.truncated.back(), t)) {
+          report.skipped.push_back(r.string() + ": " + traj + ": " + why);
+          continue;
+        }
+        char name[48];
+        std::snprintf(name, sizeof name, "hdf5/episode_%06zu.h5", sources.size());
+        const fs::path file = tmp / kSidecarDir / name;
+        CreateDirectories(file.parent_path());
+        WriteEpisodeFile(rec, k, file);
+        const std::string stem = b.stem().string();
+        sources.push_back({file, traj, h.filename().string() + "/" + stem + ".h5", h, true});
       }
+    }
+  }
+  return sources;
+}
+
+// Writes `out_dir` from the episodes `list_sources(tmp, report)` gives (tmp: the folder being
+// built) and the run files of `run_dir`.
+ExportReport Export(
+    const std::function<std::vector<Source>(const fs::path&, ExportReport&)>& list_sources,
+    const fs::path& run_dir, const fs::path& out_dir, const ExportOptions& options) {
+  h5::QuietErrors quiet;
+  ExportReport report;
+  const fs::path out = fs::absolute(out_dir).lexically_normal();
+  const fs::path parent = out.has_filename() ? out.parent_path() : out.parent_path().parent_path();
+  if (fs::exists(out))
+    throw Error("already exists; remove it or choose another folder", out.string());
+  // Written into a temp folder beside `out`, renamed at the end.
+  StagingFolder staging(parent / out.filename());
+  const fs::path tmp = staging.path();
+  CreateDirectories(tmp);
+
+  // Pass 1: what every episode holds; which ones are exported.
+  const std::vector<Source> sources = list_sources(tmp, report);
+  std::vector<EpisodeRef> eps;
+  std::vector<const Source*> used;
+  for (const Source& src : sources) {
+    Handle f = OpenFile(src.file);
+    EpisodeRef e = Scan(f.get(), src.file, src.traj);
+    Handle g(H5Gopen2(f.get(), src.traj.c_str(), H5P_DEFAULT), H5Gclose);
+    const std::string where = e.where();
+    const std::vector<int8_t> success = ReadFlags(g.get(), "success", where);
+    const std::vector<int8_t> truncated = ReadFlags(g.get(), "truncated", where);
+    if (const char* why = SkipReason(!success.empty() && success.back() != 0,
+                                     truncated.empty() || truncated.back() != 0, e.t)) {
+      report.skipped.push_back(where + ": " + why);
+    } else {
+      eps.push_back(std::move(e));
+      used.push_back(&src);
     }
   }
   if (eps.empty()) {
     throw Error("no successful, complete episode to export (" +
                     std::to_string(report.skipped.size()) + " left out)",
-                dataset_dir.string());
+                run_dir.string());
   }
   const EpisodeRef& first = eps.front();
   const double fps = 1000.0 / first.dt_ms;
@@ -448,14 +532,14 @@ ExportReport ExportLeRobot(const fs::path& dataset_dir, const fs::path& out_dir,
     report.cameras.push_back(cam);
   }
 
-  // Pass 2: write into a temp folder beside `out`, rename at the end.
-  StagingFolder staging(parent / out.filename());
-  const fs::path tmp = staging.path();
+  // Pass 2.
   Writer writer(tmp, info);
   Sidecar sidecar;
   sidecar.codec = options.codec;
   int64_t done = 0;
-  for (const EpisodeRef& e : eps) {
+  for (size_t i = 0; i < eps.size(); ++i) {
+    const EpisodeRef& e = eps[i];
+    const Source& src = *used[i];
     const std::string where = e.where();
     Handle f = OpenFile(e.file);
     Handle g(H5Gopen2(f.get(), e.traj.c_str(), H5P_DEFAULT), H5Gclose);
@@ -487,19 +571,23 @@ ExportReport ExportLeRobot(const fs::path& dataset_dir, const fs::path& out_dir,
       }
     }
     for (const auto& [cam, file] : e.cameras) {
-      ep.videos["observation.images." + cam] = e.file.parent_path() / file;
+      ep.videos["observation.images." + cam] = src.video_dir / file;
     }
     const std::vector<VideoSegment> segments = writer.Add(ep);
     // meta/mlspaces/: the episode's HDF5 group unchanged and where its video frames went.
     SidecarEpisode se;
-    se.file = fs::weakly_canonical(e.file)
-                  .lexically_relative(fs::weakly_canonical(dataset_dir))
-                  .generic_string();
+    se.file = src.batch;
     se.traj = e.traj;
     char name[48];
     std::snprintf(name, sizeof name, "hdf5/episode_%06zu.h5", sidecar.episodes.size());
     se.hdf5 = name;
-    if (options.mlspaces_meta) CopyTrajectories({{e.file, e.traj}}, tmp / kSidecarDir / se.hdf5);
+    if (src.own) {
+      if (src.file != tmp / kSidecarDir / se.hdf5) {
+        throw Error("is not episode " + std::to_string(i) + "'s file", src.file.string());
+      }
+    } else if (options.mlspaces_meta) {
+      CopyTrajectories({{e.file, e.traj}}, tmp / kSidecarDir / se.hdf5);
+    }
     size_t c = 0;
     for (const auto& [cam, file] : e.cameras) {
       se.videos["observation.images." + cam] = SidecarVideo{file, segments.at(c++)};
@@ -510,8 +598,10 @@ ExportReport ExportLeRobot(const fs::path& dataset_dir, const fs::path& out_dir,
   }
   writer.Finish();
   if (options.mlspaces_meta) {
-    sidecar.run_files = CopyRunFiles(dataset_dir, tmp);
+    sidecar.run_files = CopyRunFiles(run_dir, tmp);
     WriteFileAtomic(tmp / kSidecarJson, SidecarToJson(sidecar).dump(2) + "\n", /*sync=*/false);
+  } else if (fs::exists(tmp / kSidecarDir)) {
+    RemoveAll(tmp / kSidecarDir);  // episode files written from records, read, not kept
   }
   SyncFileSystem(tmp);
   CrashPoint("lerobot files");
@@ -526,6 +616,21 @@ ExportReport ExportLeRobot(const fs::path& dataset_dir, const fs::path& out_dir,
   for (const EpisodeRef& e : eps) tasks.insert(e.task);
   report.tasks = static_cast<int64_t>(tasks.size());
   return report;
+}
+
+}  // namespace
+
+ExportReport ExportLeRobot(const fs::path& dataset_dir, const fs::path& out_dir,
+                           const ExportOptions& options) {
+  return Export([&](const fs::path&, ExportReport&) { return BatchSources(dataset_dir); },
+                dataset_dir, out_dir, options);
+}
+
+ExportReport ExportLeRobotRecords(const fs::path& run_dir, const fs::path& out_dir,
+                                  const ExportOptions& options) {
+  return Export([&](const fs::path& tmp,
+                    ExportReport& report) { return RecordSources(run_dir, tmp, report); },
+                run_dir, out_dir, options);
 }
 
 }  // namespace mlspaces::datagen::lerobot

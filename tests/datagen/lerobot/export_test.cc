@@ -84,9 +84,12 @@ EpisodeRecord MakeEpisode(const Spec& s, int e) {
 }
 
 // A run folder (house_0, one batch) of these episodes, each camera a real 32x32 H.264 video of
-// t frames (frame i of episode e has grey level 8 * e + i).
-fs::path WriteRun(const fs::path& run, const std::vector<Spec>& specs) {
-  Recorder rec({run / "house_0"});
+// t frames (frame i of episode e has grey level 8 * e + i). `hdf5` false: as datagen --format
+// lerobot writes it (episode records, no HDF5).
+fs::path WriteRun(const fs::path& run, const std::vector<Spec>& specs, bool hdf5 = true) {
+  RecorderOptions options{run / "house_0"};
+  options.hdf5 = hdf5;
+  Recorder rec(options);
   for (size_t e = 0; e < specs.size(); ++e) {
     EpisodeRecord r = MakeEpisode(specs[e], static_cast<int>(e));
     for (CameraRecord& c : r.cameras) {
@@ -327,6 +330,45 @@ TEST(LeRobotExport, KilledAtAnyStepLeavesNothingOrTheWholeDataset) {
       EXPECT_EQ(entry.path().filename().string().find(".tmp."), std::string::npos) << entry.path();
     }
   }
+}
+
+// datagen --format lerobot's dataset, written from episode records (no HDF5 run), is the bytes
+// of export-lerobot of the HDF5 run of the same episodes, left-out ones included; the records'
+// run holds no HDF5 file.
+TEST(LeRobotExport, EpisodeRecordsGiveTheBytesOfTheHdf5RunsExport) {
+  TempDir tmp;
+  const std::vector<Spec> specs = {{.t = 5},
+                                   {.t = 4, .end = End::kFailed},
+                                   {.t = 7, .task = "Pick up the mug"},
+                                   {.t = 6, .end = End::kTruncated},
+                                   {.t = 3}};
+  const fs::path h5 = WriteRun(tmp / "h5", specs);
+  const fs::path rec = WriteRun(tmp / "rec", specs, /*hdf5=*/false);
+  for (const std::string& f : mlspaces::testing::ListFiles(rec)) {
+    const fs::path path(f);
+    EXPECT_EQ(path.extension(),
+              path.filename().string().rfind("episode_", 0) == 0 ? ".mp4" : ".rec")
+        << f;
+  }
+  EXPECT_TRUE(fs::is_directory(rec / "house_0/trajectories_batch_1_of_1.episodes"));
+  const ExportReport a = ExportLeRobot(h5, tmp / "a");
+  const ExportReport b = ExportLeRobotRecords(rec, tmp / "b");
+  EXPECT_EQ(b.episodes, 3);
+  EXPECT_EQ(b.skipped.size(), 2u);
+  EXPECT_EQ(a.frames, b.frames);
+  const std::set<std::string> files = mlspaces::testing::ListFiles(tmp / "a");
+  EXPECT_EQ(mlspaces::testing::ListFiles(tmp / "b"), files);
+  EXPECT_THAT(files, ::testing::Contains("meta/mlspaces/hdf5/episode_000002.h5"));
+  for (const std::string& f : files) {
+    EXPECT_TRUE(ReadFile(tmp / "a" / f) == ReadFile(tmp / "b" / f)) << f;
+  }
+  // Without meta/mlspaces/: the episode files read from are not kept.
+  ExportOptions bare;
+  bare.mlspaces_meta = false;
+  ExportLeRobotRecords(rec, tmp / "c", bare);
+  EXPECT_FALSE(fs::exists(tmp / "c/meta/mlspaces"));
+  EXPECT_EQ(ReadFile(tmp / "c/data/chunk-000/file-000.parquet"),
+            ReadFile(tmp / "a/data/chunk-000/file-000.parquet"));
 }
 
 // import-lerobot gives back the exported episodes byte for byte (batch file, videos), keeping

@@ -45,4 +45,14 @@ struct ExportReport {
 ExportReport ExportLeRobot(const std::filesystem::path& dataset_dir,
                            const std::filesystem::path& out_dir, const ExportOptions& options = {});
 
+/// As ExportLeRobot for a run made without HDF5 (datagen --format lerobot: RunOptions::hdf5
+/// false): its finished batches' episode records (house_<h>/trajectories_batch_<b>_of_<n>
+/// .episodes/traj_<k:08d>.rec) and the MP4s beside them give the bytes ExportLeRobot gives for
+/// the HDF5 run of the same config and seed; each record's meta/mlspaces/hdf5/ file is written
+/// from it (WriteEpisodeFile) and read back as ExportLeRobot reads a batch file.
+/// @throws Error as ExportLeRobot, and naming a record that cannot be read.
+ExportReport ExportLeRobotRecords(const std::filesystem::path& run_dir,
+                                  const std::filesystem::path& out_dir,
+                                  const ExportOptions& options = {});
+
 }  // namespace mlspaces::datagen::lerobot

@@ -69,6 +69,11 @@ PY
 # re-muxed, many episodes per file; LeRobotDataset(repo_id, root=...) loads it.
 "$ML" export-lerobot experiment_output experiment_lerobot -q
 "$PY" -c "import json, pyarrow.parquet as pq; i = json.load(open('experiment_lerobot/meta/info.json')); t = pq.read_table('experiment_lerobot/data/chunk-000/file-000.parquet'); print(i['codebase_version'], i['total_episodes'], 'episodes', i['total_frames'], 'frames', t.num_rows, 'rows', sorted(k for k in i['features'] if k.startswith(('observation', 'action'))))"
+# The data engine writes the same LeRobot dataset directly (no HDF5 run in between): the
+# same bytes as the export, but for the run's own timings under meta/mlspaces/run.
+"$ML" datagen datagen.yaml --format lerobot --output experiment_lerobot_direct --seed 0 \
+  --episodes 3 -q
+diff -r -x run experiment_lerobot experiment_lerobot_direct
 # Robots are data (docs/robots.md): check and measure the second robot, a UFactory xArm7 built
 # from its published DH table, then run the same tutorial config with it, changing only the
 # robot's name (its aliases map the DROID camera names to its own).

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <condition_variable>
+#include <cstdint>
 #include <exception>
 #include <mutex>
 #include <thread>
@@ -58,10 +59,11 @@ class Pool {
     cv_.notify_all();
   }
 
-  /// The exception of the lowest failed index, or null. Call after every thread stopped.
-  std::exception_ptr FirstError() const {
-    for (const std::exception_ptr& e : errors_) {
-      if (e) return e;
+  /// The exception of the lowest failed index below `end`, or null. Call after every thread
+  /// stopped.
+  std::exception_ptr FirstError(size_t end = SIZE_MAX) const {
+    for (size_t i = 0; i < errors_.size() && i < end; ++i) {
+      if (errors_[i]) return errors_[i];
     }
     return nullptr;
   }
@@ -105,7 +107,7 @@ void ParallelFor(size_t n, int threads, const std::function<void(size_t)>& body)
 namespace parallel_internal {
 
 void RunOrdered(size_t n, int threads, size_t window, const std::function<void(size_t)>& produce,
-                const std::function<void(size_t)>& consume) {
+                const std::function<bool(size_t)>& consume) {
   if (n == 0) return;
   Pool pool(n);
   std::vector<char> produced(n, 0);
@@ -117,6 +119,7 @@ void RunOrdered(size_t n, int threads, size_t window, const std::function<void(s
         [&](size_t i) { produced[i] = 1; });
   };
   std::exception_ptr consume_error;
+  size_t end = n;  // consume ended the run before this item: later failures do not count
   {
     Joiner joiner;
     const int count = ParallelThreads(threads, n);
@@ -130,7 +133,10 @@ void RunOrdered(size_t n, int threads, size_t window, const std::function<void(s
         pool.cv_.notify_all();
       }
       try {
-        consume(i);
+        if (!consume(i)) {  // done early: pool.Stop() below ends the workers
+          end = i + 1;
+          break;
+        }
       } catch (...) {
         consume_error = std::current_exception();
         pool.Stop();
@@ -140,7 +146,7 @@ void RunOrdered(size_t n, int threads, size_t window, const std::function<void(s
     pool.Stop();  // wakes workers held back by the window
   }
   if (consume_error) std::rethrow_exception(consume_error);
-  if (std::exception_ptr e = pool.FirstError()) std::rethrow_exception(e);
+  if (std::exception_ptr e = pool.FirstError(end)) std::rethrow_exception(e);
 }
 
 }  // namespace parallel_internal

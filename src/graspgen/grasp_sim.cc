@@ -455,45 +455,49 @@ SimRun TestCandidates(const GraspScene& scene, const std::vector<GraspCandidate>
   std::vector<mjData*> free_data;
   for (auto& d : pool) free_data.push_back(d.get());
   std::mutex mutex;
-  const size_t chunk = static_cast<size_t>(threads) * 8;
-  std::vector<SimOutcome> outcomes;
-  for (size_t begin = 0; begin < order.size() && run.accepted.size() < max_success;) {
-    const size_t end = std::min(order.size(), begin + chunk);
-    outcomes.assign(end - begin, SimOutcome{});
-    ParallelFor(end - begin, threads, [&](size_t i) {
-      mjData* d = nullptr;
-      {
-        std::lock_guard lock(mutex);
-        d = free_data.back();
-        free_data.pop_back();
-      }
-      try {
-        const Mat4& tcp = candidates[order[begin + i]].tcp;
-        outcomes[i] = target ? scene.TestJoint(*target, tcp, d) : scene.TestRigid(tcp, d);
-      } catch (...) {
+  // Candidates are tested in order on the worker threads, a few ahead of the calling thread,
+  // which takes the outcomes in order up to the max_success-th success: what is kept and
+  // counted is the same whatever the thread count (no barrier between batches, so a thread
+  // never waits for another's long test).
+  constexpr size_t kAhead = 4;  // per thread
+  constexpr size_t kProgressEvery = 8;
+  ParallelForOrdered<SimOutcome>(
+      order.size(), threads, kAhead * static_cast<size_t>(threads),
+      [&](size_t i) {
+        mjData* d = nullptr;
+        {
+          std::lock_guard lock(mutex);
+          d = free_data.back();
+          free_data.pop_back();
+        }
+        SimOutcome o;
+        try {
+          const Mat4& tcp = candidates[order[i]].tcp;
+          o = target ? scene.TestJoint(*target, tcp, d) : scene.TestRigid(tcp, d);
+        } catch (...) {
+          std::lock_guard lock(mutex);
+          free_data.push_back(d);
+          throw;
+        }
         std::lock_guard lock(mutex);
         free_data.push_back(d);
-        throw;
-      }
-      std::lock_guard lock(mutex);
-      free_data.push_back(d);
-    });
-    // Results are taken in order up to the max_success-th success: what is kept and counted
-    // is the same whatever the thread count and chunking.
-    for (size_t i = 0; i < outcomes.size() && run.accepted.size() < max_success; ++i) {
-      const SimOutcome& o = outcomes[i];
-      ++run.tested;
-      run.steps += o.steps;
-      if (o.success) {
-        run.accepted.push_back(order[begin + i]);
-        run.poses.push_back(o.tcp);
-      } else {
-        ++run.failures[ReasonClass(o.reason)];
-      }
-    }
-    begin = end;
-    if (progress) progress(run.tested, run.accepted.size());
-  }
+        return o;
+      },
+      [&](size_t i, SimOutcome&& o) {
+        ++run.tested;
+        run.steps += o.steps;
+        if (o.success) {
+          run.accepted.push_back(order[i]);
+          run.poses.push_back(o.tcp);
+        } else {
+          ++run.failures[ReasonClass(o.reason)];
+        }
+        const bool more = run.accepted.size() < max_success;
+        if (progress && (!more || run.tested % kProgressEvery == 0 || i + 1 == order.size())) {
+          progress(run.tested, run.accepted.size());
+        }
+        return more;
+      });
   return run;
 }
 

@@ -47,6 +47,29 @@ TEST(ParallelTest, LowestFailedIndexWinsAndNewItemsStop) {
   }
 }
 
+TEST(ParallelTest, OrderedConsumeEndsTheRunEarly) {
+  // consume returning false at item 50: nothing after it is consumed, and the workers, held
+  // to `window` items ahead, produced at most 50 + window + 1 items.
+  for (int threads : {1, 4}) {
+    std::atomic<size_t> produced{0};
+    std::vector<size_t> consumed;
+    ParallelForOrdered<size_t>(
+        100000, threads, 8,
+        [&](size_t i) {
+          ++produced;
+          return i;
+        },
+        [&](size_t i, size_t&& v) {
+          EXPECT_EQ(i, v);
+          consumed.push_back(i);
+          return i < 50;
+        });
+    ASSERT_EQ(consumed.size(), 51u);
+    EXPECT_EQ(consumed.back(), 50u);
+    EXPECT_LE(produced.load(), 59u);
+  }
+}
+
 TEST(ParallelTest, OrderedConsumesInIndexOrder) {
   std::vector<size_t> order;
   std::vector<int> values;

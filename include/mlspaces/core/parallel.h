@@ -9,6 +9,7 @@
 #include <cstddef>
 #include <functional>
 #include <optional>
+#include <type_traits>
 #include <utility>
 #include <vector>
 
@@ -24,17 +25,20 @@ MLSPACES_API void ParallelFor(size_t n, int threads, const std::function<void(si
 
 namespace parallel_internal {
 /// produce(i) on worker threads, consume(i) on the calling thread in index order, each once
-/// produce(i) returned; workers stay at most `window` items ahead of consume.
+/// produce(i) returned; workers stay at most `window` items ahead of consume. consume
+/// returning false ends the run (no later item is consumed; workers stop after their item).
 MLSPACES_API void RunOrdered(size_t n, int threads, size_t window,
                              const std::function<void(size_t)>& produce,
-                             const std::function<void(size_t)>& consume);
+                             const std::function<bool(size_t)>& consume);
 }  // namespace parallel_internal
 
 /// Runs produce(i) -> T for every i in [0, n) on ParallelThreads(threads, n) worker threads
 /// and consume(i, T&&) on the calling thread in index order (so what consume builds does not
 /// depend on scheduling); workers stay at most `window` items ahead of consume, bounding the
-/// results held. Errors: as ParallelFor, for produce (items after the lowest failed one are
-/// not consumed) and consume (the workers stop and its exception propagates).
+/// results held. A consume that returns bool ends the run early by returning false: no later
+/// item is consumed, and at most `window` items past it were produced for nothing. Errors: as
+/// ParallelFor, for produce (items after the lowest failed one are not consumed) and consume
+/// (the workers stop and its exception propagates).
 template <class T, class Produce, class Consume>
 void ParallelForOrdered(size_t n, int threads, size_t window, Produce&& produce,
                         Consume&& consume) {
@@ -44,7 +48,12 @@ void ParallelForOrdered(size_t n, int threads, size_t window, Produce&& produce,
       [&](size_t i) {
         T r = std::move(*results[i]);
         results[i].reset();
-        consume(i, std::move(r));
+        if constexpr (std::is_same_v<decltype(consume(i, std::move(r))), bool>) {
+          return consume(i, std::move(r));
+        } else {
+          consume(i, std::move(r));
+          return true;
+        }
       });
 }
 

@@ -52,7 +52,7 @@ lines = [json.loads(l) for l in open(path)]
 n = len(lines)
 ok = sum(l["outcome"] == "success" for l in lines)
 def part(l):  # the joint (open / close) or the receptacle (pick-and-place)
-    return l["extra"].get("joint") or l["extra"].get("place_receptacle", "?")
+    return l.get("extra", {}).get("joint") or l.get("extra", {}).get("place_receptacle", "?")
 per_joint = collections.Counter(part(l) for l in lines)
 ok_joint = collections.Counter(part(l) for l in lines if l["outcome"] == "success")
 fails = collections.Counter("%s/%s" % (l["outcome"], part(l))

@@ -124,14 +124,13 @@ def scene(config: Any, *, house: int = 0, episode: int = 0, seed: int | None = N
         sampler = None
     else:
         from .configs import to_native
-        from .tasks.opening_task_samplers import engine_sampler_name
+        from .tasks.opening_task_samplers import runs_in_python
         text = json.dumps(to_native(config))
         origin, base = f"<config {type(config).__qualname__}>", os.getcwd()
         # A sampler class written in Python runs its hooks (as GymEnv does); the engine's own
         # samplers go by name.
         cls = config.task_sampler_config.task_sampler_class
-        sampler = (cls(config) if isinstance(cls, type) and engine_sampler_name(cls) is None
-                   else None)
+        sampler = cls(config) if runs_in_python(cls) else None
     w, h = _size(size, func)
     return _core.render_scene(text, origin, base, _v.integer(house, "house", func, minimum=0),
                               _v.integer(episode, "episode", func, minimum=0),

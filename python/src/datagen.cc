@@ -123,7 +123,10 @@ void BindDatagen(nb::module_& m) {
         const dg::ConfigRegistry configs = dg::ConfigRegistry::WithBuiltins();
         dg::ExperimentConfig config = dg::ParseConfigText(text, origin, base_dir, configs);
         dg::Validate(config, origin);
-        dg::TaskSamplerRegistry samplers = dg::TaskSamplerRegistry::WithBuiltins();
+        // A Python sampler is the run's only one (its class may stand for an engine sampler,
+        // whose name the config then holds: PythonTaskSampler runs that one's default hooks).
+        dg::TaskSamplerRegistry samplers =
+            sampler.is_none() ? dg::TaskSamplerRegistry::WithBuiltins() : dg::TaskSamplerRegistry{};
         if (!sampler.is_none()) {
           nb::object keep = sampler;
           samplers.Register(config.task_sampler_config.task_sampler_class,

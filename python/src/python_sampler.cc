@@ -59,11 +59,20 @@ std::optional<Pose> PoseField(nb::handle task_config, const char* name, const st
   return FromArray7(a);
 }
 
+/// The engine sampler a Python sampler stands for: the nearest `_engine_sampler` of its class
+/// (OpenTaskSampler, PickAndPlaceTaskSampler, ...), else block_pickup (PickTaskSampler).
+std::string EngineSamplerOf(nb::handle sampler) {
+  nb::object name = nb::getattr(sampler.type(), "_engine_sampler", nb::none());
+  return name.is_none() ? std::string("block_pickup") : nb::cast<std::string>(name);
+}
+
 }  // namespace
 
 PythonTaskSampler::PythonTaskSampler(dg::ExperimentConfig config, uint64_t seed, nb::object sampler)
-    : BlockPickupTaskSampler(std::move(config), seed),
+    : TaskSampler(config, seed),
       sampler_(std::move(sampler)),
+      engine_(
+          dg::TaskSamplerRegistry::WithBuiltins().Create(EngineSamplerOf(sampler_), config, seed)),
       overrides_init_scene_(Overrides(sampler_, "init_scene")),
       overrides_randomize_scene_(Overrides(sampler_, "randomize_scene")),
       overrides_on_candidate_selected_(Overrides(sampler_, "_on_candidate_selected")),
@@ -80,7 +89,12 @@ PythonTaskSampler::~PythonTaskSampler() {
   sampler_.reset();
 }
 
+void PythonTaskSampler::AddAuxiliaryObjects(sim::Scene& scene) {
+  engine_->AddAuxiliaryObjects(scene);
+}
+
 void PythonTaskSampler::PrepareEnv(dg::Env& env) {
+  engine_->PrepareEnv(env);
   nb::gil_scoped_acquire gil;
   nb::module_ mujoco = nb::module_::import_("mujoco");
   // The model: a copy the Python MjModel owns (MjModel._from_model_ptr takes ownership);
@@ -101,8 +115,16 @@ void PythonTaskSampler::PrepareEnv(dg::Env& env) {
 }
 
 bool PythonTaskSampler::Overrides(nb::handle sampler, const char* hook) {
+  // The base: the nearest class of the MRO that names an engine sampler (OpenTaskSampler,
+  // ...), else PickTaskSampler.
   nb::object base =
       nb::module_::import_("mlspaces.tasks.pick_task_sampler").attr("PickTaskSampler");
+  for (nb::handle c : sampler.type().attr("__mro__")) {
+    if (nb::cast<bool>(c.attr("__dict__").attr("__contains__")("_engine_sampler"))) {
+      base = nb::borrow(c);
+      break;
+    }
+  }
   nb::object mine = nb::getattr(sampler.type(), hook, nb::none());
   return !mine.is(nb::getattr(base, hook, nb::none()));
 }
@@ -152,16 +174,16 @@ void PythonTaskSampler::RandomizeScene(dg::Env& env, Rng& rng) {
       CallHookWithEngine("randomize_scene", nb::make_tuple(env_, robot_view), "_engine_randomize",
                          nb::cpp_function([this, &env, &rng] {
                            nb::gil_scoped_release no_gil;
-                           BlockPickupTaskSampler::RandomizeScene(env, rng);
+                           RandomizeSceneOf(*engine_, env, rng);
                          }));
       return;
     }
   }
-  BlockPickupTaskSampler::RandomizeScene(env, rng);
+  RandomizeSceneOf(*engine_, env, rng);
 }
 
 std::string PythonTaskSampler::SelectPickupObject(dg::Env& env, Rng& rng) {
-  std::string name = TaskSampler::SelectPickupObject(env, rng);
+  std::string name = SelectPickupObjectOf(*engine_, env, rng);
   nb::gil_scoped_acquire gil;
   if (name.empty() || !overrides_on_candidate_selected_) return name;
   nb::object ok =
@@ -172,10 +194,10 @@ std::string PythonTaskSampler::SelectPickupObject(dg::Env& env, Rng& rng) {
 }
 
 void PythonTaskSampler::SampleAndPlaceRobot(dg::Env& env, Rng& rng, dg::TaskDraft& draft) {
-  // Not overridden: the engine's block_pickup placement, without entering Python (the same
-  // draws as task_sampler_class: block_pickup).
+  // Not overridden: the engine sampler's placement, without entering Python (the same
+  // draws as that sampler by name, e.g. block_pickup).
   if (!overrides_place_) {
-    BlockPickupTaskSampler::SampleAndPlaceRobot(env, rng, draft);
+    SampleAndPlaceRobotOf(*engine_, env, rng, draft);
     return;
   }
   nb::gil_scoped_acquire gil;
@@ -190,7 +212,7 @@ void PythonTaskSampler::SampleAndPlaceRobot(dg::Env& env, Rng& rng, dg::TaskDraf
                      nb::cpp_function([this, &env, &rng, &draft] {
                        {
                          nb::gil_scoped_release no_gil;
-                         BlockPickupTaskSampler::SampleAndPlaceRobot(env, rng, draft);
+                         SampleAndPlaceRobotOf(*engine_, env, rng, draft);
                        }
                        auto seven = [](const Pose& p) {
                          const Array7 a = ToArray7(p);

@@ -1,9 +1,11 @@
 // PythonTaskSampler: a datagen TaskSampler whose hooks are the methods of a Python
-// PickTaskSampler (python/mlspaces/tasks/pick_task_sampler.py), used by the runner
-// (datagen.cc) and the evaluation env (eval.cc).
+// PickTaskSampler (python/mlspaces/tasks/pick_task_sampler.py) or of a subclass of one of the
+// engine's samplers' Python classes (OpenTaskSampler, PickAndPlaceTaskSampler, ...), used by
+// the runner (datagen.cc), the evaluation env (eval.cc) and the scene picture (render.cc).
 #pragma once
 
 #include <cstdint>
+#include <memory>
 
 #include "bindings.h"
 #include "mlspaces/datagen/config.h"
@@ -13,17 +15,20 @@
 namespace mlspaces::python {
 
 /// The engine calls it with the GIL released; every hook takes the GIL for its call. A hook the
-/// Python class does not override is the engine's own (the built-in block_pickup sampler's).
+/// Python class does not override is the engine's own: that of the engine sampler the class
+/// stands for (its nearest `_engine_sampler` class attribute, e.g. "OpenTaskSampler"; none:
+/// block_pickup), which also adds the scene's auxiliary objects (receptacles).
 /// PrepareEnv shares the Env's model and data with Python: the model becomes a
 /// mujoco.MjModel (MjModel._from_model_ptr of a copy), the data a mujoco.MjData made for it,
 /// and the Env uses both from then on (Env::ShareModelAndData), so what the Python hook writes
 /// is what the engine simulates. The Python sampler's `env` is a CPUMujocoEnv over them.
-class PythonTaskSampler : public datagen::BlockPickupTaskSampler {
+class PythonTaskSampler : public datagen::TaskSampler {
  public:
   PythonTaskSampler(datagen::ExperimentConfig config, uint64_t seed, nb::object sampler);
   ~PythonTaskSampler() override;
 
   void PrepareEnv(datagen::Env& env) override;
+  void AddAuxiliaryObjects(sim::Scene& scene) override;
   /// The Python CPUMujocoEnv of the last PrepareEnv (None before).
   nb::object python_env() const { return env_; }
   /// Visits the Python objects this holds (the sampler, its env), for the tp_traverse of the
@@ -55,6 +60,7 @@ class PythonTaskSampler : public datagen::BlockPickupTaskSampler {
 
   nb::object sampler_;
   nb::object env_;
+  std::unique_ptr<datagen::TaskSampler> engine_;  // the engine sampler whose hooks are defaults
   bool overrides_init_scene_ = false;
   bool overrides_randomize_scene_ = false;
   bool overrides_on_candidate_selected_ = false;

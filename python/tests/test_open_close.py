@@ -124,8 +124,6 @@ def _python_close_config():
 
 def test_the_python_open_task_sampler_runs_the_engines(tmp_path: Path, monkeypatch):
     from mlspaces.datagen import run_config
-    from mlspaces.errors import MlspacesError
-    from mlspaces.tasks import OpenTaskSampler
 
     config_class = _python_close_config()
     monkeypatch.chdir(tmp_path)
@@ -135,14 +133,53 @@ def test_the_python_open_task_sampler_runs_the_engines(tmp_path: Path, monkeypat
         for k in f:
             assert obs_scene(f[k])["task_description"].startswith("Close the ")
 
-    class Hooked(OpenTaskSampler):
-        def _sample_and_place_robot(self, env) -> None:
-            pass
 
-    config = config_class()
+
+def test_a_python_subclass_of_open_task_sampler_runs_its_hooks(tmp_path: Path, monkeypatch):
+    """The hooks a subclass overrides run in Python, the others (and super()) in the engine:
+    the joint is still chosen and the close task still described; the override's changes
+    show in the episodes."""
+    from mlspaces.datagen import run_config
+    from mlspaces.tasks import OpenTaskSampler
+
+    calls: list[str] = []
+
+    class Hooked(OpenTaskSampler):
+        def _on_candidate_selected(self, env, name, body_id, geom_id) -> bool:
+            calls.append(name)
+            return True
+
+        def _sample_and_place_robot(self, env) -> None:
+            super()._sample_and_place_robot(env)
+            self.config.task_config.pickup_obj_goal_pose[2] += 0.01
+
+    config = _python_close_config()()
     config.task_sampler_config.task_sampler_class = Hooked
-    with pytest.raises(MlspacesError, match="task_sampler_class.*_sample_and_place_robot"):
-        run_config(config, output_dir="out2", progress=False)
+    monkeypatch.chdir(tmp_path)
+    report = run_config(config, output_dir="out", progress=False)
+    assert report["episodes_kept"] == 2
+    with h5py.File(tmp_path / "out" / "house_0" / "trajectories_batch_1_of_1.h5") as f:
+        assert len(f) == 2
+        for k in f:
+            scene = obs_scene(f[k])
+            assert scene["task_description"].startswith("Close the ")
+            assert scene["joint"]["joint_name"] in ("drawer_slide", "door_hinge")
+            start, end = f[k]["obs/extra/obj_start"][0], f[k]["obs/extra/obj_end"][0]
+            assert end[2] - start[2] == pytest.approx(0.01, abs=1e-6)
+            assert calls.count(scene["object_name"]) >= 1
+    assert len(calls) == 2
+
+    class Declines(OpenTaskSampler):
+        def _on_candidate_selected(self, env, name, body_id, geom_id) -> bool:
+            return False
+
+    config = _python_close_config()()
+    config.task_sampler_config.task_sampler_class = Declines
+    config.task_sampler_config.samples_per_house = 1
+    report = run_config(config, output_dir="declined", progress=False)
+    assert report["episodes_kept"] == 0
+    journal = (tmp_path / "declined" / "journal.jsonl").read_text()
+    assert "sampler_reject" in journal and "Declines._on_candidate_selected" in journal
 
 
 def test_the_gym_env_rewards_the_joints_closed_fraction():

@@ -114,7 +114,6 @@ def _python_config():
 
 def test_the_python_sampler_classes_run_the_engines(tmp_path: Path, monkeypatch):
     from mlspaces.datagen import run_config
-    from mlspaces.errors import MlspacesError
     from mlspaces.tasks import (PickAndPlaceColorTaskSampler, PickAndPlaceNextToTaskSampler,
                                 PickAndPlaceReceptacleTaskSampler, PickAndPlaceTaskSampler)
     from mlspaces.tasks.opening_task_samplers import engine_sampler_name
@@ -127,14 +126,42 @@ def test_the_python_sampler_classes_run_the_engines(tmp_path: Path, monkeypatch)
     report = run_config(config_class(), output_dir="out", progress=False)
     assert report["episodes_kept"] == 1
 
-    class Hooked(PickAndPlaceTaskSampler):
-        def _sample_and_place_robot(self, env) -> None:
-            pass
 
-    config = config_class()
+
+def test_a_python_subclass_of_a_pick_and_place_sampler_runs_its_hooks(tmp_path: Path,
+                                                                      monkeypatch):
+    """The hooks a subclass overrides run in Python, the others (and super()) in the engine:
+    the receptacles are still added and placed; the override's changes show in the
+    episodes."""
+    from mlspaces.datagen import run_config
+    from mlspaces.tasks import PickAndPlaceColorTaskSampler
+
+    names: list[str] = []
+
+    class Hooked(PickAndPlaceColorTaskSampler):
+        def randomize_scene(self, env, robot_view) -> None:
+            super().randomize_scene(env, robot_view)
+            names.append("randomize")
+
+        def _sample_and_place_robot(self, env) -> None:
+            super()._sample_and_place_robot(env)
+            self.config.task_config.pickup_obj_goal_pose[2] += 0.01
+
+    config = _python_config()()
+    config.task_type = "pick_and_place_color"
     config.task_sampler_config.task_sampler_class = Hooked
-    with pytest.raises(MlspacesError, match="task_sampler_class.*_sample_and_place_robot"):
-        run_config(config, output_dir="out2", progress=False)
+    monkeypatch.chdir(tmp_path)
+    report = run_config(config, output_dir="out", progress=False)
+    assert report["episodes_kept"] == 1
+    assert names == ["randomize"]
+    with h5py.File(tmp_path / "out" / "house_0" / "trajectories_batch_1_of_1.h5") as f:
+        (traj,) = f.values()
+        scene = obs_scene(traj)
+        assert scene["place_receptacle_name"].startswith("place_receptacle/")
+        assert " the " in scene["task_description"] and "in or on the" in \
+            scene["task_description"]
+        start, end = traj["obs/extra/obj_start"][0], traj["obs/extra/obj_end"][0]
+        assert end[2] - start[2] == pytest.approx(0.06, abs=1e-6)  # +0.05 (engine) +0.01
 
 
 def test_the_gym_env_rewards_the_distance_to_the_receptacle():

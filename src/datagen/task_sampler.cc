@@ -47,6 +47,7 @@ TaskSampler::TaskSampler(ExperimentConfig config, uint64_t run_seed)
 Task TaskSampler::SampleTask(Env& env, int64_t episode) {
   const uint64_t seed = EpisodeSeed(run_seed_, env.scene_key(), episode);
   Rng rng(seed);
+  episode_ = episode;
   RandomizeScene(env, rng);
   env.Forward();
   TaskDraft draft;

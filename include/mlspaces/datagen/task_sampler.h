@@ -140,12 +140,32 @@ class MLSPACES_API TaskSampler {
   virtual std::string SelectPickupObject(Env& env, Rng& rng);
   virtual void SampleAndPlaceRobot(Env& env, Rng& rng, TaskDraft& draft) = 0;
 
+  /// The episode SampleTask is sampling (for the hooks; -1 outside SampleTask).
+  int64_t episode() const { return episode_; }
+
+  /// Run the hooks of another sampler, for this sampler's episode (a wrapper's inner
+  /// sampler: the Python binding's sampler runs the engine sampler its Python class stands
+  /// for).
+  void RandomizeSceneOf(TaskSampler& inner, Env& env, Rng& rng) const {
+    inner.episode_ = episode_;
+    inner.RandomizeScene(env, rng);
+  }
+  std::string SelectPickupObjectOf(TaskSampler& inner, Env& env, Rng& rng) const {
+    inner.episode_ = episode_;
+    return inner.SelectPickupObject(env, rng);
+  }
+  void SampleAndPlaceRobotOf(TaskSampler& inner, Env& env, Rng& rng, TaskDraft& draft) const {
+    inner.episode_ = episode_;
+    inner.SampleAndPlaceRobot(env, rng, draft);
+  }
+
  private:
   friend class TaskSamplerRegistry;
   ExperimentConfig config_;
   uint64_t run_seed_;
   std::string name_;
   int64_t task_counter_ = 0;
+  int64_t episode_ = -1;
 };
 
 /// `pose @ T(dx, dy, yaw)`: a planar move expressed in the frame of `pose` (the tutorial's

@@ -22,8 +22,8 @@ def _sampler_for(config: Any):
     cls = config.task_sampler_config.task_sampler_class
     if cls is None or isinstance(cls, str):
         return None  # an engine sampler, by name
-    from ..tasks.opening_task_samplers import engine_sampler_name
-    if engine_sampler_name(cls) is not None:
+    from ..tasks.opening_task_samplers import engine_sampler_name, runs_in_python
+    if engine_sampler_name(cls) is not None and not runs_in_python(cls):
         return None  # OpenTaskSampler: the engine's, by name (to_native names it)
     if not isinstance(cls, type):
         raise MlspacesError("task_sampler_config.task_sampler_class: expected a PickTaskSampler "

@@ -126,9 +126,9 @@ class GymEnv(gym.Env):
         self.render_camera = render_camera
         self._defaults = dict(sample_task_kwargs)
         cls = cfg.task_sampler_config.task_sampler_class
-        from .opening_task_samplers import engine_sampler_name
-        engine = engine_sampler_name(cls)  # OpenTaskSampler: the engine's, by name
-        self.task_sampler = cls(cfg) if isinstance(cls, type) and engine is None else None
+        from .opening_task_samplers import runs_in_python
+        # OpenTaskSampler and the like: the engine's, by name, unless a subclass overrides a hook.
+        self.task_sampler = cls(cfg) if runs_in_python(cls) else None
         self._env = _core.EvalEnv(json.dumps(to_native(cfg)), f"<config {type(cfg).__qualname__}>",
                                   os.getcwd(), self.task_sampler,
                                   render=True, gl=os.environ.get("MLSPACES_GL") or "osmesa")

@@ -6,16 +6,19 @@ pick-and-place samplers, for configs with ``task_type`` "pick_and_place",
 ``task_sampler_class=PickAndPlaceTaskSampler`` (or one of the variants) runs the engine's
 sampler of that name in C++: receptacles added when the scene is built, one placed around the
 pickup object each episode (next to: a scene object chosen as the target; colour: two coloured
-copies). Its hooks cannot be overridden from Python yet: a subclass that overrides one is
-refused when the run starts (``MlspacesError`` naming
-``task_sampler_config.task_sampler_class``)."""
+copies). A subclass may override the hooks of ``PickTaskSampler`` as for
+``OpenTaskSampler`` (``opening_task_samplers``): the overridden ones run in Python, the others
+in C++; ``super()._sample_and_place_robot(env)`` moves the robot and the object, places the
+receptacle(s) and sets ``task_config``'s three poses, which the override may then change (an
+override that does not call it leaves no place target, and the run stops with an
+``MlspacesError``)."""
 
 from __future__ import annotations
 
-from .pick_task_sampler import BaseMujocoTaskSampler
+from .pick_task_sampler import PickTaskSampler
 
 
-class PickAndPlaceTaskSampler(BaseMujocoTaskSampler):
+class PickAndPlaceTaskSampler(PickTaskSampler):
     """The engine's ``PickAndPlaceTaskSampler`` (see the module doc)."""
 
     _engine_sampler = "PickAndPlaceTaskSampler"

@@ -2,11 +2,15 @@
 #include "mlspaces/datagen/tasks/open_close/planner.h"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
+#include <memory>
 #include <numbers>
+#include <string>
 #include <utility>
 
+#include "mlspaces/core/error.h"
 #include "mlspaces/core/se3.h"
 #include "mlspaces/library/grasp_set.h"
 #include "mlspaces/sim/mj_pose.h"
@@ -20,6 +24,61 @@ constexpr double kApproachBack = 0.12;   // joint-space travel ends this far beh
 constexpr double kRetryBack = 0.08;      // a retry first backs off this far
 constexpr double kRetreat = 0.10;        // after release
 constexpr double kMinApproachCos = 0.5;  // approach within 60 deg of base -> grasp
+// The joint body must reach this far into the space between the open finger pads, along the
+// approach and across the pads' width (see Encloses).
+constexpr double kMinEnclosed = 0.008;
+
+Vec3 Sub(const Vec3& a, const Vec3& b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
+double Dot(const Vec3& a, const Vec3& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+Vec3 Cross(const Vec3& a, const Vec3& b) {
+  return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
+}
+
+// An oriented box in world coordinates: centre, unit axes, half sizes.
+struct Box {
+  Vec3 centre;
+  std::array<Vec3, 3> axes;
+  Vec3 half;
+};
+
+// The separating-axis test of two oriented boxes (touching counts as overlapping).
+bool Overlap(const Box& p, const Box& q) {
+  const Vec3 t = Sub(q.centre, p.centre);
+  auto separated = [&](const Vec3& axis) {
+    if (Dot(axis, axis) < 1e-12) return false;  // parallel edges: covered by the face axes
+    double rp = 0, rq = 0;
+    for (int i = 0; i < 3; ++i) {
+      rp += p.half[i] * std::abs(Dot(p.axes[i], axis));
+      rq += q.half[i] * std::abs(Dot(q.axes[i], axis));
+    }
+    return std::abs(Dot(t, axis)) > rp + rq;
+  };
+  for (int i = 0; i < 3; ++i) {
+    if (separated(p.axes[i]) || separated(q.axes[i])) return false;
+  }
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) {
+      if (separated(Cross(p.axes[i], q.axes[j]))) return false;
+    }
+  }
+  return true;
+}
+
+// A geom's bounding box (MuJoCo's geom_aabb, in the geom frame) in world coordinates.
+Box GeomBox(const mjModel* m, const mjData* d, int g) {
+  const mjtNum* c = m->geom_aabb + 6 * g;
+  const mjtNum* r = d->geom_xmat + 9 * g;
+  Box b;
+  for (int i = 0; i < 3; ++i) {
+    b.axes[i] = {r[i], r[3 + i], r[6 + i]};  // column i of the row-major rotation
+    b.half[i] = c[3 + i];
+  }
+  b.centre = {d->geom_xpos[3 * g], d->geom_xpos[3 * g + 1], d->geom_xpos[3 * g + 2]};
+  for (int i = 0; i < 3; ++i) {
+    for (int k = 0; k < 3; ++k) b.centre[k] += b.axes[i][k] * c[i];
+  }
+  return b;
+}
 
 // `pose` moved by `dist` along its own -z (back along the approach axis).
 Mat4 Back(const Mat4& pose, double dist) {
@@ -36,6 +95,63 @@ double OpenedFraction(const TaskJoint& joint, double q) {
   return std::clamp(std::abs(q - joint.closed) / span, 0.0, 1.0);
 }
 
+void OpenClosePlanner::ComputePadRegion() {
+  // The space between the two open finger pads, in the TCP frame: the robot at the model's
+  // reference pose (the gripper open, as the grasp probe assumes) on a scratch mjData.
+  const mjModel* m = env_->model();
+  const std::string& prefix = robot_->spec().prefix;
+  std::array<int, 2> pads{};
+  for (int k = 0; k < 2; ++k) {
+    pads[k] = mj_name2id(m, mjOBJ_GEOM, (prefix + robot_->spec().finger_pads[k]).c_str());
+    if (pads[k] < 0) throw Error("no finger pad geom " + prefix + robot_->spec().finger_pads[k]);
+  }
+  std::unique_ptr<mjData, void (*)(mjData*)> d(mj_makeData(m), mj_deleteData);
+  mj_kinematics(m, d.get());
+  const int site = robot_->tcp_site();
+  const mjtNum* sr = d->site_xmat + 9 * site;
+  const Vec3 sp{d->site_xpos[3 * site], d->site_xpos[3 * site + 1], d->site_xpos[3 * site + 2]};
+  std::array<Vec3, 2> lo{}, hi{};  // each pad's axis-aligned extent in the TCP frame
+  for (int k = 0; k < 2; ++k) {
+    const Box b = GeomBox(m, d.get(), pads[k]);
+    for (int a = 0; a < 3; ++a) {
+      const Vec3 axis{sr[a], sr[3 + a], sr[6 + a]};  // TCP axis a in world
+      const double c = Dot(Sub(b.centre, sp), axis);
+      double r = 0;
+      for (int i = 0; i < 3; ++i) r += b.half[i] * std::abs(Dot(b.axes[i], axis));
+      lo[k][a] = c - r;
+      hi[k][a] = c + r;
+    }
+  }
+  const int left = (lo[0][1] + hi[0][1]) > (lo[1][1] + hi[1][1]) ? 0 : 1, right = 1 - left;
+  Vec3 rlo, rhi;
+  for (int a : {0, 2}) {
+    rlo[a] = std::max(lo[0][a], lo[1][a]) + kMinEnclosed;
+    rhi[a] = std::min(hi[0][a], hi[1][a]) - kMinEnclosed;
+  }
+  rlo[1] = hi[right][1];
+  rhi[1] = lo[left][1];
+  for (int a = 0; a < 3; ++a) {
+    pad_region_centre_[a] = (rlo[a] + rhi[a]) / 2;
+    pad_region_half_[a] = std::max(rhi[a] - rlo[a], 0.002) / 2;
+  }
+  pad_region_ready_ = true;
+}
+
+bool OpenClosePlanner::Encloses(const mjData* d, const Mat4& grasp) const {
+  Box region;
+  for (int i = 0; i < 3; ++i) region.axes[i] = {grasp(0, i), grasp(1, i), grasp(2, i)};
+  region.half = pad_region_half_;
+  region.centre = {grasp(0, 3), grasp(1, 3), grasp(2, 3)};
+  for (int i = 0; i < 3; ++i) {
+    for (int k = 0; k < 3; ++k) region.centre[k] += region.axes[i][k] * pad_region_centre_[i];
+  }
+  const mjModel* m = env_->model();
+  for (int g : joint_geoms_) {
+    if (Overlap(region, GeomBox(m, d, g))) return true;
+  }
+  return false;
+}
+
 PlanFailure OpenClosePlanner::ResetJoint(const mjData* d, int joint_id, const TaskJoint& joint,
                                          bool open, double min_fraction, std::vector<Mat4> grasps) {
   joint_id_ = joint_id;
@@ -44,6 +160,20 @@ PlanFailure OpenClosePlanner::ResetJoint(const mjData* d, int joint_id, const Ta
   min_fraction_ = min_fraction;
   planned_fraction_ = 0;
   failed_grasps_.clear();
+  if (!pad_region_ready_) ComputePadRegion();
+  // The collision geoms of the joint body's subtree (the door or drawer with its handle).
+  const mjModel* m = env_->model();
+  const int joint_body = m->jnt_bodyid[joint_id];
+  joint_geoms_.clear();
+  for (int g = 0; g < m->ngeom; ++g) {
+    if (m->geom_contype[g] == 0 && m->geom_conaffinity[g] == 0) continue;
+    for (int b = m->geom_bodyid[g]; b > 0; b = m->body_parentid[b]) {
+      if (b == joint_body) {
+        joint_geoms_.push_back(g);
+        break;
+      }
+    }
+  }
   return Reset(d, env_->model()->jnt_bodyid[joint_id], std::move(grasps));
 }
 
@@ -170,8 +300,18 @@ PlanFailure OpenClosePlanner::Plan(const mjData* d) {
   select.max_ik_checked = config_.filter_feasible_grasps
                               ? static_cast<size_t>(config_.grasp_feasibility_max_grasps)
                               : 1;
+  // A grasp must also hold part of the joint body between the open pads, at least
+  // kMinEnclosed deep (the grasps were made for one gripper; a gripper with shorter or
+  // parallel-sliding fingers closes in front of a handle that the other one's catches).
+  size_t num_not_enclosing = 0;
   const std::function<bool(const Mat4&)> collision_free =
-      probe_ ? std::function<bool(const Mat4&)>([&](const Mat4& g) { return !probe_->Collides(g); })
+      probe_ ? std::function<bool(const Mat4&)>([&](const Mat4& g) {
+        if (!Encloses(d, g)) {
+          ++num_not_enclosing;
+          return false;
+        }
+        return !probe_->Collides(g);
+      })
              : nullptr;
   GraspSelection chosen = SelectGrasp(candidates, tcp, body, collision_free, feasible, select);
   if (!chosen.index && !rest.empty()) {
@@ -186,8 +326,12 @@ PlanFailure OpenClosePlanner::Plan(const mjData* d) {
   stats_.num_ik_checked = chosen.num_ik_checked;
   if (!chosen.index) {
     if (chosen.num_collision_free == 0) {
-      return finish(PlanFailure::kNoGrasp, "every one of " + std::to_string(chosen.ranked.size()) +
-                                               " ranked joint grasps collides with the scene");
+      return finish(PlanFailure::kNoGrasp,
+                    "every one of " + std::to_string(chosen.ranked.size()) +
+                        " ranked joint grasps collides with the scene or holds nothing between "
+                        "the open pads (" +
+                        std::to_string(num_not_enclosing) +
+                        " candidates held nothing, over both tiers)");
     }
     return finish(PlanFailure::kNoGrasp,
                   "no feasible joint grasp among " + std::to_string(chosen.num_ik_checked) +

@@ -3,10 +3,13 @@
 
 #include <cmath>
 #include <numbers>
+#include <string>
 #include <utility>
+#include <vector>
 
 #include "mlspaces/core/error.h"
 #include "mlspaces/datagen/preflight.h"
+#include "mlspaces/robots/ik.h"
 #include "mlspaces/sim/mj_pose.h"
 #include "mlspaces/sim/mujoco_handlers.h"
 
@@ -28,6 +31,71 @@ const Json* ObjectEntry(const Json& metadata, const std::string& body) {
   const auto entry = objects->find(body);
   if (entry == objects->end() || !entry->is_object()) return nullptr;
   return &*entry;
+}
+
+// The clearance the robot must keep from the joint body at the start; the hand is drawn back
+// toward the base kBackStep at a time, up to kMaxBack, to get it.
+constexpr double kStartClearance = 0.02;
+constexpr double kBackStep = 0.01;
+constexpr double kMaxBack = 0.15;
+
+// True when a collision geom of the robot (the subtree of `robot_root`) is within `margin`
+// of one of the joint body's subtree (`joint_body`).
+bool RobotNear(const mjModel* m, const mjData* d, int robot_root, int joint_body, double margin) {
+  std::vector<int> robot, target;
+  for (int g = 0; g < m->ngeom; ++g) {
+    if (m->geom_contype[g] == 0 && m->geom_conaffinity[g] == 0) continue;
+    if (InSubtree(m, m->geom_bodyid[g], robot_root)) robot.push_back(g);
+    if (InSubtree(m, m->geom_bodyid[g], joint_body)) target.push_back(g);
+  }
+  for (int a : robot) {
+    for (int b : target) {
+      if (mj_geomDistance(m, d, a, b, margin, nullptr) < margin) return true;
+    }
+  }
+  return false;
+}
+
+// Moves the arm (IK from its current angles) so that the TCP is drawn back horizontally
+// toward the robot base, in steps, until the robot is kStartClearance clear of the joint
+// body. Returns whether it got clear (the arm is left at the last solution tried).
+bool DrawHandBack(Env& env, int robot_root, int joint_body) {
+  const mjModel* m = env.model();
+  mjData* d = env.data();
+  const RobotSpec& robot = env.robot();
+  std::vector<std::string> joints;
+  for (const std::string& j : robot.arm_joints) joints.push_back(robot.prefix + j);
+  robots::IkOptions options;
+  options.restarts = 0;
+  robots::IkSolver ik(m, robot.prefix + robot.tcp_site, joints, {}, options);
+  ik.SyncState(d);
+  const std::vector<int>& adr = env.arm_qpos_adr();
+  std::vector<double> q;
+  for (int a : adr) q.push_back(d->qpos[a]);
+  const Mat4 tcp = ik.Forward(q);
+  const Pose base = env.GetRobotBasePose();
+  double dx = base.pos[0] - tcp(0, 3), dy = base.pos[1] - tcp(1, 3);
+  const double norm = std::hypot(dx, dy);
+  if (norm < 1e-6) return false;
+  for (double back = kBackStep; back <= kMaxBack + 1e-9; back += kBackStep) {
+    Mat4 target = tcp;
+    target(0, 3) += back * dx / norm;
+    target(1, 3) += back * dy / norm;
+    const robots::IkResult r = ik.Solve(target, q);
+    if (!r.success) continue;
+    q = r.q;
+    for (size_t i = 0; i < adr.size(); ++i) {
+      d->qpos[adr[i]] = q[i];
+      // The servo holds the new angle (as TaskSampler::RandomizeScene does for the noise).
+      const std::string servo = robot.prefix + robot.arm_actuators[i];
+      if (const int act = mj_name2id(m, mjOBJ_ACTUATOR, servo.c_str()); act >= 0) {
+        d->ctrl[act] = q[i];
+      }
+    }
+    env.ForwardPosition();
+    if (!RobotNear(m, d, robot_root, joint_body, kStartClearance)) return true;
+  }
+  return false;
 }
 
 std::string MetadataFile(const Env& env) {
@@ -173,6 +241,17 @@ void OpenTaskSampler::SampleAndPlaceRobot(Env& env, Rng& rng, TaskDraft& draft) 
   const double ryaw = draw(noise.yaw_deg) * kDeg;
   env.SetRobotBasePose(ComposePlanar(env.GetRobotBasePose(), rx, ry, ryaw));
   env.ForwardPosition();
+  // A robot within kStartClearance of the joint body (a door opened toward it can reach
+  // into its hand at home) starts with its hand drawn back toward the base instead.
+  const RobotSpec& robot = env.robot();
+  const int robot_root = mj_name2id(m, mjOBJ_BODY, (robot.prefix + robot.base_body).c_str());
+  const int joint_body = m->jnt_bodyid[chosen.joint_id];
+  if (robot_root >= 0 && RobotNear(m, d, robot_root, joint_body, kStartClearance) &&
+      !DrawHandBack(env, robot_root, joint_body)) {
+    throw TaskRejected("the robot starts within " + std::to_string(kStartClearance) + " m of " +
+                       joint.name + "'s body, and drawing its hand back " +
+                       std::to_string(kMaxBack) + " m does not clear it");
+  }
   draft.robot_base_pose = env.GetRobotBasePose();
   draft.pickup_obj_start_pose = env.GetBodyPose(object);
   draft.pickup_obj_goal_pose = draft.pickup_obj_start_pose;

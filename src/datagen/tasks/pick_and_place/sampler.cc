@@ -246,7 +246,13 @@ void PickAndPlaceTaskSampler::SampleAndPlaceRobot(Env& env, Rng& rng, TaskDraft&
         if (std::find(stems.begin(), stems.end(), stem) == stems.end()) stems.push_back(stem);
       }
       if (stems.empty()) throw Error("the scene " + env.scene_key() + " has no receptacles");
-      const std::string& stem = stems[rng.UniformInt(stems.size())];
+      // The original's rotation: the same receptacle for episodes_per_receptacle episodes in
+      // a row, then the next, wrapping (0: the next every episode). Computed from the episode
+      // number, not a counter, so an episode does not depend on the ones sampled before it.
+      const int64_t per = std::max<int64_t>(1, s.episodes_per_receptacle);
+      const int64_t slot = std::max<int64_t>(0, episode()) / per;
+      const std::string& stem =
+          stems[static_cast<size_t>(slot % static_cast<int64_t>(stems.size()))];
       for (const std::string& r : all)
         if (r.starts_with(stem)) chosen.push_back(r);
     }

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <filesystem>
 #include <map>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 
@@ -12,6 +13,7 @@
 #include <mujoco/mujoco.h>
 
 #include "mlspaces/core/error.h"
+#include "mlspaces/core/json.h"
 #include "mlspaces/datagen/config.h"
 #include "mlspaces/datagen/dataset_validate.h"
 #include "mlspaces/datagen/run.h"
@@ -167,6 +169,41 @@ TEST(PickAndPlaceRunTest, EpisodesOfEachVariantSucceedAndValidate) {
     EXPECT_TRUE(v.ok()) << yaml;
     const std::string journal = testing::Slurp(dir / yaml / "journal.jsonl");
     EXPECT_THAT(journal, HasSubstr("\"place_receptacle\"")) << yaml;
+  }
+}
+
+// episodes_per_receptacle (the original's rotation): the same receptacle for that many
+// episodes in a row, then the next, wrapping; from the episode number, so 2 workers agree.
+TEST(PickAndPlaceRunTest, EpisodesPerReceptacleRotatesTheReceptacle) {
+  testing::TempDir dir;
+  for (const int64_t per : {2, 1}) {
+    for (const int workers : {1, 2}) {
+      const std::string name = "per" + std::to_string(per) + "_w" + std::to_string(workers);
+      ExperimentConfig c = Example("datagen.yaml", dir / name, 5, 1);
+      c.task_sampler_config.episodes_per_receptacle = per;
+      c.task_horizon = 2;  // the receptacle is chosen at sampling: no need to run the plan
+      c.filter_for_successful_trajectories = false;
+      RunOptions options;
+      options.workers = workers;
+      RunDatagen(c, TaskSamplerRegistry::WithBuiltins(), options);
+      const std::string prefix = "place_receptacle/";
+      std::map<int64_t, std::string> by_episode;  // episode -> the receptacle's uid stem
+      std::istringstream lines(testing::Slurp(dir / name / "journal.jsonl"));
+      for (std::string line; std::getline(lines, line);) {
+        const Json j = ParseJson(line, "journal.jsonl");
+        const std::string r = j.at("extra").at("place_receptacle").get<std::string>();
+        by_episode[j.at("episode").get<int64_t>()] = r.substr(0, r.find('_', prefix.size()));
+      }
+      ASSERT_EQ(by_episode.size(), 5u) << name;
+      // Two receptacle assets (tray, bowl): stems place_receptacle/0 and place_receptacle/1.
+      for (int64_t e = 0; e < 5; ++e) {
+        EXPECT_EQ(by_episode[e], by_episode[e % (2 * per)]) << name << " episode " << e;
+        if (e + per < 5) {
+          EXPECT_NE(by_episode[e], by_episode[e + per]) << name << " episode " << e;
+        }
+        if (per == 2 && e % 2 == 1) EXPECT_EQ(by_episode[e], by_episode[e - 1]) << name;
+      }
+    }
   }
 }
 

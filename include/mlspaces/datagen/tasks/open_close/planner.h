@@ -6,7 +6,9 @@
 //      the TCP z, less those that failed earlier in the episode; first those approaching from
 //      the robot's side (approach within 60 degrees of base -> grasp), then, when none of them
 //      passes, the others; cost = the pick cost with policy_config.grasp_horizontal_cost_weight
-//      on G[2,2]^2 (side grasps on handles win); collision probe and IK as the pick planner;
+//      on G[2,2]^2 (side grasps on handles win); collision probe and IK as the pick planner,
+//      and a grasp must hold part of the joint body between the open finger pads (at
+//      least 8 mm into the pads' length and width: grasps made for another gripper);
 //   2. waypoints of the joint motion from its current position to the goal (open: the open
 //      limit; close: the closed limit), every 5 degrees (hinge: the grasp rotated about the
 //      joint's world axis through its anchor, i.e. the door's arc) or 1 cm (slide: the grasp
@@ -53,6 +55,15 @@ class MLSPACES_API OpenClosePlanner : public PickPlanner {
   double min_fraction_ = 0;
   double planned_fraction_ = 0;
   std::vector<size_t> failed_grasps_;  // candidates that failed in this episode
+  std::vector<int> joint_geoms_;       // collision geoms of the joint body's subtree
+
+  // The region between the open finger pads (TCP frame), less kMinEnclosed along x and z.
+  void ComputePadRegion();
+  // True when one of joint_geoms_ (bounding boxes, state in `d`) reaches into the region
+  // with the TCP at `grasp`.
+  bool Encloses(const mjData* d, const Mat4& grasp) const;
+  bool pad_region_ready_ = false;
+  Vec3 pad_region_centre_{}, pad_region_half_{};
 };
 
 /// The opened fraction of a joint at position q: |q - closed| / |open - closed|, in [0, 1].

@@ -13,7 +13,10 @@
 //      task_sampler_config.target_initial_state_open_percentage (null: 0 open, 0.5 close);
 //      closed = the range limit nearest 0, open = the other one (two-sided ranges work);
 //   5. the robot base: task_sampler_config.robot_base_noise composed on the scene's pose
-//      (as block_pickup); start and goal pose = the object's root pose (it does not move).
+//      (as block_pickup); a robot geom within 2 cm of the joint body's (a door half open
+//      toward the robot) draws the hand back toward the base (IK, 1 cm steps, up to 15 cm)
+//      until 2 cm clear, else TaskRejected; start and goal pose = the object's root pose
+//      (it does not move).
 // A scene without a usable joint is an Error naming the scene metadata file and the field.
 #pragma once
 

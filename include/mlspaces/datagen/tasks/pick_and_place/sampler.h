@@ -11,8 +11,9 @@
 // Per episode (on the episode's Rng): reset + arm noise, the pickup object (the base's
 // choice; receptacles are never candidates), robot base and object noise as block_pickup,
 // then the place target:
-//   receptacle / colour: one receptacle uid drawn uniformly (task_config.place_receptacle_name
-//     presets it), placed around the pickup object at distance U(min, max
+//   receptacle / colour: receptacle uid (episode / episodes_per_receptacle) mod n, the
+//     original's rotation by episode number (task_config.place_receptacle_name presets
+//     it), placed around the pickup object at distance U(min, max
 //     object_to_receptacle_dist), azimuth and yaw uniform, within
 //     max_robot_to_place_receptacle_dist of the robot base (the original never enforces it),
 //     inside the supporting geom's xy extent (boxes), its bottom 3 mm above the support top,

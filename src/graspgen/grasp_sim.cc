@@ -29,7 +29,7 @@ constexpr double kSimApproach = 0.02;  // m simulated before the grasp pose (the
 constexpr int kApproachSteps = 20;     // over kSimApproach (1 m/s: the path is known free)
 constexpr int kHoldSteps = 10;         // open hand at the grasp pose
 constexpr double kSweepStep = 0.005;   // m between open-hand checks on the approach line
-constexpr int kReturnSteps = 25;       // back at the grasp pose after each shake
+constexpr int kReturnSteps = 15;       // back at the grasp pose after each shake
 
 // The shake profile over one period, x in [0, 1]: peaks of +-1 at x = 1/3 and 2/3, at rest
 // (zero velocity and acceleration) at both ends, so the hand never jerks the object.

@@ -15,6 +15,20 @@ import pytest
 
 SOURCE_DIR = Path(os.environ.get("MLSPACES_SOURCE_DIR", Path(__file__).resolve().parents[2]))
 EXAMPLE_DIR = SOURCE_DIR / "examples" / "custom_assets"
+CLI = os.environ.get("MLSPACES_CLI_PATH", "mlspaces")
+
+
+def mlspaces(*args: str) -> subprocess.CompletedProcess:
+    """The mlspaces command (MLSPACES_CLI_PATH) with `args`, its output captured as text."""
+    return subprocess.run([CLI, *args], capture_output=True, text=True)
+
+
+def obs_scene(traj) -> dict:
+    """An h5py trajectory group's obs_scene JSON (NUL-padded bytes or str), read directly."""
+    raw = traj["obs_scene"][()]
+    if isinstance(raw, bytes):
+        raw = raw.rstrip(b"\0").decode()
+    return json.loads(raw)
 
 
 @pytest.fixture

@@ -6,29 +6,15 @@ and the field."""
 from __future__ import annotations
 
 import json
-import os
-import subprocess
 from pathlib import Path
 
 import h5py
 import numpy as np
 import pytest
 
-from conftest import SOURCE_DIR
+from conftest import SOURCE_DIR, mlspaces, obs_scene
 
 EXAMPLE = SOURCE_DIR / "examples" / "open_close"
-CLI = os.environ.get("MLSPACES_CLI_PATH", "mlspaces")
-
-
-def mlspaces(*args: str) -> subprocess.CompletedProcess:
-    return subprocess.run([CLI, *args], capture_output=True, text=True)
-
-
-def obs_scene(traj: h5py.Group) -> dict:
-    raw = traj["obs_scene"][()]
-    if isinstance(raw, bytes):
-        raw = raw.rstrip(b"\0").decode()
-    return json.loads(raw)
 
 
 @pytest.mark.parametrize("task,verb,start", [("open", "Open", 0.0), ("close", "Close", 0.5)])

@@ -2,14 +2,13 @@
 // example (examples/open_close) in MuJoCo: episodes succeed, validate, record the joint, and
 // are the same bytes with 1 or 2 workers and after a resume.
 #include <filesystem>
-#include <map>
-#include <stdexcept>
 #include <string>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <mujoco/mujoco.h>
 
+#include "datagen/tasks/task_run_checks.h"
 #include "mlspaces/core/error.h"
 #include "mlspaces/datagen/config.h"
 #include "mlspaces/datagen/dataset_validate.h"
@@ -166,30 +165,7 @@ TEST(OpenCloseRunTest, WorkersShardsAndResumeGiveTheSameBytes) {
     c.task_sampler_config.episodes_per_batch = 1;
     return c;
   };
-  RunDatagen(config("one"), TaskSamplerRegistry::WithBuiltins());
-  const std::map<std::string, std::string> one = testing::FilesByExtension(dir / "one", {".h5"});
-  ASSERT_EQ(one.size(), 2u);
-  RunOptions two;
-  two.workers = 2;
-  RunDatagen(config("two"), TaskSamplerRegistry::WithBuiltins(), two);
-  EXPECT_TRUE(testing::FilesByExtension(dir / "two", {".h5"}) == one);
-  for (int i = 0; i < 2; ++i) {  // two shards sharing one folder
-    RunOptions shard;
-    shard.shard = Shard{i, 2};
-    RunDatagen(config("shards"), TaskSamplerRegistry::WithBuiltins(), shard);
-  }
-  EXPECT_TRUE(testing::FilesByExtension(dir / "shards", {".h5"}) == one);
-
-  RunOptions stop;
-  stop.on_attempt = [&](const WorkItem&, const AttemptRecord&) {
-    throw std::runtime_error("interrupted");
-  };
-  EXPECT_THROW(RunDatagen(config("cut"), TaskSamplerRegistry::WithBuiltins(), stop),
-               std::runtime_error);
-  RunOptions resume;
-  resume.resume = true;
-  RunDatagen(config("cut"), TaskSamplerRegistry::WithBuiltins(), resume);
-  EXPECT_TRUE(testing::FilesByExtension(dir / "cut", {".h5"}) == one);
+  testing::ExpectWorkersShardsAndResumeGiveTheSameBytes(config, dir.path(), 2);
 }
 
 }  // namespace

@@ -13,12 +13,6 @@
 namespace mlspaces::graspgen {
 namespace {
 
-Vec3 Sub(const Vec3& a, const Vec3& b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
-Vec3 Cross(const Vec3& a, const Vec3& b) {
-  return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
-}
-double Norm(const Vec3& a) { return std::sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]); }
-
 double FaceArea(const TriMesh& m, size_t f) {
   const auto& t = m.faces[f];
   return 0.5 * Norm(Cross(Sub(m.vertices[t[1]], m.vertices[t[0]]),

@@ -55,9 +55,6 @@ std::string Indexed(const std::string& key, size_t i) {
   return key + "[" + std::to_string(i) + "]";
 }
 
-double Dot(const Vec3& a, const Vec3& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
-double Norm(const Vec3& a) { return std::sqrt(Dot(a, a)); }
-Vec3 Sub(const Vec3& a, const Vec3& b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
 Vec3 Column(const Mat4& t, int c) { return {t(0, c), t(1, c), t(2, c)}; }
 Vec3 ToVec3(const mjtNum* v) { return {v[0], v[1], v[2]}; }
 // Angle between two non-zero vectors, degrees; `either_sign`: of the line through b.

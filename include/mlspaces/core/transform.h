@@ -13,6 +13,7 @@
 #include "mlspaces/core/export.h"
 
 #include <array>
+#include <cmath>
 
 namespace mlspaces {
 
@@ -23,6 +24,17 @@ using Quat = std::array<double, 4>;
 using Rot3 = std::array<double, 9>;
 /// [x, y, z, qw, qx, qy, qz]: the 7-vector pose layout (docs/formats.md).
 using Array7 = std::array<double, 7>;
+
+/// a - b.
+inline Vec3 Sub(const Vec3& a, const Vec3& b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
+/// a . b.
+inline double Dot(const Vec3& a, const Vec3& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+/// a x b.
+inline Vec3 Cross(const Vec3& a, const Vec3& b) {
+  return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
+}
+/// |a|.
+inline double Norm(const Vec3& a) { return std::sqrt(Dot(a, a)); }
 
 /// Row-major 4x4 homogeneous transform: m[r*4 + c]. Default is the identity.
 struct MLSPACES_API Mat4 {

@@ -28,12 +28,6 @@ constexpr double kMinApproachCos = 0.5;  // approach within 60 deg of base -> gr
 // approach and across the pads' width (see Encloses).
 constexpr double kMinEnclosed = 0.008;
 
-Vec3 Sub(const Vec3& a, const Vec3& b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
-double Dot(const Vec3& a, const Vec3& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
-Vec3 Cross(const Vec3& a, const Vec3& b) {
-  return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
-}
-
 // An oriented box in world coordinates: centre, unit axes, half sizes.
 struct Box {
   Vec3 centre;

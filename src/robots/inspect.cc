@@ -178,13 +178,6 @@ ActuatorReport DescribeActuator(const mjModel* m, int a) {
   return r;
 }
 
-bool InSubtree(const mjModel* m, int body, int root) {
-  for (int b = body; b > 0; b = m->body_parentid[b]) {
-    if (b == root) return true;
-  }
-  return root == 0;
-}
-
 // Everything after the robot is compiled into `m`.
 class Inspector {
  public:
@@ -332,7 +325,7 @@ class Inspector {
     r_.gripper_drivers = static_cast<int>(gripper_joint_ids_.size());
     if (gripper_body_ >= 0) {
       for (int j = 0; j < m_->njnt; ++j) {
-        if (InSubtree(m_, m_->jnt_bodyid[j], gripper_body_)) {
+        if (sim::InSubtree(m_, m_->jnt_bodyid[j], gripper_body_)) {
           const int t = m_->jnt_type[j];
           r_.gripper_dof += t == mjJNT_FREE ? 6 : t == mjJNT_BALL ? 3 : 1;
         }

@@ -16,13 +16,6 @@
 namespace mlspaces::datagen {
 namespace {
 
-bool InSubtree(const mjModel* m, int body, int root) {
-  for (; body > 0; body = m->body_parentid[body]) {
-    if (body == root) return true;
-  }
-  return false;
-}
-
 // The metadata entry objects.<body> (null when absent).
 const Json* ObjectEntry(const Json& metadata, const std::string& body) {
   if (!metadata.is_object()) return nullptr;
@@ -45,8 +38,8 @@ bool RobotNear(const mjModel* m, const mjData* d, int robot_root, int joint_body
   std::vector<int> robot, target;
   for (int g = 0; g < m->ngeom; ++g) {
     if (m->geom_contype[g] == 0 && m->geom_conaffinity[g] == 0) continue;
-    if (InSubtree(m, m->geom_bodyid[g], robot_root)) robot.push_back(g);
-    if (InSubtree(m, m->geom_bodyid[g], joint_body)) target.push_back(g);
+    if (sim::InSubtree(m, m->geom_bodyid[g], robot_root)) robot.push_back(g);
+    if (sim::InSubtree(m, m->geom_bodyid[g], joint_body)) target.push_back(g);
   }
   for (int a : robot) {
     for (int b : target) {
@@ -110,7 +103,7 @@ std::vector<ArticulatedJoint> ArticulatedJoints(const Env& env, const std::strin
   const mjModel* m = env.model();
   const int root = mj_name2id(m, mjOBJ_BODY, object_body.c_str());
   std::vector<ArticulatedJoint> out;
-  if (root < 0) return out;
+  if (root <= 0) return out;  // no such body, or the world (no object)
   const Json* entry = ObjectEntry(env.metadata(), object_body);
   const Json* name_map = nullptr;
   if (entry != nullptr) {
@@ -122,7 +115,7 @@ std::vector<ArticulatedJoint> ArticulatedJoints(const Env& env, const std::strin
   }
   int index = 0;
   for (int j = 0; j < m->njnt; ++j) {
-    if (!InSubtree(m, m->jnt_bodyid[j], root)) continue;
+    if (!sim::InSubtree(m, m->jnt_bodyid[j], root)) continue;
     const int type = m->jnt_type[j];
     if (type == mjJNT_FREE || type == mjJNT_BALL) continue;
     const int this_index = index++;

@@ -10,17 +10,12 @@
 #include "mlspaces/core/se3.h"
 #include "mlspaces/datagen/tasks/pick/success.h"
 #include "mlspaces/sim/mj_pose.h"
+#include "mlspaces/sim/mujoco_handlers.h"
 
 namespace mlspaces::datagen {
 namespace {
 
 constexpr double kCos30 = 0.8660254037844387;
-
-bool InSubtree(const mjModel* m, int body, int root) {
-  for (; body > 0; body = m->body_parentid[body])
-    if (body == root) return true;
-  return false;
-}
 
 int RootOf(const mjModel* m, int body) {
   while (body > 0 && m->body_parentid[body] != 0) body = m->body_parentid[body];
@@ -38,8 +33,9 @@ int SupportRoot(const mjModel* m, const mjData* d, int body, std::string_view pr
 std::array<Vec3, 2> SubtreeAabb(const mjModel* m, const mjData* d, int body) {
   constexpr double kInf = std::numeric_limits<double>::infinity();
   std::array<Vec3, 2> out{Vec3{kInf, kInf, kInf}, Vec3{-kInf, -kInf, -kInf}};
+  if (body <= 0) return out;  // the world is no object's subtree
   for (int g = 0; g < m->ngeom; ++g) {
-    if (m->geom_type[g] == mjGEOM_PLANE || !InSubtree(m, m->geom_bodyid[g], body)) continue;
+    if (m->geom_type[g] == mjGEOM_PLANE || !sim::InSubtree(m, m->geom_bodyid[g], body)) continue;
     const mjtNum* a = m->geom_aabb + 6 * g;  // centre, half sizes, geom frame
     const mjtNum* r = d->geom_xmat + 9 * g;
     for (int i = 0; i < 3; ++i) {
@@ -142,11 +138,11 @@ PlaceVerdict PlaceJudge::Evaluate(const mjData* d) {
   for (int c = 0; c < d->ncon; ++c) {
     const mjContact& con = d->contact[c];
     const int b1 = m->geom_bodyid[con.geom1], b2 = m->geom_bodyid[con.geom2];
-    const bool o1 = InSubtree(m, b1, object_), o2 = InSubtree(m, b2, object_);
+    const bool o1 = sim::InSubtree(m, b1, object_), o2 = sim::InSubtree(m, b2, object_);
     if (o1 == o2) continue;
     const int other = o1 ? b2 : b1;
     if (IsRobotBody(m, other, prefix_)) v.robot_contact = true;
-    if (!InSubtree(m, other, receptacle_)) continue;
+    if (!sim::InSubtree(m, other, receptacle_)) continue;
     mjtNum f[6];
     mj_contactForce(m, d, c, f);
     // The contact force acts on geom2 along +normal (frame rows: normal, tangents).

@@ -14,6 +14,7 @@
 #include "mlspaces/core/se3.h"
 #include "mlspaces/library/grasp_set.h"
 #include "mlspaces/sim/mj_pose.h"
+#include "mlspaces/sim/mujoco_handlers.h"
 
 namespace mlspaces::datagen {
 namespace {
@@ -161,12 +162,7 @@ PlanFailure OpenClosePlanner::ResetJoint(const mjData* d, int joint_id, const Ta
   joint_geoms_.clear();
   for (int g = 0; g < m->ngeom; ++g) {
     if (m->geom_contype[g] == 0 && m->geom_conaffinity[g] == 0) continue;
-    for (int b = m->geom_bodyid[g]; b > 0; b = m->body_parentid[b]) {
-      if (b == joint_body) {
-        joint_geoms_.push_back(g);
-        break;
-      }
-    }
+    if (sim::InSubtree(m, m->geom_bodyid[g], joint_body)) joint_geoms_.push_back(g);
   }
   return Reset(d, env_->model()->jnt_bodyid[joint_id], std::move(grasps));
 }

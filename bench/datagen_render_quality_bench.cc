@@ -6,7 +6,9 @@
 // render setting below. Per setting it prints the median time of one camera frame (Render:
 // scene update, GL passes, read-back, row flip), frames per second, and the mean and minimum
 // SSIM per camera against the full-quality frame of the same state (MuJoCo's own settings:
-// 4096² shadow maps, 4x multisampling, shadows and reflections). It then times the H.264
+// 4096² shadow maps over MuJoCo's fixed square, 4x multisampling, shadows and reflections);
+// "fit" rows fit the shadow maps to the casters (sim::FitShadowMaps), "map" is the side of
+// the map that gives. It then times the H.264
 // encoding of the default setting's frames (VideoWriter, the dataset's options) and prints the
 // per-episode cost of each stage and the camera episodes per hour per process that follow.
 //
@@ -70,26 +72,34 @@ struct Setting {
   int multisamples;  // -1: the model's (4)
   bool shadows;
   bool reflections;
+  bool fit;  // shadow maps fitted to the casters (sim::FitShadowMaps)
 };
 
 // The curve: from the original's settings down to no shadows. "default" is camera_config's.
 std::vector<Setting> AllSettings() {
   const dg::CameraSystemConfig d;
   return {
-      {"full", 0, -1, true, true},
-      {"shadow4096_ms0", 4096, 0, true, true},
-      {"shadow2048_ms4", 2048, 4, true, true},
-      {"shadow2048_ms0", 2048, 0, true, true},
-      {"shadow2048_ms0_norefl", 2048, 0, true, false},
-      {"shadow1536_ms0", 1536, 0, true, true},
-      {"shadow1024_ms4", 1024, 4, true, true},
-      {"shadow1024_ms0", 1024, 0, true, true},
+      {"full", 0, -1, true, true, false},
+      {"shadow4096_ms0", 4096, 0, true, true, false},
+      {"shadow2048_ms4", 2048, 4, true, true, false},
+      {"shadow2048_ms0", 2048, 0, true, true, false},
+      {"shadow2048_ms0_norefl", 2048, 0, true, false, false},
+      {"shadow1024_ms4", 1024, 4, true, true, false},
+      {"shadow1024_ms0", 1024, 0, true, true, false},
+      {"shadow512_ms0", 512, 0, true, true, false},
+      {"fit4096_ms0", 4096, 0, true, true, true},
+      {"fit2048_ms0", 2048, 0, true, true, true},
+      {"fit1536_ms0", 1536, 0, true, true, true},
+      {"fit1024_ms4", 1024, 4, true, true, true},
+      {"fit1024_ms0", 1024, 0, true, true, true},
+      {"fit1024_ms0_norefl", 1024, 0, true, false, true},
+      {"fit768_ms0", 768, 0, true, true, true},
+      {"fit512_ms0", 512, 0, true, true, true},
       {"default", static_cast<int>(d.shadow_size), static_cast<int>(d.multisamples), d.shadows,
-       d.reflections},
-      {"shadow1024_ms0_norefl", 1024, 0, true, false},
-      {"shadow512_ms0", 512, 0, true, true},
-      {"noshadow_ms4", 0, 4, false, true},
-      {"noshadow_ms0_norefl", 0, 0, false, false},
+       d.reflections, d.fit_shadows},
+      {"noshadow_ms4", 0, 4, false, true, false},
+      {"noshadow_ms0", 0, 0, false, true, false},
+      {"noshadow_ms0_norefl", 0, 0, false, false, false},
   };
 }
 
@@ -234,13 +244,15 @@ int main(int argc, char** argv) {
       mj_forward(m, data.get());
     };
     // Renders every state from every camera: frames [state * ncam + cam].
-    auto render_all = [&](const Setting& st, std::vector<double>* times) {
+    auto render_all = [&](const Setting& st, std::vector<double>* times, int* map) {
       dg::CameraSystemConfig c = cams;
       c.shadow_size = st.shadow_size;
       c.multisamples = st.multisamples;
       c.shadows = st.shadows;
       c.reflections = st.reflections;
+      c.fit_shadows = st.fit;
       std::unique_ptr<sim::Renderer> r = dg::MakeCameraRenderer(m, c, opt.gl);
+      *map = st.shadows ? r->shadow_size() : 0;
       std::vector<std::vector<unsigned char>> frames(nstates * ncam);
       std::vector<unsigned char> warm(static_cast<size_t>(w) * h * 3);
       set_state(0);
@@ -260,18 +272,21 @@ int main(int argc, char** argv) {
     };
 
     std::vector<double> full_times;
-    const std::vector<std::vector<unsigned char>> full = render_all(AllSettings()[0], &full_times);
+    int full_map = 0;
+    const std::vector<std::vector<unsigned char>> full =
+        render_all(AllSettings()[0], &full_times, &full_map);
     std::ofstream csv;
     if (!opt.csv.empty()) {
       csv.open(opt.csv);
-      csv << "setting,shadow_size,multisamples,shadows,reflections,ms_per_frame,frames_per_s";
+      csv << "setting,shadow_size,multisamples,shadows,reflections,fit_shadows,map_size,"
+             "ms_per_frame,frames_per_s";
       for (size_t k = 0; k < ncam; ++k) {
         csv << ",ssim_mean_" << system.name(k) << ",ssim_min_" << system.name(k);
       }
       csv << "\n";
     }
-    std::printf("%-24s %6s %4s %5s %5s %9s %8s", "setting", "shadow", "ms", "shdw", "refl",
-                "ms/frame", "frames/s");
+    std::printf("%-24s %6s %4s %5s %5s %4s %5s %9s %8s", "setting", "shadow", "ms", "shdw", "refl",
+                "fit", "map", "ms/frame", "frames/s");
     for (size_t k = 0; k < ncam; ++k) std::printf("  ssim %-14s", system.name(k).c_str());
     std::printf("\n");
     double default_ms = 0, full_ms = 0;
@@ -283,15 +298,16 @@ int main(int argc, char** argv) {
         continue;
       }
       std::vector<double> times;
+      int map = full_map;
       std::vector<std::vector<unsigned char>> frames =
-          st.name == "full" ? full : render_all(st, &times);
+          st.name == "full" ? full : render_all(st, &times, &map);
       if (st.name == "full") times = full_times;
       const double ms = 1e3 * Median(times);
-      std::printf("%-24s %6d %4d %5d %5d %9.2f %8.1f", st.name.c_str(), st.shadow_size,
-                  st.multisamples, st.shadows, st.reflections, ms, 1e3 / ms);
+      std::printf("%-24s %6d %4d %5d %5d %4d %5d %9.2f %8.1f", st.name.c_str(), st.shadow_size,
+                  st.multisamples, st.shadows, st.reflections, st.fit, map, ms, 1e3 / ms);
       if (csv.is_open()) {
         csv << st.name << "," << st.shadow_size << "," << st.multisamples << "," << st.shadows
-            << "," << st.reflections << "," << ms << "," << 1e3 / ms;
+            << "," << st.reflections << "," << st.fit << "," << map << "," << ms << "," << 1e3 / ms;
       }
       for (size_t k = 0; k < ncam; ++k) {
         double sum = 0, lo = 1;

@@ -4,10 +4,12 @@
 #     (build/bench/datagen_render_quality_bench: ms per camera frame, frames/s, SSIM per camera
 #     against the full-quality frame, the per-episode cost of physics, render and encode);
 #  2. `mlspaces datagen` on the tutorial with WORKERS workers: successful episodes per hour with
-#     cameras at the default settings, at the original's full quality, and without cameras.
+#     cameras at the default settings, at the last defaults without fitted shadow maps (2048²),
+#     at the original's full quality, and without cameras.
 #
 #   bench/render_bench.sh [BUILD_DIR]      (default build)
 #   GL=egl EPISODES=2 RUN_EPISODES=8 WORKERS=2 bench/render_bench.sh
+#   SKIP_CURVE=1 bench/render_bench.sh     (the datagen runs only)
 # GL: osmesa (default) or egl (the EGL device platform: a GPU where one is installed).
 # On llvmpipe each worker renders with one rasteriser thread (LP_NUM_THREADS=1, as datagen sets
 # it with one worker per core), so figures are per core.
@@ -26,8 +28,10 @@ done
 TMP=$(mktemp -d)
 trap 'rm -rf "$TMP"' EXIT
 
-echo "== render settings: speed and SSIM against full quality ($GL, $EPISODES episodes)"
-LP_NUM_THREADS=${LP_NUM_THREADS:-1} "$BENCH" --gl "$GL" --episodes "$EPISODES"
+if [[ -z ${SKIP_CURVE:-} ]]; then
+  echo "== render settings: speed and SSIM against full quality ($GL, $EPISODES episodes)"
+  LP_NUM_THREADS=${LP_NUM_THREADS:-1} "$BENCH" --gl "$GL" --episodes "$EPISODES"
+fi
 
 # run NAME EXTRA...: one datagen run; prints wall time and successful episodes per hour.
 run() {
@@ -49,5 +53,7 @@ run() {
 
 echo "== mlspaces datagen, tutorial, $RUN_EPISODES episodes, $WORKERS workers ($GL)"
 run default
-run full --set camera_config.shadow_size=0 --set camera_config.multisamples=-1
+run unfitted --set camera_config.fit_shadows=false --set camera_config.shadow_size=2048
+run full --set camera_config.shadow_size=0 --set camera_config.multisamples=-1 \
+  --set camera_config.fit_shadows=false
 run no_cameras --set task_config.enable_rendering=false

@@ -22,6 +22,7 @@
 
 #include "mlspaces/core/error.h"
 #include "mlspaces/sim/mujoco_handlers.h"
+#include "mlspaces/sim/shadow_fit.h"
 
 namespace mlspaces::sim {
 namespace {
@@ -513,6 +514,7 @@ struct Renderer::Impl {
   bool scene_made = false;
   bool context_made = false;
   float znear = 0, zfar = 0;
+  float default_clip = 0;  // MuJoCo's shadow square: stat.extent * vis.map.shadowclip
 
   ~Impl() {
     if (context_made && gl) {
@@ -525,6 +527,28 @@ struct Renderer::Impl {
     if (scene_made) mjv_freeScene(&scn);
   }
 };
+
+namespace {
+
+// The map side for fitted shadows: the texel size of a shadowsize² map over MuJoCo's square,
+// on the square that fits the casters at the model's initial state plus a quarter for motion
+// (FitShadowMaps fits each frame; the map size is fixed with the context).
+int FittedShadowSize(const mjModel* m, Renderer::Impl& s) {
+  const int full = m->vis.quality.shadowsize;
+  const float default_clip = static_cast<float>(m->stat.extent * m->vis.map.shadowclip);
+  DataPtr d = MakeData(m);
+  mj_forward(m, d.get());
+  mjv_updateScene(m, d.get(), &s.opt, nullptr, &s.cam, mjCAT_ALL, &s.scn);
+  mjrContext probe;
+  mjr_defaultContext(&probe);
+  probe.shadowSize = full;
+  const ShadowFit fit = FitShadowMaps(m, &s.scn, &probe, default_clip);
+  if (!fit.fitted || !(default_clip > 0)) return full;
+  const double share = std::min(1.0, 1.25 * fit.clip / default_clip);
+  return std::max(64, static_cast<int>(std::ceil(full * share)));
+}
+
+}  // namespace
 
 Renderer::Renderer(const mjModel* m, RenderOptions options) : impl_(std::make_unique<Impl>()) {
   InstallMujocoHandlers();
@@ -601,12 +625,14 @@ Renderer::Renderer(const mjModel* m, RenderOptions options) : impl_(std::make_un
     mjv_defaultScene(&s.scn);
     s.scene_made = true;  // mjv_freeScene is safe on a default or partly made scene
     mjv_makeScene(mc, &s.scn, options.max_geom);
+    if (options.fit_shadows) mc->vis.quality.shadowsize = FittedShadowSize(mc, s);
 
     mjr_defaultContext(&s.con);
     ClaimProcessBackend(backend);
     s.context_made = true;  // mjr_freeContext frees whatever a failed make left
     mjr_makeContext(mc, &s.con, mjFONTSCALE_100);
     mjr_setBuffer(mjFB_OFFSCREEN, &s.con);
+    s.default_clip = s.con.shadowClip;
     if (s.con.currentBuffer != mjFB_OFFSCREEN || s.con.offWidth < options.width ||
         s.con.offHeight < options.height) {
       Fail(backend, "MuJoCo has no " + std::to_string(options.width) + "x" +
@@ -684,6 +710,7 @@ void Renderer::Draw(unsigned char* rgb, float* depth_m) {
   const int w = s.options.width, h = s.options.height;
   const mjrRect viewport{0, 0, w, h};
   mjr_setBuffer(mjFB_OFFSCREEN, &s.con);
+  if (s.options.fit_shadows) FitShadowMaps(s.model.get(), &s.scn, &s.con, s.default_clip);
   mjr_render(viewport, &s.scn, &s.con);
   mjr_readPixels(rgb, depth_m, viewport, &s.con);
   FlipRows(rgb, w, h, 3);
@@ -740,6 +767,7 @@ int Renderer::width() const { return impl_->options.width; }
 int Renderer::height() const { return impl_->options.height; }
 GlBackend Renderer::backend() const { return impl_->options.backend; }
 int Renderer::egl_device() const { return impl_->egl_device; }
+int Renderer::shadow_size() const { return impl_->con.shadowSize; }
 mjvScene& Renderer::scene() { return impl_->scn; }
 mjvOption& Renderer::vis_option() { return impl_->opt; }
 

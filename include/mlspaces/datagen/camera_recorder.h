@@ -74,7 +74,7 @@ class MLSPACES_API CameraSystem {
 };
 
 /// A Renderer for `config`'s cameras on `m`: its image size, shadow_size, multisamples,
-/// shadows and reflections. @throws Error as sim::Renderer's constructor.
+/// fit_shadows, shadows and reflections. @throws Error as sim::Renderer's constructor.
 MLSPACES_API std::unique_ptr<sim::Renderer> MakeCameraRenderer(const mjModel* m,
                                                                const CameraSystemConfig& config,
                                                                sim::GlBackend backend);

@@ -90,6 +90,12 @@ struct MLSPACES_API RenderOptions {
   /// Multisampling of the offscreen buffer (the model's vis.quality.offsamples when -1;
   /// MuJoCo's default is 4); 0 turns it off.
   int multisamples = -1;
+  /// Fit each frame's directional shadow maps to the shadow casters (FitShadowMaps in
+  /// sim/shadow_fit.h), planes with nothing behind them no longer drawn into them. The maps
+  /// keep the texel size that shadow_size gives on MuJoCo's square, so they shrink with the
+  /// fitted square (measured on the model's initial state, plus a quarter): the same shadows
+  /// for less work (docs/sim.md, "Render speed and quality"). false: MuJoCo's fixed square.
+  bool fit_shadows = false;
 };
 
 /// A camera in the world. `xmat` is MuJoCo's camera frame (as in mjData::cam_xmat): a
@@ -158,6 +164,9 @@ class MLSPACES_API Renderer {
   /// The EGL device this Renderer renders on (an index of ListEglDevices()); -1 for OSMesa
   /// and the surfaceless platform.
   int egl_device() const;
+  /// The side of the shadow maps in texels: shadow_size (or the model's), or with
+  /// fit_shadows the side that gives that texel size on the fitted square.
+  int shadow_size() const;
   /// The abstract scene: its flags (scene().flags[mjRND_SHADOW], mjRND_REFLECTION,
   /// mjRND_SKYBOX, ...) may be changed between renders. Owned by the Renderer, valid while
   /// it lives.

@@ -1,0 +1,248 @@
+// Shadow maps fitted to the casters: the square holds every caster as the light sees it, the
+// floor stops casting only when nothing is behind it, and the rendered shadows are MuJoCo's.
+#include "mlspaces/sim/shadow_fit.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "mlspaces/core/transform.h"
+#include "mlspaces/sim/mujoco_handlers.h"
+#include "mlspaces/sim/renderer.h"
+
+namespace mlspaces::sim {
+namespace {
+
+// A box and a tilted capsule on a floor, lit from the side by a shadow-casting directional
+// light; `below` adds a ball under the floor.
+std::string Xml(bool below) {
+  return std::string(R"(
+<mujoco>
+  <worldbody>
+    <light name="sun" pos="0 0 3" dir="0.4 0.3 -1" directional="true" castshadow="true"/>
+    <light name="fill" pos="0 0 3" dir="0 0 -1" directional="true" castshadow="false"
+           diffuse="0.2 0.2 0.2"/>
+    <geom name="floor" type="plane" size="3 3 0.1" rgba="0.8 0.8 0.8 1"/>
+    <geom name="box" type="box" pos="0 0 0.15" size="0.1 0.1 0.15" rgba="1 0 0 1"/>
+    <geom name="arm" type="capsule" fromto="0.4 0.2 0.3 0.7 0.1 0.6" size="0.04"
+          rgba="0 0 1 1"/>
+    <camera name="view" pos="1.2 -1.4 1.3" xyaxes="0.76 0.65 0 -0.4 0.47 0.78" fovy="50"/>)") +
+         (below ? R"(<geom name="under" type="sphere" pos="0 0 -0.5" size="0.1"/>)" : "") +
+         R"(
+  </worldbody>
+</mujoco>)";
+}
+
+struct Scene {
+  ModelPtr m;
+  DataPtr d;
+  mjvOption opt{};
+  mjvCamera cam{};
+  mjvScene scn{};
+  mjrContext con{};
+  explicit Scene(bool below = false) {
+    m = LoadModelFromMemory(Xml(below));
+    d = MakeData(m.get());
+    mj_forward(m.get(), d.get());
+    mjv_defaultOption(&opt);
+    mjv_defaultCamera(&cam);
+    mjv_defaultScene(&scn);
+    mjv_makeScene(m.get(), &scn, 100);
+    mjv_updateScene(m.get(), d.get(), &opt, nullptr, &cam, mjCAT_ALL, &scn);
+    mjr_defaultContext(&con);
+    con.shadowSize = 1024;
+  }
+  ~Scene() { mjv_freeScene(&scn); }
+  float DefaultClip() const { return static_cast<float>(m->stat.extent); }
+  const mjvGeom* Geom(const char* name) const {
+    const int id = mj_name2id(m.get(), mjOBJ_GEOM, name);
+    for (int i = 0; i < scn.ngeom; ++i) {
+      if (scn.geoms[i].objtype == mjOBJ_GEOM && scn.geoms[i].objid == id) return &scn.geoms[i];
+    }
+    return nullptr;
+  }
+};
+
+// The corners of the box and points on the capsule's surface (its two end spheres sampled):
+// what the light must see inside the square, found without the code under test.
+std::vector<Vec3> CasterPoints(const mjModel* m, const mjData* d) {
+  std::vector<Vec3> pts;
+  const int box = mj_name2id(m, mjOBJ_GEOM, "box");
+  for (int k = 0; k < 8; ++k) {
+    Vec3 p;
+    for (int i = 0; i < 3; ++i) {
+      p[i] = d->geom_xpos[3 * box + i];
+      for (int a = 0; a < 3; ++a) {
+        const double sign = (k >> a) & 1 ? 1 : -1;
+        p[i] += sign * m->geom_size[3 * box + a] * d->geom_xmat[9 * box + 3 * i + a];
+      }
+    }
+    pts.push_back(p);
+  }
+  const int arm = mj_name2id(m, mjOBJ_GEOM, "arm");
+  const double r = m->geom_size[3 * arm], half = m->geom_size[3 * arm + 1];
+  for (const double end : {-1.0, 1.0}) {
+    for (int s = 0; s < 26; ++s) {  // the directions of a cube's faces, edges and corners
+      Vec3 dir = {double(s % 3) - 1, double(s / 3 % 3) - 1, double(s / 9) - 1};
+      if (s == 13) dir = {0, 0, 1};
+      const double n = Norm(dir);
+      Vec3 p;
+      for (int i = 0; i < 3; ++i) {
+        p[i] = d->geom_xpos[3 * arm + i] + end * half * d->geom_xmat[9 * arm + 3 * i + 2] +
+               r * dir[i] / n;
+      }
+      pts.push_back(p);
+    }
+  }
+  return pts;
+}
+
+TEST(ShadowFitTest, TheSquareHoldsEveryCasterAndTheFloorStopsCasting) {
+  Scene s;
+  const mjvGeom* floor = s.Geom("floor");
+  ASSERT_NE(floor, nullptr);
+  ASSERT_NE(floor->category, mjCAT_DECOR);
+  const ShadowFit fit = FitShadowMaps(s.m.get(), &s.scn, &s.con, s.DefaultClip());
+  ASSERT_TRUE(fit.fitted);
+  EXPECT_EQ(fit.planes_skipped, 1);
+  EXPECT_EQ(floor->category, mjCAT_DECOR);
+  EXPECT_NE(s.Geom("box")->category, mjCAT_DECOR);
+  EXPECT_FLOAT_EQ(s.con.shadowClip, fit.clip);
+  EXPECT_LT(fit.clip, 0.5 * s.DefaultClip());
+
+  // The light frame mjr_render uses (mjr_lookAt along the light, up from mjr_orthoVec).
+  ASSERT_GE(s.scn.nlight, 3);  // the headlight, then the model's lights
+  const mjvLight& sun = s.scn.lights[1];
+  ASSERT_TRUE(sun.castshadow);
+  Vec3 f = {sun.dir[0], sun.dir[1], sun.dir[2]};
+  f = {f[0] / Norm(f), f[1] / Norm(f), f[2] / Norm(f)};
+  Vec3 side = Cross(f, Cross(f, {-1, 0, 0}));
+  side = {side[0] / Norm(side), side[1] / Norm(side), side[2] / Norm(side)};
+  const Vec3 top = Cross(side, f);
+  const Vec3 pos = {sun.pos[0], sun.pos[1], sun.pos[2]};
+  double widest = 0;
+  for (const Vec3& p : CasterPoints(s.m.get(), s.d.get())) {
+    const Vec3 q = Sub(p, pos);
+    EXPECT_LE(std::abs(Dot(q, side)), fit.clip) << "outside the square along x";
+    EXPECT_LE(std::abs(Dot(q, top)), fit.clip) << "outside the square along y";
+    EXPECT_GT(Dot(q, f), 0.05) << "not in front of the light";
+    widest = std::max({widest, std::abs(Dot(q, side)), std::abs(Dot(q, top))});
+  }
+  EXPECT_LT(fit.clip, 1.05 * widest) << "the square is not tight";
+  // The other light casts nothing and keeps its place.
+  EXPECT_FLOAT_EQ(s.scn.lights[2].pos[2], 3.0f);
+}
+
+TEST(ShadowFitTest, LeavesTheSceneWhenSomethingIsBehindThePlane) {
+  Scene s(/*below=*/true);
+  const mjvLight before = s.scn.lights[1];
+  const ShadowFit fit = FitShadowMaps(s.m.get(), &s.scn, &s.con, s.DefaultClip());
+  EXPECT_FALSE(fit.fitted);
+  EXPECT_NE(s.Geom("floor")->category, mjCAT_DECOR);
+  EXPECT_FLOAT_EQ(s.con.shadowClip, s.DefaultClip());
+  for (int i = 0; i < 3; ++i) EXPECT_EQ(s.scn.lights[1].pos[i], before.pos[i]);
+}
+
+TEST(ShadowFitTest, LeavesTheSceneWithoutShadowsOrShadowCastingDirectionalLights) {
+  Scene off;
+  off.scn.flags[mjRND_SHADOW] = 0;
+  EXPECT_FALSE(FitShadowMaps(off.m.get(), &off.scn, &off.con, off.DefaultClip()).fitted);
+  EXPECT_NE(off.Geom("floor")->category, mjCAT_DECOR);
+  Scene spot;
+  spot.scn.lights[1].type = mjLIGHT_SPOT;
+  spot.con.shadowClip = 123;
+  EXPECT_FALSE(FitShadowMaps(spot.m.get(), &spot.scn, &spot.con, spot.DefaultClip()).fitted);
+  EXPECT_FLOAT_EQ(spot.con.shadowClip, spot.DefaultClip());
+}
+
+// The fixed camera's image with `options`, and where MuJoCo's geometry puts shadows on the
+// floor: per pixel, -1 not the floor, 1 a ray from its floor point toward the sun hits a geom,
+// 0 it does not.
+struct Shot {
+  std::vector<unsigned char> rgb;
+  std::vector<int> truth;
+  int map = 0;
+};
+
+Shot Render(const Scene& s, RenderOptions options, bool shadows) {
+  constexpr int kW = 480, kH = 360;
+  options.width = kW;
+  options.height = kH;
+  Renderer r(s.m.get(), options);
+  r.scene().flags[mjRND_SHADOW] = shadows ? 1 : 0;
+  const int cam = mj_name2id(s.m.get(), mjOBJ_CAMERA, "view");
+  Shot shot;
+  shot.rgb.resize(3 * kW * kH);
+  std::vector<float> depth(kW * kH);
+  r.RenderCamera(s.d.get(), cam, shot.rgb.data(), depth.data());
+  shot.map = r.shadow_size();
+  const CameraView v = Renderer::ModelCamera(s.m.get(), s.d.get(), cam);
+  const double f = 0.5 * kH / std::tan(v.fovy_deg * M_PI / 360);
+  const int sun = mj_name2id(s.m.get(), mjOBJ_LIGHT, "sun");
+  mjtNum to_sun[3];
+  for (int i = 0; i < 3; ++i) to_sun[i] = -s.d->light_xdir[3 * sun + i];
+  shot.truth.assign(kW * kH, -1);
+  for (int row = 0; row < kH; ++row) {
+    for (int col = 0; col < kW; ++col) {
+      const double z = depth[row * kW + col];
+      const double ray[3] = {(col + 0.5 - kW / 2.0) / f, -(row + 0.5 - kH / 2.0) / f, -1};
+      mjtNum p[3];
+      for (int i = 0; i < 3; ++i) {
+        p[i] = v.pos[i];
+        for (int k = 0; k < 3; ++k) p[i] += z * v.xmat[3 * i + k] * ray[k];
+      }
+      if (std::abs(p[2]) > 1e-2 || std::abs(p[0]) > 2.5 || std::abs(p[1]) > 2.5) continue;
+      p[2] = 1e-4;
+      int geom = -1;
+      shot.truth[row * kW + col] =
+          mj_ray(s.m.get(), s.d.get(), p, to_sun, nullptr, 1, -1, &geom, nullptr) >= 0 ? 1 : 0;
+    }
+  }
+  return shot;
+}
+
+// Floor pixels shadowed in the render (at least 40 levels darker than without shadows) and
+// by the geometry: intersection over union.
+double ShadowAgreement(const Shot& lit, const Shot& unlit) {
+  long both = 0, either = 0;
+  for (size_t i = 0; i < lit.truth.size(); ++i) {
+    if (lit.truth[i] < 0) continue;
+    int shade = 0;
+    for (int c = 0; c < 3; ++c) shade = std::max(shade, unlit.rgb[3 * i + c] - lit.rgb[3 * i + c]);
+    const bool drawn = shade > 40, real = lit.truth[i] == 1;
+    both += drawn && real;
+    either += drawn || real;
+  }
+  return either == 0 ? 0 : static_cast<double>(both) / either;
+}
+
+TEST(ShadowFitTest, DrawsTheShadowsWhereTheGeometryPutsThemWithASmallerMap) {
+  Scene s;
+  RenderOptions mujoco;
+  mujoco.shadow_size = 2048;
+  RenderOptions fitted = mujoco;
+  fitted.fit_shadows = true;
+  const Shot none = Render(s, mujoco, false);
+  const Shot fit = Render(s, fitted, true);
+  const long real = std::count(fit.truth.begin(), fit.truth.end(), 1);
+  EXPECT_GT(real, 1000) << "the view holds too little shadow to compare";
+  // The texel size of 2048 texels over MuJoCo's square, on a far smaller square.
+  EXPECT_GE(fit.map, 64);
+  EXPECT_LT(fit.map, 2048 * 2 / 3);
+  const double agreement = ShadowAgreement(fit, none);
+  EXPECT_GT(agreement, 0.85);
+  // MuJoCo's own square (its floor in the map: acne here) for comparison.
+  const Shot own = Render(s, mujoco, true);
+  std::printf(
+      "shadow agreement with the geometry: fitted (%d texels) %.3f, MuJoCo's square "
+      "(2048) %.3f\n",
+      fit.map, agreement, ShadowAgreement(own, none));
+}
+
+}  // namespace
+}  // namespace mlspaces::sim

@@ -514,7 +514,8 @@ struct Renderer::Impl {
   bool scene_made = false;
   bool context_made = false;
   float znear = 0, zfar = 0;
-  float default_clip = 0;  // MuJoCo's shadow square: stat.extent * vis.map.shadowclip
+  // MuJoCo's shadow square, as mjr_makeContext sets mjrContext::shadowClip.
+  float default_clip = 0;
 
   ~Impl() {
     if (context_made && gl) {
@@ -535,7 +536,7 @@ namespace {
 // (FitShadowMaps fits each frame; the map size is fixed with the context).
 int FittedShadowSize(const mjModel* m, Renderer::Impl& s) {
   const int full = m->vis.quality.shadowsize;
-  const float default_clip = static_cast<float>(m->stat.extent * m->vis.map.shadowclip);
+  const float default_clip = s.default_clip;
   DataPtr d = MakeData(m);
   mj_forward(m, d.get());
   mjv_updateScene(m, d.get(), &s.opt, nullptr, &s.cam, mjCAT_ALL, &s.scn);
@@ -625,6 +626,7 @@ Renderer::Renderer(const mjModel* m, RenderOptions options) : impl_(std::make_un
     mjv_defaultScene(&s.scn);
     s.scene_made = true;  // mjv_freeScene is safe on a default or partly made scene
     mjv_makeScene(mc, &s.scn, options.max_geom);
+    s.default_clip = static_cast<float>(mc->stat.extent * mc->vis.map.shadowclip);
     if (options.fit_shadows) mc->vis.quality.shadowsize = FittedShadowSize(mc, s);
 
     mjr_defaultContext(&s.con);
@@ -632,7 +634,6 @@ Renderer::Renderer(const mjModel* m, RenderOptions options) : impl_(std::make_un
     s.context_made = true;  // mjr_freeContext frees whatever a failed make left
     mjr_makeContext(mc, &s.con, mjFONTSCALE_100);
     mjr_setBuffer(mjFB_OFFSCREEN, &s.con);
-    s.default_clip = s.con.shadowClip;
     if (s.con.currentBuffer != mjFB_OFFSCREEN || s.con.offWidth < options.width ||
         s.con.offHeight < options.height) {
       Fail(backend, "MuJoCo has no " + std::to_string(options.width) + "x" +

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <vector>
 
 #include "mlspaces/core/transform.h"
@@ -82,7 +83,8 @@ Vec3 Column2(const float* mat) { return {mat[2], mat[5], mat[8]}; }
 bool Casts(const mjvGeom& g) { return g.type != mjGEOM_LINE && g.category != mjCAT_DECOR; }
 
 // True when nothing of the scene but plane `p` itself lies behind plane `p` (1 mm allowed).
-bool NothingBehind(const mjModel* m, const mjvScene* scn, int p) {
+// `boxes[j]`: geom j's box (none: unknown, or a plane or line).
+bool NothingBehind(const mjvScene* scn, int p, const std::vector<std::optional<Box>>& boxes) {
   constexpr double kSlack = 1e-3;
   const mjvGeom& plane = scn->geoms[p];
   const Vec3 n = Column2(plane.mat);
@@ -90,14 +92,13 @@ bool NothingBehind(const mjModel* m, const mjvScene* scn, int p) {
   for (int j = 0; j < scn->ngeom; ++j) {
     const mjvGeom& g = scn->geoms[j];
     if (j == p || g.type == mjGEOM_LINE || g.type == mjGEOM_LINEBOX) continue;
-    const Vec3 d = {g.pos[0] - o[0], g.pos[1] - o[1], g.pos[2] - o[2]};
     if (g.type == mjGEOM_PLANE) {
+      const Vec3 d = {g.pos[0] - o[0], g.pos[1] - o[1], g.pos[2] - o[2]};
       if (std::abs(Dot(n, Column2(g.mat))) < 1 - 1e-9 || Dot(n, d) < -kSlack) return false;
       continue;
     }
-    Box b;
-    if (!GeomBox(m, g, &b)) return false;
-    if (Dot(n, Sub(b.c, o)) - Support(b, n) < -kSlack) return false;
+    const std::optional<Box>& b = boxes[j];
+    if (!b || Dot(n, Sub(b->c, o)) - Support(*b, n) < -kSlack) return false;
   }
   return true;
 }
@@ -115,7 +116,12 @@ ShadowFit FitShadowMaps(const mjModel* m, mjvScene* scn, mjrContext* con, float 
   }
   if (!any) return fit;
 
-  // The casters' boxes; planes with nothing behind them stop casting.
+  // Every geom's box, once; the casters' boxes; planes with nothing behind them stop casting.
+  std::vector<std::optional<Box>> all(scn->ngeom);
+  for (int j = 0; j < scn->ngeom; ++j) {
+    Box b;
+    if (GeomBox(m, scn->geoms[j], &b)) all[j] = b;
+  }
   std::vector<int> skip;
   std::vector<Box> boxes;
   boxes.reserve(scn->ngeom);
@@ -123,13 +129,12 @@ ShadowFit FitShadowMaps(const mjModel* m, mjvScene* scn, mjrContext* con, float 
     const mjvGeom& g = scn->geoms[j];
     if (!Casts(g)) continue;
     if (g.type == mjGEOM_PLANE) {
-      if (!NothingBehind(m, scn, j)) return fit;
+      if (!NothingBehind(scn, j, all)) return fit;
       skip.push_back(j);
       continue;
     }
-    Box b;
-    if (!GeomBox(m, g, &b)) return fit;
-    boxes.push_back(b);
+    if (!all[j]) return fit;
+    boxes.push_back(*all[j]);
   }
 
   // Per light, the casters' outline in MuJoCo's light frame (mjr_render: mjr_lookAt from the
@@ -161,16 +166,13 @@ ShadowFit FitShadowMaps(const mjModel* m, mjvScene* scn, mjrContext* con, float 
         hi[a] = std::max(hi[a], c + h);
       }
     }
+    if (boxes.empty()) continue;  // nothing casts: the light stays where it is
+    const double cs = 0.5 * (lo[0] + hi[0]), ct = 0.5 * (lo[1] + hi[1]);
+    clip = std::max({clip, 0.5 * (hi[0] - lo[0]), 0.5 * (hi[1] - lo[1])});
+    // Behind every caster by a tenth of the model's size, so none meets the near plane.
+    const double back = lo[2] - 0.1 * m->stat.extent;
     Placed p{i, {0, 0, 0}};
-    if (boxes.empty()) {
-      for (int k = 0; k < 3; ++k) p.pos[k] = l.pos[k];
-    } else {
-      const double cs = 0.5 * (lo[0] + hi[0]), ct = 0.5 * (lo[1] + hi[1]);
-      clip = std::max({clip, 0.5 * (hi[0] - lo[0]), 0.5 * (hi[1] - lo[1])});
-      // Behind every caster by a tenth of the model's size, so none meets the near plane.
-      const double back = lo[2] - 0.1 * m->stat.extent;
-      for (int k = 0; k < 3; ++k) p.pos[k] = cs * side[k] + ct * top[k] + back * f[k];
-    }
+    for (int k = 0; k < 3; ++k) p.pos[k] = cs * side[k] + ct * top[k] + back * f[k];
     placed.push_back(p);
   }
 

@@ -5,7 +5,6 @@
 #include <array>
 #include <chrono>
 #include <cmath>
-#include <memory>
 #include <numbers>
 #include <string>
 #include <utility>
@@ -100,7 +99,7 @@ void OpenClosePlanner::ComputePadRegion() {
     pads[k] = mj_name2id(m, mjOBJ_GEOM, (prefix + robot_->spec().finger_pads[k]).c_str());
     if (pads[k] < 0) throw Error("no finger pad geom " + prefix + robot_->spec().finger_pads[k]);
   }
-  std::unique_ptr<mjData, void (*)(mjData*)> d(mj_makeData(m), mj_deleteData);
+  const sim::DataPtr d = sim::MakeData(m);
   mj_kinematics(m, d.get());
   const int site = robot_->tcp_site();
   const mjtNum* sr = d->site_xmat + 9 * site;

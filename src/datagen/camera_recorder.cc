@@ -153,6 +153,7 @@ std::unique_ptr<sim::Renderer> MakeCameraRenderer(const mjModel* m,
   options.shadow_size = static_cast<int>(config.shadow_size);
   options.multisamples = static_cast<int>(config.multisamples);
   options.fit_shadows = config.fit_shadows;
+  options.one_pass_shadows = config.one_pass_shadows;
   auto renderer = std::make_unique<sim::Renderer>(m, options);
   renderer->scene().flags[mjRND_SHADOW] = config.shadows ? 1 : 0;
   renderer->scene().flags[mjRND_REFLECTION] = config.reflections ? 1 : 0;

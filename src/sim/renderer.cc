@@ -23,6 +23,7 @@
 #include "mlspaces/core/error.h"
 #include "mlspaces/sim/mujoco_handlers.h"
 #include "mlspaces/sim/shadow_fit.h"
+#include "shadow_pass.h"
 
 namespace mlspaces::sim {
 namespace {
@@ -69,6 +70,7 @@ struct OsMesaApi {
   decltype(&::OSMesaMakeCurrent) make_current = nullptr;
   decltype(&::OSMesaGetCurrentContext) get_current_context = nullptr;
   decltype(&::OSMesaDestroyContext) destroy_context = nullptr;
+  decltype(&::OSMesaGetProcAddress) get_proc_address = nullptr;
 };
 
 struct EglApi {
@@ -105,6 +107,7 @@ const OsMesaApi& LoadOsMesa() {
     a.get_current_context =
         Symbol<decltype(a.get_current_context)>(b, a.lib, "OSMesaGetCurrentContext");
     a.destroy_context = Symbol<decltype(a.destroy_context)>(b, a.lib, "OSMesaDestroyContext");
+    a.get_proc_address = Symbol<decltype(a.get_proc_address)>(b, a.lib, "OSMesaGetProcAddress");
     return a;
   }();
   return api;
@@ -277,6 +280,14 @@ void ClaimProcessBackend(GlBackend backend) {
 
 // ---------------------------------------------------------------------------------------------
 // A GL context of either backend; owns it and destroys it.
+
+// GL functions by name, for ShadowPass.
+void* OsMesaProc(const char* name) {
+  return reinterpret_cast<void*>(LoadOsMesa().get_proc_address(name));
+}
+void* EglProc(const char* name) {
+  return reinterpret_cast<void*>(LoadEgl().get_proc_address(name));
+}
 
 class GlContext {
  public:
@@ -516,11 +527,14 @@ struct Renderer::Impl {
   float znear = 0, zfar = 0;
   // MuJoCo's shadow square, as mjr_makeContext sets mjrContext::shadowClip.
   float default_clip = 0;
+  // RenderOptions::one_pass_shadows; its GL objects are freed before MuJoCo's.
+  std::unique_ptr<ShadowPass> shadow_pass;
 
   ~Impl() {
     if (context_made && gl) {
       try {
         gl->MakeCurrent();
+        shadow_pass.reset();
         mjr_freeContext(&con);
       } catch (...) {  // cannot make it current: leave the GL objects to the context's end
       }
@@ -641,6 +655,10 @@ Renderer::Renderer(const mjModel* m, RenderOptions options) : impl_(std::make_un
                         std::to_string(s.con.offWidth) + "x" + std::to_string(s.con.offHeight) +
                         ")");
     }
+    if (options.one_pass_shadows) {
+      s.shadow_pass =
+          std::make_unique<ShadowPass>(backend == GlBackend::kOsMesa ? &OsMesaProc : &EglProc);
+    }
   } catch (const MujocoError& e) {
     Fail(backend, std::string("MuJoCo cannot make its render context: ") + e.what());
   }
@@ -712,7 +730,11 @@ void Renderer::Draw(unsigned char* rgb, float* depth_m) {
   const mjrRect viewport{0, 0, w, h};
   mjr_setBuffer(mjFB_OFFSCREEN, &s.con);
   if (s.options.fit_shadows) FitShadowMaps(s.model.get(), &s.scn, &s.con, s.default_clip);
-  mjr_render(viewport, &s.scn, &s.con);
+  if (s.shadow_pass && s.shadow_pass->Supports(s.scn, s.con)) {
+    s.shadow_pass->Render(viewport, &s.scn, &s.con);
+  } else {
+    mjr_render(viewport, &s.scn, &s.con);
+  }
   mjr_readPixels(rgb, depth_m, viewport, &s.con);
   FlipRows(rgb, w, h, 3);
   if (depth_m != nullptr) {
@@ -769,6 +791,9 @@ int Renderer::height() const { return impl_->options.height; }
 GlBackend Renderer::backend() const { return impl_->options.backend; }
 int Renderer::egl_device() const { return impl_->egl_device; }
 int Renderer::shadow_size() const { return impl_->con.shadowSize; }
+long long Renderer::shadow_map_renders() const {
+  return impl_->shadow_pass ? impl_->shadow_pass->map_renders() : 0;
+}
 mjvScene& Renderer::scene() { return impl_->scn; }
 mjvOption& Renderer::vis_option() { return impl_->opt; }
 

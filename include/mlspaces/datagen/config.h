@@ -388,6 +388,9 @@ struct MLSPACES_API CameraSystemConfig {
   int64_t shadow_size = 1024;
   int64_t multisamples = 0;
   bool fit_shadows = true;
+  /// Shadows in one pass (sim::RenderOptions::one_pass_shadows): each shadow light's map
+  /// drawn once per state for all cameras, and lit in the same pass as the other lights.
+  bool one_pass_shadows = false;
 
   /// FrankaDroidCameraSystem's two cameras: wrist_camera and exo_camera_1.
   static std::vector<CameraConfig> DroidCameras();
@@ -406,6 +409,7 @@ struct MLSPACES_API CameraSystemConfig {
     a->Visit("shadow_size", shadow_size);
     a->Visit("multisamples", multisamples);
     a->Visit("fit_shadows", fit_shadows);
+    a->Visit("one_pass_shadows", one_pass_shadows);
   }
 };
 

@@ -96,6 +96,11 @@ struct MLSPACES_API RenderOptions {
   /// fitted square (measured on the model's initial state, plus a quarter): the same shadows
   /// for less work (docs/sim.md, "Render speed and quality"). false: MuJoCo's fixed square.
   bool fit_shadows = false;
+  /// Draw the shadows in one pass (sim/shadow_pass.h): mjr_render without shadows, then the
+  /// opaque geoms once more with every light and a map per shadow light, the maps drawn once
+  /// per scene state (so shared by the cameras of one state). Scenes it cannot draw as
+  /// mjr_render would (transparent geoms, labels, fog, ...) still go through mjr_render.
+  bool one_pass_shadows = false;
 };
 
 /// A camera in the world. `xmat` is MuJoCo's camera frame (as in mjData::cam_xmat): a
@@ -167,6 +172,9 @@ class MLSPACES_API Renderer {
   /// The side of the shadow maps in texels: shadow_size (or the model's), or with
   /// fit_shadows the side that gives that texel size on the fitted square.
   int shadow_size() const;
+  /// With one_pass_shadows: how many times the shadow maps were drawn (once per scene state,
+  /// whatever the cameras); 0 otherwise, and for frames rendered by mjr_render.
+  long long shadow_map_renders() const;
   /// The abstract scene: its flags (scene().flags[mjRND_SHADOW], mjRND_REFLECTION,
   /// mjRND_SKYBOX, ...) may be changed between renders. Owned by the Renderer, valid while
   /// it lives.

@@ -1,0 +1,64 @@
+#pragma once
+// Shadows in one pass, for the Renderer (RenderOptions::one_pass_shadows).
+//
+// MuJoCo's mjr_render draws the scene twice more for each shadow-casting light (its shadow
+// map, then the scene lit by that light alone, added on top), for every camera. ShadowPass
+// renders the same picture with fewer passes: mjr_render without shadows (reflection, every
+// light, skybox), then one pass over the opaque geoms whose shader computes MuJoCo's
+// fixed-function lighting per light and looks each shadow light up in its own map; the maps
+// are drawn once per scene state, so the cameras of one state share them. The reflective
+// geom keeps MuJoCo's reflection: the pass takes the shadowed light off it instead.
+#include <mujoco/mujoco.h>
+
+#include <array>
+#include <map>
+#include <memory>
+#include <vector>
+
+namespace mlspaces::sim {
+
+/// A GL function by name (OSMesaGetProcAddress, eglGetProcAddress); null when missing.
+using GlProcLoader = void* (*)(const char* name);
+
+class ShadowPass {
+ public:
+  /// Loads the GL functions and compiles the shader, with the GL context current.
+  /// @throws Error (one line) when a function is missing or the shader does not build.
+  explicit ShadowPass(GlProcLoader load);
+  /// Frees the GL objects: the context must be current (or gone, with the objects).
+  ~ShadowPass();
+  ShadowPass(const ShadowPass&) = delete;
+  ShadowPass& operator=(const ShadowPass&) = delete;
+
+  /// Whether Render draws `scn` as mjr_render would: shadows on, one to four shadow-casting
+  /// lights, at most eight lights, no transparent geom (nor plane seen from behind), no
+  /// label, fog, segmentation, wireframe, stereo, frame or scene transform, and only geom
+  /// types it draws (planes, height fields, spheres, capsules, ellipsoids, cylinders, boxes,
+  /// meshes). Otherwise the caller renders with mjr_render.
+  bool Supports(const mjvScene& scn, const mjrContext& con) const;
+
+  /// Renders `scn` (Supports() true) into `con`'s current buffer, as mjr_render(viewport,
+  /// scn, con) with its shadows. `scn` is modified as mjr_render modifies it.
+  void Render(const mjrRect& viewport, mjvScene* scn, const mjrContext* con);
+
+  /// How many times the maps were drawn (a state seen by two cameras draws them once).
+  long long map_renders() const { return map_renders_; }
+
+  struct Gl;
+
+ private:
+  // The shader program for nlight lights of which nmap cast shadows (built on first use).
+  unsigned int Program(int nlight, int nmap);
+  void DrawMaps(const mjvScene& scn, const mjrContext& con, const std::vector<int>& lights);
+  std::unique_ptr<Gl> gl_;
+  std::map<int, unsigned int> programs_;
+  std::array<unsigned int, 4> map_tex_{};
+  std::array<unsigned int, 4> map_fbo_{};
+  int map_size_ = 0;
+  // Light-space matrices of the maps (bias * projection * view, column-major).
+  std::array<std::array<float, 16>, 4> map_matrix_{};
+  std::vector<float> map_key_;  // what the maps were drawn from
+  long long map_renders_ = 0;
+};
+
+}  // namespace mlspaces::sim

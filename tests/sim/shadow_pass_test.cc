@@ -1,0 +1,179 @@
+// Shadows in one pass (RenderOptions::one_pass_shadows): the same pictures as mjr_render's
+// per-light passes, the maps drawn once per state, and scenes it cannot draw left to MuJoCo.
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "mlspaces/sim/mujoco_handlers.h"
+#include "mlspaces/sim/renderer.h"
+
+namespace mlspaces::sim {
+namespace {
+
+constexpr int kW = 320, kH = 240;
+
+// A reflective checker floor, a textured box, a capsule and a ball; a shadow-casting sun, a
+// shadow-casting spot lamp and a fill light without shadows. `glass` adds a transparent geom.
+std::string Xml(bool glass) {
+  return std::string(R"(
+<mujoco>
+  <asset>
+    <texture name="grid" type="2d" builtin="checker" rgb1="0.7 0.7 0.7" rgb2="0.3 0.35 0.4"
+             width="256" height="256"/>
+    <material name="floor" texture="grid" texrepeat="4 4" texuniform="true" reflectance="0.2"/>
+    <texture name="cube" type="cube" builtin="gradient" rgb1="1 0.8 0.2" rgb2="0.2 0.1 0"
+             width="64" height="64"/>
+    <material name="crate" texture="cube" specular="0.8" shininess="0.6"/>
+  </asset>
+  <worldbody>
+    <light name="sun" pos="0 0 3" dir="0.4 0.3 -1" directional="true" castshadow="true"
+           diffuse="0.7 0.7 0.7"/>
+    <light name="lamp" pos="-0.6 -0.4 1.6" dir="0.4 0.3 -1" cutoff="50" exponent="2"
+           castshadow="true" diffuse="0.5 0.4 0.3"/>
+    <light name="fill" pos="0 0 3" dir="0 0 -1" directional="true" castshadow="false"
+           diffuse="0.2 0.2 0.2"/>
+    <geom name="floor" type="plane" size="3 3 0.1" material="floor"/>
+    <geom name="box" type="box" pos="0 0 0.15" size="0.1 0.1 0.15" material="crate"/>
+    <geom name="arm" type="capsule" fromto="0.4 0.2 0.3 0.7 0.1 0.6" size="0.04"
+          rgba="0 0 1 1"/>
+    <body name="ball" pos="-0.3 0.3 0.4">
+      <freejoint/>
+      <geom type="sphere" size="0.08" rgba="0.9 0.9 0.2 1"/>
+    </body>
+    <camera name="high" pos="1.2 -1.4 1.3" xyaxes="0.76 0.65 0 -0.4 0.47 0.78" fovy="50"/>
+    <camera name="low" pos="-1.3 -0.6 0.5" xyaxes="0.42 -0.91 0 0.2 0.09 0.97" fovy="60"/>)") +
+         (glass ? R"(<geom name="glass" type="box" pos="0.2 -0.3 0.2" size="0.1 0.02 0.2"
+                         rgba="0.5 0.8 1 0.4"/>)"
+                : "") +
+         R"(
+  </worldbody>
+</mujoco>)";
+}
+
+struct World {
+  ModelPtr m;
+  DataPtr d;
+  explicit World(bool glass = false) {
+    m = LoadModelFromMemory(Xml(glass));
+    d = MakeData(m.get());
+    mj_forward(m.get(), d.get());
+  }
+  int Camera(const char* name) const { return mj_name2id(m.get(), mjOBJ_CAMERA, name); }
+};
+
+RenderOptions Options(bool one_pass, bool fit) {
+  RenderOptions o;
+  o.width = kW;
+  o.height = kH;
+  o.shadow_size = 1024;
+  o.multisamples = 0;
+  o.fit_shadows = fit;
+  o.one_pass_shadows = one_pass;
+  return o;
+}
+
+std::vector<unsigned char> Shoot(Renderer& r, const World& w, const char* camera,
+                                 bool shadows = true) {
+  r.scene().flags[mjRND_SHADOW] = shadows ? 1 : 0;
+  std::vector<unsigned char> rgb(3 * kW * kH);
+  r.RenderCamera(w.d.get(), w.Camera(camera), rgb.data());
+  return rgb;
+}
+
+struct Difference {
+  double mean = 0;   // mean absolute difference per channel, in levels
+  double share = 0;  // share of pixels with a channel more than `level` apart
+};
+
+Difference Compare(const std::vector<unsigned char>& a, const std::vector<unsigned char>& b,
+                   int level) {
+  Difference out;
+  long far = 0;
+  for (size_t p = 0; p < a.size() / 3; ++p) {
+    int most = 0;
+    for (int c = 0; c < 3; ++c) {
+      const int diff = std::abs(a[3 * p + c] - b[3 * p + c]);
+      out.mean += diff;
+      most = std::max(most, diff);
+    }
+    far += most > level;
+  }
+  out.mean /= static_cast<double>(a.size());
+  out.share = static_cast<double>(far) / static_cast<double>(a.size() / 3);
+  return out;
+}
+
+TEST(ShadowPassTest, DrawsMujocosShadowsInOnePass) {
+  World w;
+  for (const bool fit : {false, true}) {
+    Renderer mujoco(w.m.get(), Options(false, fit));
+    Renderer one(w.m.get(), Options(true, fit));
+    for (const char* cam : {"high", "low"}) {
+      SCOPED_TRACE(std::string(cam) + (fit ? ", fitted maps" : ", MuJoCo's square"));
+      const std::vector<unsigned char> want = Shoot(mujoco, w, cam);
+      const std::vector<unsigned char> got = Shoot(one, w, cam);
+      const std::vector<unsigned char> unshadowed = Shoot(mujoco, w, cam, false);
+      // The scene has shadows to get right: without them a tenth of the picture changes.
+      const Difference shadows = Compare(want, unshadowed, 24);
+      EXPECT_GT(shadows.share, 0.05);
+      const Difference d = Compare(want, got, 24);
+      std::printf(
+          "%s%s: one pass against MuJoCo: mean %.3f levels, %.4f of pixels > 24 apart"
+          " (shadows change %.3f)\n",
+          cam, fit ? " fitted" : "", d.mean, d.share, shadows.share);
+      EXPECT_LT(d.mean, 1.0);
+      EXPECT_LT(d.share, 0.005);
+    }
+    EXPECT_EQ(mujoco.shadow_map_renders(), 0);
+    EXPECT_GT(one.shadow_map_renders(), 0);
+  }
+}
+
+TEST(ShadowPassTest, DrawsTheMapsOncePerStateForAllCameras) {
+  World w;
+  Renderer one(w.m.get(), Options(true, true));
+  const std::vector<unsigned char> high = Shoot(one, w, "high");
+  Shoot(one, w, "low");
+  EXPECT_EQ(one.shadow_map_renders(), 1);
+  // The same state again: the maps still hold; a moved ball draws them again.
+  EXPECT_EQ(Shoot(one, w, "high"), high);
+  EXPECT_EQ(one.shadow_map_renders(), 1);
+  w.d->qpos[0] += 0.2;
+  mj_forward(w.m.get(), w.d.get());
+  const std::vector<unsigned char> moved = Shoot(one, w, "high");
+  EXPECT_EQ(one.shadow_map_renders(), 2);
+  EXPECT_NE(moved, high);
+  // And the moved ball's shadow is where MuJoCo draws it.
+  Renderer mujoco(w.m.get(), Options(false, true));
+  EXPECT_LT(Compare(Shoot(mujoco, w, "high"), moved, 24).share, 0.005);
+}
+
+TEST(ShadowPassTest, LeavesWhatItCannotDrawToMujoco) {
+  World w(/*glass=*/true);
+  Renderer mujoco(w.m.get(), Options(false, false));
+  Renderer one(w.m.get(), Options(true, false));
+  EXPECT_EQ(Shoot(one, w, "high"), Shoot(mujoco, w, "high"));
+  EXPECT_EQ(one.shadow_map_renders(), 0);
+  // Shadows off: nothing for the pass to do.
+  World plain;
+  Renderer off(plain.m.get(), Options(true, false));
+  Renderer off_mujoco(plain.m.get(), Options(false, false));
+  EXPECT_EQ(Shoot(off, plain, "high", false), Shoot(off_mujoco, plain, "high", false));
+  EXPECT_EQ(off.shadow_map_renders(), 0);
+}
+
+TEST(ShadowPassTest, RendersTheSameBytesEachTime) {
+  World w;
+  Renderer a(w.m.get(), Options(true, true));
+  Renderer b(w.m.get(), Options(true, true));
+  EXPECT_EQ(Shoot(a, w, "low"), Shoot(b, w, "low"));
+  EXPECT_EQ(Shoot(a, w, "high"), Shoot(b, w, "high"));
+}
+
+}  // namespace
+}  // namespace mlspaces::sim

@@ -657,7 +657,7 @@ Renderer::Renderer(const mjModel* m, RenderOptions options) : impl_(std::make_un
     }
     if (options.one_pass_shadows) {
       s.shadow_pass =
-          std::make_unique<ShadowPass>(backend == GlBackend::kOsMesa ? &OsMesaProc : &EglProc);
+          std::make_unique<ShadowPass>(backend == GlBackend::kOsMesa ? &OsMesaProc : &EglProc, mc);
     }
   } catch (const MujocoError& e) {
     Fail(backend, std::string("MuJoCo cannot make its render context: ") + e.what());

@@ -8,6 +8,7 @@
 #include <cstring>
 #include <string>
 
+#include "builtin_shapes.h"
 #include "mlspaces/core/error.h"
 
 namespace mlspaces::sim {
@@ -17,7 +18,16 @@ namespace mlspaces::sim {
 #define MLSPACES_SHADOW_PASS_GL(X) \
   X(ActiveTexture)                 \
   X(AttachShader)                  \
+  X(BindBuffer)                    \
   X(BindFramebuffer)               \
+  X(BufferData)                    \
+  X(DeleteBuffers)                 \
+  X(DisableClientState)            \
+  X(DrawArrays)                    \
+  X(EnableClientState)             \
+  X(GenBuffers)                    \
+  X(NormalPointer)                 \
+  X(VertexPointer)                 \
   X(BindTexture)                   \
   X(BlendFunc)                     \
   X(CallList)                      \
@@ -81,6 +91,7 @@ struct ShadowPass::Gl {
 namespace {
 
 constexpr int kMaxShadowLights = 4;
+constexpr int kMapSlices = 16, kMapStacks = 8;
 constexpr int kMaxLights = 8;  // the fixed-function lights mjr_render can use
 
 // Texture units: material textures on 0 (2D) and 1 (cube), the shadow maps from 2.
@@ -324,12 +335,19 @@ bool DrawnType(int type) {
   }
 }
 
-// The builtin display lists after mjrContext::baseBuiltin (MuJoCo's render_context.h).
-enum { kSphere = 0, kSphereTop, kSphereBottom, kCylinder, kCylinderOpen, kHaze, kBox };
-
-// renderGeom's transform and display lists, for the types DrawnType() accepts (a plane is
-// never seen from behind here: Supports() leaves those scenes to mjr_render).
-void DrawGeom(const ShadowPass::Gl& gl, const mjvGeom& g, const mjrContext& con) {
+// renderGeom's transform and shapes, for the types DrawnType() accepts (a plane is never seen
+// from behind here: Supports() leaves those scenes to mjr_render). The builtin shapes come
+// from `shapes` when given (bound as the vertex and normal arrays), else from MuJoCo's
+// display lists, as planes, height fields and meshes always do.
+void DrawGeom(const ShadowPass::Gl& gl, const mjvGeom& g, const mjrContext& con,
+              const BuiltinShapes* shapes) {
+  auto draw = [&](BuiltinShape which) {
+    if (shapes == nullptr) {
+      gl.CallList(con.baseBuiltin + which);
+    } else {
+      gl.DrawArrays(GL_TRIANGLES, shapes->ranges[which].first, shapes->ranges[which].count);
+    }
+  };
   const float* size = g.size;
   const float mat[16] = {g.mat[0], g.mat[3], g.mat[6], 0, g.mat[1], g.mat[4], g.mat[7], 0,
                          g.mat[2], g.mat[5], g.mat[8], 0, 0,        0,        0,        1};
@@ -351,26 +369,26 @@ void DrawGeom(const ShadowPass::Gl& gl, const mjvGeom& g, const mjrContext& con)
     case mjGEOM_SPHERE:
     case mjGEOM_ELLIPSOID:
       gl.Scalef(size[0], size[1], size[2]);
-      gl.CallList(con.baseBuiltin + kSphere);
+      draw(kShapeSphere);
       break;
     case mjGEOM_CAPSULE: {
       const float av = 0.5f * (size[0] + size[1]);
       gl.Scalef(size[0], size[1], size[2]);
-      gl.CallList(con.baseBuiltin + kCylinderOpen);
+      draw(kShapeCylinderOpen);
       gl.Scalef(1, 1, av / size[2]);
       gl.Translatef(0, 0, (size[2] - av) / av);
-      gl.CallList(con.baseBuiltin + kSphereTop);
+      draw(kShapeSphereTop);
       gl.Translatef(0, 0, 2 * (av - size[2]) / av);
-      gl.CallList(con.baseBuiltin + kSphereBottom);
+      draw(kShapeSphereBottom);
       break;
     }
     case mjGEOM_CYLINDER:
       gl.Scalef(size[0], size[1], size[2]);
-      gl.CallList(con.baseBuiltin + kCylinder);
+      draw(kShapeCylinder);
       break;
     case mjGEOM_BOX:
       gl.Scalef(size[0], size[1], size[2]);
-      gl.CallList(con.baseBuiltin + kBox);
+      draw(kShapeBox);
       break;
     case mjGEOM_MESH:
     case mjGEOM_SDF:
@@ -426,7 +444,13 @@ GeomTexture TextureOf(const mjvGeom& g, const mjrContext& con) {
 
 }  // namespace
 
-ShadowPass::ShadowPass(GlProcLoader load) : gl_(std::make_unique<Gl>()) {
+ShadowPass::ShadowPass(GlProcLoader load, const mjModel* m)
+    : gl_(std::make_unique<Gl>()),
+      // The maps' shapes: coarser than MuJoCo's (their vertices are most of a map's cost), an
+      // error under a millimetre on a 6 cm capsule, below the maps' texels.
+      shapes_(std::make_unique<BuiltinShapes>(
+          MakeBuiltinShapes(std::min(m->vis.quality.numslices, kMapSlices),
+                            std::min(m->vis.quality.numstacks, kMapStacks), 1))) {
   Gl& gl = *gl_;
 #define MLSPACES_LOAD(name)                                            \
   gl.name = reinterpret_cast<decltype(&::gl##name)>(load("gl" #name)); \
@@ -437,6 +461,26 @@ ShadowPass::ShadowPass(GlProcLoader load) : gl_(std::make_unique<Gl>()) {
 #undef MLSPACES_LOAD
   // The shaders build here once, so that a driver without GLSL 1.20 fails at construction.
   Program(1, 1);
+  gl.GenBuffers(1, &shape_buffer_);
+  gl.BindBuffer(GL_ARRAY_BUFFER, shape_buffer_);
+  gl.BufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(shapes_->vertices.size() * sizeof(float)),
+                shapes_->vertices.data(), GL_STATIC_DRAW);
+  gl.BindBuffer(GL_ARRAY_BUFFER, 0);
+}
+
+void ShadowPass::BindShapes(bool on) {
+  Gl& gl = *gl_;
+  if (on) {
+    gl.BindBuffer(GL_ARRAY_BUFFER, shape_buffer_);
+    gl.VertexPointer(3, GL_FLOAT, 6 * sizeof(float), nullptr);
+    gl.NormalPointer(GL_FLOAT, 6 * sizeof(float), reinterpret_cast<const void*>(3 * sizeof(float)));
+    gl.EnableClientState(GL_VERTEX_ARRAY);
+    gl.EnableClientState(GL_NORMAL_ARRAY);
+  } else {
+    gl.DisableClientState(GL_VERTEX_ARRAY);
+    gl.DisableClientState(GL_NORMAL_ARRAY);
+    gl.BindBuffer(GL_ARRAY_BUFFER, 0);
+  }
 }
 
 unsigned int ShadowPass::Program(int nlight, int nmap) {
@@ -491,6 +535,7 @@ unsigned int ShadowPass::Program(int nlight, int nmap) {
 
 ShadowPass::~ShadowPass() {
   Gl& gl = *gl_;
+  if (shape_buffer_) gl.DeleteBuffers(1, &shape_buffer_);
   for (int k = 0; k < kMaxShadowLights; ++k) {
     if (map_fbo_[k]) gl.DeleteFramebuffers(1, &map_fbo_[k]);
     if (map_tex_[k]) gl.DeleteTextures(1, &map_tex_[k]);
@@ -599,6 +644,7 @@ void ShadowPass::DrawMaps(const mjvScene& scn, const mjrContext& con,
     gl.Disable(GL_TEXTURE_2D);
     gl.Disable(GL_TEXTURE_CUBE_MAP);
   }
+  BindShapes(true);
   float bias[16] = {0.5f, 0, 0, 0, 0, 0.5f, 0, 0, 0, 0, 1, 0, 0.5f, 0.5f, 0, 1};
   if (!zero_to_one) bias[10] = bias[14] = 0.5f;
   for (size_t k = 0; k < lights.size(); ++k) {
@@ -640,9 +686,10 @@ void ShadowPass::DrawMaps(const mjvScene& scn, const mjrContext& con,
     for (int j = 0; j < scn.ngeom; ++j) {
       const mjvGeom& g = scn.geoms[j];
       if (g.type == mjGEOM_LINE || g.category == mjCAT_DECOR) continue;
-      DrawGeom(gl, g, con);
+      DrawGeom(gl, g, con, shapes_.get());
     }
   }
+  BindShapes(false);
   if (cull) gl.Enable(GL_CULL_FACE);
   gl.Disable(GL_POLYGON_OFFSET_FILL);
   gl.Enable(GL_LIGHTING);
@@ -696,6 +743,8 @@ void ShadowPass::Render(const mjrRect& viewport, mjvScene* scn, const mjrContext
   gl.LoadMatrixf(cam_project);
   gl.MatrixMode(GL_MODELVIEW);
   gl.LoadMatrixf(cam_view);
+  // mjr_render's opaque geoms drawn over, through its depth buffer: the same display lists
+  // under the same matrices give the same depths.
   gl.Enable(GL_DEPTH_TEST);
   gl.DepthFunc(GL_GEQUAL);
   gl.DepthMask(GL_FALSE);
@@ -802,7 +851,7 @@ void ShadowPass::Render(const mjrRect& viewport, mjvScene* scn, const mjrContext
       gl.Enable(GL_BLEND);
       gl.BlendFunc(GL_ONE, GL_ONE);
     }
-    DrawGeom(gl, g, *con);
+    DrawGeom(gl, g, *con, nullptr);
     if (j == reflective) gl.Disable(GL_BLEND);
   }
 

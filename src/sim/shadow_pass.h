@@ -20,11 +20,14 @@ namespace mlspaces::sim {
 /// A GL function by name (OSMesaGetProcAddress, eglGetProcAddress); null when missing.
 using GlProcLoader = void* (*)(const char* name);
 
+struct BuiltinShapes;
+
 class ShadowPass {
  public:
   /// Loads the GL functions and compiles the shader, with the GL context current.
   /// @throws Error (one line) when a function is missing or the shader does not build.
-  explicit ShadowPass(GlProcLoader load);
+  /// `m`: the model the scenes come from (its vis.quality shapes the builtin geoms).
+  ShadowPass(GlProcLoader load, const mjModel* m);
   /// Frees the GL objects: the context must be current (or gone, with the objects).
   ~ShadowPass();
   ShadowPass(const ShadowPass&) = delete;
@@ -49,8 +52,12 @@ class ShadowPass {
  private:
   // The shader program for nlight lights of which nmap cast shadows (built on first use).
   unsigned int Program(int nlight, int nmap);
+  // Binds the builtin shapes as the vertex and normal arrays (on), or unbinds them.
+  void BindShapes(bool on);
   void DrawMaps(const mjvScene& scn, const mjrContext& con, const std::vector<int>& lights);
   std::unique_ptr<Gl> gl_;
+  std::unique_ptr<BuiltinShapes> shapes_;
+  unsigned int shape_buffer_ = 0;
   std::map<int, unsigned int> programs_;
   std::array<unsigned int, 4> map_tex_{};
   std::array<unsigned int, 4> map_fbo_{};

@@ -4,6 +4,7 @@
 #include <GL/gl.h>
 #include <GL/glext.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <string>
@@ -121,14 +122,22 @@ uniform vec4 u_plane_t;
 uniform vec4 u_plane_r;
 uniform mat4 u_eye_to_map[4];
 varying vec4 v_base;
+#if NMAP > 0
 varying vec3 v_l0;
-varying vec3 v_l1;
-varying vec3 v_l2;
-varying vec3 v_l3;
 varying vec4 v_m0;
+#endif
+#if NMAP > 1
+varying vec3 v_l1;
 varying vec4 v_m1;
+#endif
+#if NMAP > 2
+varying vec3 v_l2;
 varying vec4 v_m2;
+#endif
+#if NMAP > 3
+varying vec3 v_l3;
 varying vec4 v_m3;
+#endif
 varying vec3 v_tc;
 void main() {
   vec4 eye = gl_ModelViewMatrix * gl_Vertex;
@@ -165,14 +174,22 @@ void main() {
     if (u_lslot[i] < 0) base += c; else sl[u_lslot[i]] = c;
   }
   v_base = vec4(clamp(base, 0.0, 1.0), u_rgba.a);
+#if NMAP > 0
   v_l0 = clamp(sl[0], 0.0, 1.0);
-  v_l1 = clamp(sl[1], 0.0, 1.0);
-  v_l2 = clamp(sl[2], 0.0, 1.0);
-  v_l3 = clamp(sl[3], 0.0, 1.0);
   v_m0 = u_eye_to_map[0] * eye;
+#endif
+#if NMAP > 1
+  v_l1 = clamp(sl[1], 0.0, 1.0);
   v_m1 = u_eye_to_map[1] * eye;
+#endif
+#if NMAP > 2
+  v_l2 = clamp(sl[2], 0.0, 1.0);
   v_m2 = u_eye_to_map[2] * eye;
+#endif
+#if NMAP > 3
+  v_l3 = clamp(sl[3], 0.0, 1.0);
   v_m3 = u_eye_to_map[3] * eye;
+#endif
   if (u_texmode == 1) {
     v_tc = vec3(gl_MultiTexCoord0.xy, 0.0);
   } else {
@@ -190,14 +207,22 @@ uniform sampler2DShadow u_map1;
 uniform sampler2DShadow u_map2;
 uniform sampler2DShadow u_map3;
 varying vec4 v_base;
+#if NMAP > 0
 varying vec3 v_l0;
-varying vec3 v_l1;
-varying vec3 v_l2;
-varying vec3 v_l3;
 varying vec4 v_m0;
+#endif
+#if NMAP > 1
+varying vec3 v_l1;
 varying vec4 v_m1;
+#endif
+#if NMAP > 2
+varying vec3 v_l2;
 varying vec4 v_m2;
+#endif
+#if NMAP > 3
+varying vec3 v_l3;
 varying vec4 v_m3;
+#endif
 varying vec3 v_tc;
 vec3 term(vec3 light, float lit, vec4 tex, float alpha) {
   return lit * alpha >= 0.99 ? light * tex.rgb : vec3(0.0);

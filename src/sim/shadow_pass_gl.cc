@@ -1,0 +1,373 @@
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+
+#include "shadow_pass_gl.h"
+
+namespace mlspaces::sim::detail {
+
+// The shader: MuJoCo's fixed-function lighting (OpenGL 2.1, section 2.14.1: colour material
+// for ambient and diffuse, local viewer, one side, clamped per vertex) and texture modulation,
+// with each shadow light's term kept apart and multiplied by its map's test, as MuJoCo's
+// per-light passes add it (alpha test 0.99 included).
+const char* const kVertexShader = R"(
+uniform vec4 u_lpos[8];
+uniform vec3 u_lspotdir[8];
+uniform vec3 u_lspot[8];   // cos(cutoff), exponent, 1 for a spot light
+uniform vec3 u_latt[8];
+uniform vec3 u_lamb[8];
+uniform vec3 u_ldif[8];
+uniform vec3 u_lspec[8];
+uniform int u_lslot[8];    // shadow map of the light, -1 for none
+uniform vec3 u_global;
+uniform vec4 u_rgba;
+uniform float u_emission;
+uniform float u_specular;
+uniform float u_shininess;
+uniform int u_texmode;     // 0 none, 1 texture coordinates, 2 2D object planes, 3 cube planes
+uniform vec4 u_plane_s;
+uniform vec4 u_plane_t;
+uniform vec4 u_plane_r;
+uniform mat4 u_eye_to_map[4];
+varying vec4 v_base;
+#if NMAP > 0
+varying vec3 v_l0;
+varying vec4 v_m0;
+#endif
+#if NMAP > 1
+varying vec3 v_l1;
+varying vec4 v_m1;
+#endif
+#if NMAP > 2
+varying vec3 v_l2;
+varying vec4 v_m2;
+#endif
+#if NMAP > 3
+varying vec3 v_l3;
+varying vec4 v_m3;
+#endif
+varying vec3 v_tc;
+void main() {
+  vec4 eye = gl_ModelViewMatrix * gl_Vertex;
+  gl_Position = ftransform();
+  vec3 p = eye.xyz / eye.w;
+  vec3 n = normalize(gl_NormalMatrix * gl_Normal);
+  vec3 v = normalize(-p);
+  vec3 base = u_emission * u_rgba.rgb + u_global * u_rgba.rgb;
+  vec3 sl[4];
+  sl[0] = vec3(0.0); sl[1] = vec3(0.0); sl[2] = vec3(0.0); sl[3] = vec3(0.0);
+  for (int i = 0; i < NLIGHT; ++i) {
+    vec3 l;
+    float att = 1.0;
+    if (u_lpos[i].w == 0.0) {
+      l = normalize(u_lpos[i].xyz);
+    } else {
+      vec3 d = u_lpos[i].xyz - p;
+      float dist = length(d);
+      l = d / dist;
+      att = 1.0 / (u_latt[i].x + u_latt[i].y * dist + u_latt[i].z * dist * dist);
+      if (u_lspot[i].z > 0.5) {
+        float c = dot(-l, normalize(u_lspotdir[i]));
+        att *= c >= u_lspot[i].x ? pow(max(c, 0.0), u_lspot[i].y) : 0.0;
+      }
+    }
+    vec3 c = u_lamb[i] * u_rgba.rgb;
+    float ndl = dot(n, l);
+    if (ndl > 0.0) {
+      c += ndl * u_ldif[i] * u_rgba.rgb;
+      float ndh = max(dot(n, normalize(l + v)), 1e-30);
+      c += pow(ndh, u_shininess) * u_specular * u_lspec[i];
+    }
+    c *= att;
+    if (u_lslot[i] < 0) base += c; else sl[u_lslot[i]] = c;
+  }
+  v_base = vec4(clamp(base, 0.0, 1.0), u_rgba.a);
+#if NMAP > 0
+  v_l0 = clamp(sl[0], 0.0, 1.0);
+  v_m0 = u_eye_to_map[0] * eye;
+#endif
+#if NMAP > 1
+  v_l1 = clamp(sl[1], 0.0, 1.0);
+  v_m1 = u_eye_to_map[1] * eye;
+#endif
+#if NMAP > 2
+  v_l2 = clamp(sl[2], 0.0, 1.0);
+  v_m2 = u_eye_to_map[2] * eye;
+#endif
+#if NMAP > 3
+  v_l3 = clamp(sl[3], 0.0, 1.0);
+  v_m3 = u_eye_to_map[3] * eye;
+#endif
+  if (u_texmode == 1) {
+    v_tc = vec3(gl_MultiTexCoord0.xy, 0.0);
+  } else {
+    v_tc = vec3(dot(u_plane_s, gl_Vertex), dot(u_plane_t, gl_Vertex), dot(u_plane_r, gl_Vertex));
+  }
+}
+)";
+
+const char* const kFragmentShader = R"(
+uniform int u_texmode;
+uniform sampler2D u_tex2d;
+uniform samplerCube u_texcube;
+uniform sampler2DShadow u_map0;
+uniform sampler2DShadow u_map1;
+uniform sampler2DShadow u_map2;
+uniform sampler2DShadow u_map3;
+varying vec4 v_base;
+#if NMAP > 0
+varying vec3 v_l0;
+varying vec4 v_m0;
+#endif
+#if NMAP > 1
+varying vec3 v_l1;
+varying vec4 v_m1;
+#endif
+#if NMAP > 2
+varying vec3 v_l2;
+varying vec4 v_m2;
+#endif
+#if NMAP > 3
+varying vec3 v_l3;
+varying vec4 v_m3;
+#endif
+varying vec3 v_tc;
+vec3 term(vec3 light, float lit, vec4 tex, float alpha) {
+  return lit * alpha >= 0.99 ? light * tex.rgb : vec3(0.0);
+}
+void main() {
+  vec4 tex = vec4(1.0);
+  if (u_texmode == 1 || u_texmode == 2) tex = texture2D(u_tex2d, v_tc.xy);
+  else if (u_texmode == 3) tex = textureCube(u_texcube, v_tc);
+  float alpha = v_base.a * tex.a;
+  vec3 sum = vec3(0.0);
+#if NMAP > 0
+  sum += term(v_l0, shadow2DProj(u_map0, v_m0).r, tex, alpha);
+#endif
+#if NMAP > 1
+  sum += term(v_l1, shadow2DProj(u_map1, v_m1).r, tex, alpha);
+#endif
+#if NMAP > 2
+  sum += term(v_l2, shadow2DProj(u_map2, v_m2).r, tex, alpha);
+#endif
+#if NMAP > 3
+  sum += term(v_l3, shadow2DProj(u_map3, v_m3).r, tex, alpha);
+#endif
+  gl_FragColor = vec4(clamp(v_base.rgb * tex.rgb + sum, 0.0, 1.0), alpha);
+}
+)";
+
+bool Supported(const mjvLight& l) {
+  return l.type == mjLIGHT_DIRECTIONAL || l.type == mjLIGHT_SPOT;
+}
+
+bool Behind(const float* head, const mjvGeom& g) {
+  return (head[0] - g.pos[0]) * g.mat[2] + (head[1] - g.pos[1]) * g.mat[5] +
+             (head[2] - g.pos[2]) * g.mat[8] <
+         0.0f;
+}
+
+void HeadPos(const mjvScene& scn, float head[3]) {
+  mjtNum h[3];
+  mjv_cameraInModel(h, nullptr, nullptr, &scn);
+  for (int k = 0; k < 3; ++k) head[k] = static_cast<float>(h[k]);
+}
+
+// Column-major 4x4 product a*b.
+std::array<float, 16> Mul(const float* a, const float* b) {
+  std::array<float, 16> r{};
+  for (int c = 0; c < 4; ++c) {
+    for (int row = 0; row < 4; ++row) {
+      double s = 0;
+      for (int k = 0; k < 4; ++k) s += static_cast<double>(a[k * 4 + row]) * b[c * 4 + k];
+      r[c * 4 + row] = static_cast<float>(s);
+    }
+  }
+  return r;
+}
+
+// Inverse of a rigid column-major transform (rotation and translation).
+std::array<float, 16> InverseRigid(const float* m) {
+  std::array<float, 16> r{};
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) r[j * 4 + i] = m[i * 4 + j];
+  }
+  for (int i = 0; i < 3; ++i) {
+    double s = 0;
+    for (int k = 0; k < 3; ++k) s += static_cast<double>(m[i * 4 + k]) * m[12 + k];
+    r[12 + i] = static_cast<float>(-s);
+  }
+  r[15] = 1;
+  return r;
+}
+
+// mjr_orthoVec and mjr_lookAt (MuJoCo's render_util.c, not exported), as the maps must be
+// MuJoCo's: same light frame, same matrix.
+void Normalize3(float* v) {
+  const float n = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+  if (n > mjMINVAL) {
+    for (int k = 0; k < 3; ++k) v[k] /= n;
+  }
+}
+void Cross3(float* r, const float* a, const float* b) {
+  r[0] = a[1] * b[2] - a[2] * b[1];
+  r[1] = a[2] * b[0] - a[0] * b[2];
+  r[2] = a[0] * b[1] - a[1] * b[0];
+}
+void OrthoVec(float* res, const float* v) {
+  float other[3] = {-1, 0, 0};
+  Cross3(res, v, other);
+  if (res[0] * res[0] + res[1] * res[1] + res[2] * res[2] > 0.01f) {
+    Normalize3(res);
+    return;
+  }
+  other[0] = 0;
+  other[1] = 1;
+  Cross3(res, v, other);
+  Normalize3(res);
+}
+std::array<float, 16> LookAtMatrix(const float* eye, const float* forward, const float* up) {
+  float f[3] = {forward[0], forward[1], forward[2]}, s[3], u[3];
+  Normalize3(f);
+  Cross3(s, f, up);
+  Normalize3(s);
+  Cross3(u, s, f);
+  Normalize3(u);
+  return {s[0],
+          u[0],
+          -f[0],
+          0,
+          s[1],
+          u[1],
+          -f[1],
+          0,
+          s[2],
+          u[2],
+          -f[2],
+          0,
+          -(s[0] * eye[0] + s[1] * eye[1] + s[2] * eye[2]),
+          -(u[0] * eye[0] + u[1] * eye[1] + u[2] * eye[2]),
+          f[0] * eye[0] + f[1] * eye[1] + f[2] * eye[2],
+          1};
+}
+
+bool DrawnType(int type) {
+  switch (type) {
+    case mjGEOM_PLANE:
+    case mjGEOM_HFIELD:
+    case mjGEOM_SPHERE:
+    case mjGEOM_CAPSULE:
+    case mjGEOM_ELLIPSOID:
+    case mjGEOM_CYLINDER:
+    case mjGEOM_BOX:
+    case mjGEOM_MESH:
+    case mjGEOM_SDF:
+      return true;
+    default:
+      return false;
+  }
+}
+
+// renderGeom's transform and shapes, for the types DrawnType() accepts (a plane is never seen
+// from behind here: Supports() leaves those scenes to mjr_render). The builtin shapes come
+// from `shapes` when given (bound as the vertex and normal arrays), else from MuJoCo's
+// display lists, as planes, height fields and meshes always do.
+void DrawGeom(const ShadowPass::Gl& gl, const mjvGeom& g, const mjrContext& con,
+              const BuiltinShapes* shapes) {
+  auto draw = [&](BuiltinShape which) {
+    if (shapes == nullptr) {
+      gl.CallList(con.baseBuiltin + which);
+    } else {
+      gl.DrawArrays(GL_TRIANGLES, shapes->ranges[which].first, shapes->ranges[which].count);
+    }
+  };
+  const float* size = g.size;
+  const float mat[16] = {g.mat[0], g.mat[3], g.mat[6], 0, g.mat[1], g.mat[4], g.mat[7], 0,
+                         g.mat[2], g.mat[5], g.mat[8], 0, 0,        0,        0,        1};
+  gl.PushMatrix();
+  gl.Translatef(g.pos[0], g.pos[1], g.pos[2]);
+  gl.MultMatrixf(mat);
+  switch (g.type) {
+    case mjGEOM_PLANE:
+      if (g.dataid >= 0) {
+        gl.CallList(con.basePlane + g.dataid + 1);
+      } else {
+        gl.Scalef(size[0], size[1], 1.0f);
+        gl.CallList(con.basePlane);
+      }
+      break;
+    case mjGEOM_HFIELD:
+      if (g.dataid >= 0) gl.CallList(con.baseHField + g.dataid);
+      break;
+    case mjGEOM_SPHERE:
+    case mjGEOM_ELLIPSOID:
+      gl.Scalef(size[0], size[1], size[2]);
+      draw(kShapeSphere);
+      break;
+    case mjGEOM_CAPSULE: {
+      const float av = 0.5f * (size[0] + size[1]);
+      gl.Scalef(size[0], size[1], size[2]);
+      draw(kShapeCylinderOpen);
+      gl.Scalef(1, 1, av / size[2]);
+      gl.Translatef(0, 0, (size[2] - av) / av);
+      draw(kShapeSphereTop);
+      gl.Translatef(0, 0, 2 * (av - size[2]) / av);
+      draw(kShapeSphereBottom);
+      break;
+    }
+    case mjGEOM_CYLINDER:
+      gl.Scalef(size[0], size[1], size[2]);
+      draw(kShapeCylinder);
+      break;
+    case mjGEOM_BOX:
+      gl.Scalef(size[0], size[1], size[2]);
+      draw(kShapeBox);
+      break;
+    case mjGEOM_MESH:
+    case mjGEOM_SDF:
+      if (g.dataid >= 0) gl.CallList(con.baseMesh + g.dataid);
+      break;
+    default:
+      break;
+  }
+  gl.PopMatrix();
+}
+
+// settexture's choice for a geom (MuJoCo 3.5.0's render_gl3.c): mode (as the shader's
+// u_texmode), GL texture and object planes.
+
+GeomTexture TextureOf(const mjvGeom& g, const mjrContext& con) {
+  GeomTexture out;
+  if (g.matid < 0) return out;
+  const int texid = con.mat_texid[mjNTEXROLE * g.matid + mjTEXROLE_RGB];
+  const bool uniform = con.mat_texuniform[g.matid] != 0;
+  if (g.texcoord) {
+    if (texid < 0) return out;
+    out.mode = 1;
+    out.texture = con.texture[texid];
+  } else if (texid >= 0 && con.textureType[texid] == mjTEXTURE_2D) {
+    float scl[2] = {con.mat_texrepeat[g.matid * 2], con.mat_texrepeat[g.matid * 2 + 1]};
+    if (g.dataid >= 0) {
+      if (g.size[0] > 0) scl[0] = scl[0] / std::max<float>(mjMINVAL, g.size[0]);
+      if (g.size[1] > 0) scl[1] = scl[1] / std::max<float>(mjMINVAL, g.size[1]);
+    }
+    if (uniform) {
+      if (g.size[0] > 0) scl[0] = scl[0] * g.size[0];
+      if (g.size[1] > 0) scl[1] = scl[1] * g.size[1];
+    }
+    out.mode = 2;
+    out.texture = con.texture[texid];
+    const float s[4] = {0.5f * scl[0], 0, 0, -0.5f}, t[4] = {0, -0.5f * scl[1], 0, -0.5f};
+    std::memcpy(out.s, s, sizeof s);
+    std::memcpy(out.t, t, sizeof t);
+  } else if (texid >= 0) {
+    out.mode = 3;
+    out.texture = con.texture[texid];
+    out.s[0] = uniform ? g.size[0] : 1;
+    out.t[1] = uniform ? g.size[1] : 1;
+    out.r[2] = uniform ? g.size[2] : 1;
+  }
+  return out;
+}
+
+}  // namespace mlspaces::sim::detail

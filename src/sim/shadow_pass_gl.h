@@ -1,0 +1,138 @@
+#pragma once
+// ShadowPass's pieces (shadow_pass.h): the GL functions it loads, its shaders, and MuJoCo's
+// rendering arithmetic it repeats (render_gl3.c and render_util.c of MuJoCo 3.5.0, not
+// exported). Private to src/sim.
+#define GL_GLEXT_PROTOTYPES 1  // declarations only: the functions are loaded at run time
+#include <GL/gl.h>
+#include <GL/glext.h>
+#include <mujoco/mujoco.h>
+
+#include <array>
+
+#include "builtin_shapes.h"
+#include "shadow_pass.h"
+
+namespace mlspaces::sim {
+
+// The GL functions the pass calls, loaded through the context's loader (MuJoCo links its own
+// loader privately, and this library links no GL).
+#define MLSPACES_SHADOW_PASS_GL(X) \
+  X(ActiveTexture)                 \
+  X(AttachShader)                  \
+  X(BindBuffer)                    \
+  X(BindFramebuffer)               \
+  X(BufferData)                    \
+  X(DeleteBuffers)                 \
+  X(DisableClientState)            \
+  X(DrawArrays)                    \
+  X(EnableClientState)             \
+  X(GenBuffers)                    \
+  X(NormalPointer)                 \
+  X(VertexPointer)                 \
+  X(BindTexture)                   \
+  X(BlendFunc)                     \
+  X(CallList)                      \
+  X(CheckFramebufferStatus)        \
+  X(Clear)                         \
+  X(ColorMask)                     \
+  X(CompileShader)                 \
+  X(CreateProgram)                 \
+  X(CreateShader)                  \
+  X(DeleteFramebuffers)            \
+  X(DeleteProgram)                 \
+  X(DeleteShader)                  \
+  X(DeleteTextures)                \
+  X(DepthFunc)                     \
+  X(DepthMask)                     \
+  X(Disable)                       \
+  X(DrawBuffer)                    \
+  X(Frustum)                       \
+  X(Ortho)                         \
+  X(TexImage2D)                    \
+  X(Enable)                        \
+  X(FramebufferTexture2D)          \
+  X(GenFramebuffers)               \
+  X(GenTextures)                   \
+  X(GetFloatv)                     \
+  X(GetIntegerv)                   \
+  X(GetProgramInfoLog)             \
+  X(GetProgramiv)                  \
+  X(GetShaderInfoLog)              \
+  X(GetShaderiv)                   \
+  X(GetUniformLocation)            \
+  X(IsEnabled)                     \
+  X(LinkProgram)                   \
+  X(LoadIdentity)                  \
+  X(LoadMatrixf)                   \
+  X(MatrixMode)                    \
+  X(MultMatrixf)                   \
+  X(PolygonOffset)                 \
+  X(PopMatrix)                     \
+  X(PushMatrix)                    \
+  X(ReadBuffer)                    \
+  X(Scalef)                        \
+  X(ShaderSource)                  \
+  X(TexParameteri)                 \
+  X(Translatef)                    \
+  X(Uniform1f)                     \
+  X(Uniform1i)                     \
+  X(Uniform1iv)                    \
+  X(Uniform3fv)                    \
+  X(Uniform4fv)                    \
+  X(UniformMatrix4fv)              \
+  X(UseProgram)                    \
+  X(Viewport)
+
+struct ShadowPass::Gl {
+#define MLSPACES_DECLARE(name) decltype(&::gl##name) name = nullptr;
+  MLSPACES_SHADOW_PASS_GL(MLSPACES_DECLARE)
+#undef MLSPACES_DECLARE
+};
+
+namespace detail {
+
+inline constexpr int kMaxShadowLights = 4;
+inline constexpr int kMapSlices = 16, kMapStacks = 8;
+inline constexpr int kMaxLights = 8;  // the fixed-function lights mjr_render can use
+
+// Texture units: material textures on 0 (2D) and 1 (cube), the shadow maps from 2.
+inline constexpr int kUnit2d = 0, kUnitCube = 1, kUnitMap0 = 2;
+
+/// The vertex and fragment shaders' bodies (after "#version 120" and the NLIGHT and NMAP
+/// defines): MuJoCo's fixed-function lighting per light, shadow lights kept apart.
+extern const char* const kVertexShader;
+extern const char* const kFragmentShader;
+
+/// Directional and spot lights: what MuJoCo's fixed-function renderer lights with.
+bool Supported(const mjvLight& l);
+/// MuJoCo's isBehind: the eye on the back side of the geom's xy-plane.
+bool Behind(const float* head, const mjvGeom& g);
+/// The scene camera's position (mjv_cameraInModel), in float.
+void HeadPos(const mjvScene& scn, float head[3]);
+/// Column-major 4x4 product a*b.
+std::array<float, 16> Mul(const float* a, const float* b);
+/// Inverse of a rigid column-major transform.
+std::array<float, 16> InverseRigid(const float* m);
+/// mjr_orthoVec: a unit vector orthogonal to v.
+void OrthoVec(float* res, const float* v);
+/// mjr_lookAt's matrix (column-major).
+std::array<float, 16> LookAtMatrix(const float* eye, const float* forward, const float* up);
+/// The geom types DrawGeom draws.
+bool DrawnType(int type);
+/// renderGeom's transform and shapes: builtin shapes from `shapes` when not null (bound as
+/// the vertex and normal arrays), else from MuJoCo's display lists, as planes, height fields
+/// and meshes always are. A plane is drawn as seen from the front.
+void DrawGeom(const ShadowPass::Gl& gl, const mjvGeom& g, const mjrContext& con,
+              const BuiltinShapes* shapes);
+
+/// settexture's choice for a geom: mode (the shader's u_texmode: 0 none, 1 texture
+/// coordinates, 2 2D object planes, 3 cube), GL texture and object planes.
+struct GeomTexture {
+  int mode = 0;
+  unsigned int texture = 0;
+  float s[4] = {0, 0, 0, 0}, t[4] = {0, 0, 0, 0}, r[4] = {0, 0, 0, 0};
+};
+GeomTexture TextureOf(const mjvGeom& g, const mjrContext& con);
+
+}  // namespace detail
+}  // namespace mlspaces::sim

@@ -27,6 +27,11 @@ ShadowPass::ShadowPass(GlProcLoader load, const mjModel* m)
   }
   MLSPACES_SHADOW_PASS_GL(MLSPACES_LOAD)
 #undef MLSPACES_LOAD
+  // As MuJoCo's loader decides: glClipControl when the driver lists ARB_clip_control.
+  const auto* extensions = reinterpret_cast<const char*>(gl.GetString(GL_EXTENSIONS));
+  if (extensions != nullptr && std::strstr(extensions, "GL_ARB_clip_control") != nullptr) {
+    gl.ClipControl = reinterpret_cast<decltype(gl.ClipControl)>(load("glClipControl"));
+  }
   // The shaders build here once, so that a driver without GLSL 1.20 fails at construction.
   Program(1, 1);
   gl.GenBuffers(1, &shape_buffer_);
@@ -266,63 +271,62 @@ void ShadowPass::DrawMaps(const mjvScene& scn, const mjrContext& con,
   ++map_renders_;
 }
 
-void ShadowPass::Render(const mjrRect& viewport, mjvScene* scn, const mjrContext* con) {
-  Gl& gl = *gl_;
-  // mjr_render without its shadows: reflection, every light, skybox. Its opaque geoms are
-  // drawn over below; its depth buffer says which fragments are in front.
-  // The reflective geom (mjr_render keeps the first) is added over its reflection: black
-  // there, so that this pass adds it with its shadows, as mjr_render's passes sum it.
-  int reflective = -1;
-  for (int j = 0; j < scn->ngeom && reflective < 0; ++j) {
-    const mjvGeom& g = scn->geoms[j];
-    if ((g.type == mjGEOM_PLANE || g.type == mjGEOM_BOX) && g.reflectance > 0) reflective = j;
-  }
-  float saved[4] = {0, 0, 0, 0};
-  if (reflective >= 0) {
-    mjvGeom& g = scn->geoms[reflective];
-    std::memcpy(saved, g.rgba, 3 * sizeof(float));
-    saved[3] = g.specular;
-    g.rgba[0] = g.rgba[1] = g.rgba[2] = 0;
-    g.specular = 0;
-  }
-  scn->flags[mjRND_SHADOW] = 0;
-  mjr_render(viewport, scn, con);
-  scn->flags[mjRND_SHADOW] = 1;
-  if (reflective >= 0) {
-    mjvGeom& g = scn->geoms[reflective];
-    std::memcpy(g.rgba, saved, 3 * sizeof(float));
-    g.specular = saved[3];
-  }
+namespace {
 
-  std::vector<int> lights;  // shadow-casting lights, in map order
-  for (int i = 0; i < scn->nlight; ++i) {
-    if (Supported(scn->lights[i]) && scn->lights[i].castshadow) lights.push_back(i);
-  }
-  float cam_project[16], cam_view[16];
-  gl.GetFloatv(GL_PROJECTION_MATRIX, cam_project);
-  gl.GetFloatv(GL_MODELVIEW_MATRIX, cam_view);
+// A program's uniform locations for the per-geom state.
+struct GeomUniforms {
+  GLint rgba, emission, specular, shininess, texmode, s, t, r;
+};
 
-  DrawMaps(*scn, *con, lights);
-
-  gl.BindFramebuffer(GL_FRAMEBUFFER, con->offFBO);
-  gl.DrawBuffer(GL_COLOR_ATTACHMENT0);
-  gl.Viewport(viewport.left, viewport.bottom, viewport.width, viewport.height);
-  gl.MatrixMode(GL_PROJECTION);
-  gl.LoadMatrixf(cam_project);
-  gl.MatrixMode(GL_MODELVIEW);
-  gl.LoadMatrixf(cam_view);
-  // mjr_render's opaque geoms drawn over, through its depth buffer: the same display lists
-  // under the same matrices give the same depths.
-  gl.Enable(GL_DEPTH_TEST);
-  gl.DepthFunc(GL_GEQUAL);
-  gl.DepthMask(GL_FALSE);
-  int nlight_supported = 0;
-  for (int i = 0; i < scn->nlight; ++i) nlight_supported += Supported(scn->lights[i]);
-  const GLuint program = Program(nlight_supported, static_cast<int>(lights.size()));
-  gl.UseProgram(program);
-
+GeomUniforms Locations(const ShadowPass::Gl& gl, GLuint program) {
   auto loc = [&](const char* name) { return gl.GetUniformLocation(program, name); };
-  // Lights in eye coordinates, as mjr_render's adjustLight sets them under the camera view.
+  return {loc("u_rgba"),    loc("u_emission"), loc("u_specular"), loc("u_shininess"),
+          loc("u_texmode"), loc("u_plane_s"),  loc("u_plane_t"),  loc("u_plane_r")};
+}
+
+// renderGeom's material and texture for `g` (its rgb times `rgb_scale`, as a reflection).
+void SetGeom(const ShadowPass::Gl& gl, const GeomUniforms& u, const mjvGeom& g,
+             const mjrContext& con, float rgb_scale) {
+  const float rgba[4] = {g.rgba[0] * rgb_scale, g.rgba[1] * rgb_scale, g.rgba[2] * rgb_scale,
+                         g.rgba[3]};
+  gl.Uniform4fv(u.rgba, 1, rgba);
+  gl.Uniform1f(u.emission, g.emission);
+  gl.Uniform1f(u.specular, g.specular);
+  gl.Uniform1f(u.shininess, g.shininess * 128.0f);
+  const GeomTexture tex = TextureOf(g, con);
+  gl.Uniform1i(u.texmode, tex.mode);
+  gl.Uniform4fv(u.s, 1, tex.s);
+  gl.Uniform4fv(u.t, 1, tex.t);
+  gl.Uniform4fv(u.r, 1, tex.r);
+  if (tex.mode == 3) {
+    gl.ActiveTexture(GL_TEXTURE0 + kUnitCube);
+    gl.BindTexture(GL_TEXTURE_CUBE_MAP, tex.texture);
+  } else if (tex.mode != 0) {
+    gl.ActiveTexture(GL_TEXTURE0 + kUnit2d);
+    gl.BindTexture(GL_TEXTURE_2D, tex.texture);
+  }
+}
+
+// mjr_reflect's matrix (column-major) for a plane at `pos` with normal mat's z axis.
+std::array<float, 16> ReflectMatrix(const float* pos, const float* mat) {
+  const float v[3] = {mat[2], mat[5], mat[8]};
+  std::array<float, 16> r{};
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) r[4 * i + j] = (i == j ? 1.0f : 0.0f) - 2 * v[i] * v[j];
+  }
+  const float d = pos[0] * v[0] + pos[1] * v[1] + pos[2] * v[2];
+  for (int i = 0; i < 3; ++i) r[12 + i] = 2 * d * v[i];
+  r[15] = 1;
+  return r;
+}
+
+}  // namespace
+
+void ShadowPass::SetLights(unsigned int program, const mjvScene& scn, const float* view,
+                           const std::vector<int>& shadow_lights) {
+  Gl& gl = *gl_;
+  auto loc = [&](const char* name) { return gl.GetUniformLocation(program, name); };
+  // Lights in eye coordinates, as mjr_render's adjustLight sets them under `view`.
   int nlight = 0;
   float lpos[kMaxLights][4] = {}, lspotdir[kMaxLights][3] = {}, lspot[kMaxLights][3] = {},
         latt[kMaxLights][3] = {}, lamb[kMaxLights][3] = {}, ldif[kMaxLights][3] = {},
@@ -330,15 +334,12 @@ void ShadowPass::Render(const mjrRect& viewport, mjvScene* scn, const mjrContext
   int lslot[kMaxLights] = {};
   auto eye = [&](const float* v, float w, float* out) {
     for (int r = 0; r < 3; ++r) {
-      out[r] = cam_view[r] * v[0] + cam_view[4 + r] * v[1] + cam_view[8 + r] * v[2] +
-               cam_view[12 + r] * w;
+      out[r] = view[r] * v[0] + view[4 + r] * v[1] + view[8 + r] * v[2] + view[12 + r] * w;
     }
   };
-  int supported = 0;
-  for (int i = 0; i < scn->nlight; ++i) {
-    const mjvLight& l = scn->lights[i];
+  for (int i = 0; i < scn.nlight; ++i) {
+    const mjvLight& l = scn.lights[i];
     if (!Supported(l)) continue;
-    ++supported;
     const int n = nlight++;
     if (l.type == mjLIGHT_DIRECTIONAL) {
       const float d[3] = {-l.dir[0], -l.dir[1], -l.dir[2]};
@@ -361,8 +362,8 @@ void ShadowPass::Render(const mjrRect& viewport, mjvScene* scn, const mjrContext
       lspec[n][k] = l.specular[k];
     }
     lslot[n] = -1;
-    for (size_t k = 0; k < lights.size(); ++k) {
-      if (lights[k] == i) lslot[n] = static_cast<int>(k);
+    for (size_t k = 0; k < shadow_lights.size(); ++k) {
+      if (shadow_lights[k] == i) lslot[n] = static_cast<int>(k);
     }
   }
   gl.Uniform4fv(loc("u_lpos"), nlight, &lpos[0][0]);
@@ -373,48 +374,221 @@ void ShadowPass::Render(const mjrRect& viewport, mjvScene* scn, const mjrContext
   gl.Uniform3fv(loc("u_ldif"), nlight, &ldif[0][0]);
   gl.Uniform3fv(loc("u_lspec"), nlight, &lspec[0][0]);
   gl.Uniform1iv(loc("u_lslot"), nlight, lslot);
-  const float global = supported ? 0.0f : 0.3f;
+  // MuJoCo 3.5 adds a global ambient only to a scene without lights.
+  const float global = scn.nlight ? 0.0f : 0.3f;
   const float global3[3] = {global, global, global};
   gl.Uniform3fv(loc("u_global"), 1, global3);
+  gl.Uniform1i(loc("u_tex2d"), kUnit2d);
+  gl.Uniform1i(loc("u_texcube"), kUnitCube);
+}
+
+bool ShadowPass::OwnFrame(const mjvScene& scn, const mjrContext& con) const {
+  if (!scn.flags[mjRND_SKYBOX]) return true;
+  for (int i = 0; i < con.ntexture; ++i) {
+    if (con.textureType[i] == mjTEXTURE_SKYBOX) return false;
+  }
+  return true;
+}
+
+void ShadowPass::BeginFrame(const mjrRect& viewport, const mjvScene& scn, const mjrContext& con,
+                            float* cam_project, float* cam_view) {
+  Gl& gl = *gl_;
+  // As mjr_render's initGL3, clear and setView (mono, no scene transform).
+  const bool zero_to_one = gl.ClipControl != nullptr;
+  if (zero_to_one) gl.ClipControl(GL_LOWER_LEFT, GL_ZERO_TO_ONE);
+  gl.BindFramebuffer(GL_FRAMEBUFFER, con.offFBO);
+  gl.DrawBuffer(GL_COLOR_ATTACHMENT0);
+  gl.UseProgram(0);
+  gl.Enable(GL_MULTISAMPLE);
+  gl.Disable(GL_BLEND);
+  gl.Enable(GL_DEPTH_TEST);
+  gl.DepthMask(GL_TRUE);
+  if (scn.flags[mjRND_CULL_FACE]) {
+    gl.Enable(GL_CULL_FACE);
+  } else {
+    gl.Disable(GL_CULL_FACE);
+  }
+  gl.CullFace(GL_BACK);
+  gl.FrontFace(GL_CCW);
+  gl.DepthFunc(GL_GEQUAL);
+  gl.ClearColor(0, 0, 0, 0);
+  gl.ClearDepth(0);
+  gl.ClearStencil(0);
+  gl.ColorMask(1, 1, 1, 1);
+  gl.Viewport(viewport.left, viewport.bottom, viewport.width, viewport.height);
+  gl.Scissor(viewport.left, viewport.bottom, viewport.width, viewport.height);
+  gl.Enable(GL_SCISSOR_TEST);
+  gl.Clear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+  gl.Disable(GL_SCISSOR_TEST);
+
+  const mjvGLCamera cam = mjv_averageCamera(scn.camera, scn.camera + 1);
+  const float halfwidth = cam.frustum_width ? cam.frustum_width
+                                            : 0.5f * static_cast<float>(viewport.width) /
+                                                  static_cast<float>(viewport.height) *
+                                                  (cam.frustum_top - cam.frustum_bottom);
+  gl.MatrixMode(GL_PROJECTION);
+  gl.LoadIdentity();
+  if (zero_to_one) {
+    gl.Translatef(0, 0, 0.5f);
+    gl.Scalef(1, 1, -0.5f);
+  } else {
+    gl.Scalef(1, 1, -1);
+  }
+  if (cam.orthographic) {
+    gl.Ortho(cam.frustum_center - halfwidth, cam.frustum_center + halfwidth, cam.frustum_bottom,
+             cam.frustum_top, cam.frustum_near, cam.frustum_far);
+  } else {
+    gl.Frustum(cam.frustum_center - halfwidth, cam.frustum_center + halfwidth, cam.frustum_bottom,
+               cam.frustum_top, cam.frustum_near, cam.frustum_far);
+  }
+  gl.GetFloatv(GL_PROJECTION_MATRIX, cam_project);
+  gl.MatrixMode(GL_MODELVIEW);
+  gl.LoadIdentity();
+  const std::array<float, 16> view = LookAtMatrix(cam.pos, cam.forward, cam.up);
+  gl.MultMatrixf(view.data());
+  gl.GetFloatv(GL_MODELVIEW_MATRIX, cam_view);
+}
+
+void ShadowPass::DrawReflection(const mjvScene& scn, const mjrContext& con, int reflective,
+                                const float* cam_view) {
+  Gl& gl = *gl_;
+  if (reflective < 0 || !scn.flags[mjRND_REFLECTION]) return;
+  // As mjr_render: a box reflects in its +z face.
+  mjvGeom plane = scn.geoms[reflective];
+  if (plane.type == mjGEOM_BOX) {
+    plane.type = mjGEOM_PLANE;
+    for (int i = 0; i < 3; ++i) plane.pos[i] += plane.size[2] * plane.mat[3 * i + 2];
+  }
+  float head[3];
+  HeadPos(scn, head);
+  if (Behind(head, plane)) return;
+  // The plane into the stencil buffer, then the mirrored scene where it is.
+  gl.UseProgram(0);
+  gl.Disable(GL_DEPTH_TEST);
+  gl.ColorMask(0, 0, 0, 0);
+  gl.Enable(GL_STENCIL_TEST);
+  gl.Clear(GL_STENCIL_BUFFER_BIT);
+  gl.StencilFunc(GL_ALWAYS, 1, 0xFF);
+  gl.StencilOp(GL_REPLACE, GL_REPLACE, GL_REPLACE);
+  DrawGeom(gl, plane, con, nullptr);
+  gl.Enable(GL_DEPTH_TEST);
+  gl.ColorMask(1, 1, 1, 1);
+  gl.StencilFunc(GL_EQUAL, 1, 0xFF);
+  gl.StencilOp(GL_KEEP, GL_KEEP, GL_KEEP);
+  const double n[3] = {plane.mat[2], plane.mat[5], plane.mat[8]};
+  const double clip[4] = {-n[0], -n[1], -n[2],
+                          plane.pos[0] * n[0] + plane.pos[1] * n[1] + plane.pos[2] * n[2]};
+  gl.Enable(GL_CLIP_PLANE0);
+  gl.ClipPlane(GL_CLIP_PLANE0, clip);
+  gl.FrontFace(GL_CW);
+  gl.PushMatrix();
+  const std::array<float, 16> reflect = ReflectMatrix(plane.pos, plane.mat);
+  gl.MultMatrixf(reflect.data());
+  const std::array<float, 16> mirrored = Mul(cam_view, reflect.data());
+
+  // Every light, no shadows, each geom's colour times the plane's reflectance.
+  int nlight = 0;
+  for (int i = 0; i < scn.nlight; ++i) nlight += Supported(scn.lights[i]);
+  const GLuint program = Program(nlight, 0);
+  gl.UseProgram(program);
+  SetLights(program, scn, mirrored.data(), {});
+  const GeomUniforms u = Locations(gl, program);
+  for (int j = 0; j < scn.ngeom; ++j) {
+    if (j == reflective) continue;
+    SetGeom(gl, u, scn.geoms[j], con, plane.reflectance);
+    DrawGeom(gl, scn.geoms[j], con, nullptr);
+  }
+  gl.UseProgram(0);
+  gl.PopMatrix();
+  gl.FrontFace(GL_CCW);
+  gl.Disable(GL_CLIP_PLANE0);
+  gl.Disable(GL_STENCIL_TEST);
+}
+
+void ShadowPass::Render(const mjrRect& viewport, mjvScene* scn, const mjrContext* con) {
+  Gl& gl = *gl_;
+  // The reflective geom: mjr_render keeps the first.
+  int reflective = -1;
+  for (int j = 0; j < scn->ngeom && reflective < 0; ++j) {
+    const mjvGeom& g = scn->geoms[j];
+    if ((g.type == mjGEOM_PLANE || g.type == mjGEOM_BOX) && g.reflectance > 0) reflective = j;
+  }
+  float cam_project[16], cam_view[16];
+  const bool own = OwnFrame(*scn, *con);
+  if (own) {
+    // Without a skybox, the whole frame: clear, reflection, then the pass below.
+    BeginFrame(viewport, *scn, *con, cam_project, cam_view);
+    DrawReflection(*scn, *con, reflective, cam_view);
+  } else {
+    // mjr_render without its shadows (reflection, skybox, every light), its opaque geoms
+    // drawn over below through its depth buffer. The reflective geom is black there, so that
+    // the pass below adds it over its reflection, as mjr_render's passes sum it.
+    float saved[4] = {0, 0, 0, 0};
+    if (reflective >= 0) {
+      mjvGeom& g = scn->geoms[reflective];
+      std::memcpy(saved, g.rgba, 3 * sizeof(float));
+      saved[3] = g.specular;
+      g.rgba[0] = g.rgba[1] = g.rgba[2] = 0;
+      g.specular = 0;
+    }
+    scn->flags[mjRND_SHADOW] = 0;
+    mjr_render(viewport, scn, con);
+    scn->flags[mjRND_SHADOW] = 1;
+    if (reflective >= 0) {
+      mjvGeom& g = scn->geoms[reflective];
+      std::memcpy(g.rgba, saved, 3 * sizeof(float));
+      g.specular = saved[3];
+    }
+    gl.GetFloatv(GL_PROJECTION_MATRIX, cam_project);
+    gl.GetFloatv(GL_MODELVIEW_MATRIX, cam_view);
+  }
+
+  std::vector<int> lights;  // shadow-casting lights, in map order
+  for (int i = 0; i < scn->nlight; ++i) {
+    if (Supported(scn->lights[i]) && scn->lights[i].castshadow) lights.push_back(i);
+  }
+  DrawMaps(*scn, *con, lights);
+
+  gl.BindFramebuffer(GL_FRAMEBUFFER, con->offFBO);
+  gl.DrawBuffer(GL_COLOR_ATTACHMENT0);
+  gl.Viewport(viewport.left, viewport.bottom, viewport.width, viewport.height);
+  gl.MatrixMode(GL_PROJECTION);
+  gl.LoadMatrixf(cam_project);
+  gl.MatrixMode(GL_MODELVIEW);
+  gl.LoadMatrixf(cam_view);
+  // Own frame: the pass writes depth, the reflective geom first (over its reflection, as
+  // mjr_render draws it). Over mjr_render's frame: its depth buffer says which fragments are
+  // in front (the same display lists under the same matrices give the same depths).
+  gl.Enable(GL_DEPTH_TEST);
+  gl.DepthFunc(GL_GEQUAL);
+  gl.DepthMask(own ? GL_TRUE : GL_FALSE);
+  int nlight = 0;
+  for (int i = 0; i < scn->nlight; ++i) nlight += Supported(scn->lights[i]);
+  const GLuint program = Program(nlight, static_cast<int>(lights.size()));
+  gl.UseProgram(program);
+  SetLights(program, *scn, cam_view, lights);
+
   const std::array<float, 16> inv_view = InverseRigid(cam_view);
   float eye_to_map[kMaxShadowLights][16] = {};
   for (size_t k = 0; k < lights.size(); ++k) {
     const std::array<float, 16> m = Mul(map_matrix_[k].data(), inv_view.data());
     std::memcpy(eye_to_map[k], m.data(), sizeof eye_to_map[k]);
   }
-  gl.UniformMatrix4fv(loc("u_eye_to_map"), kMaxShadowLights, GL_FALSE, &eye_to_map[0][0]);
-  gl.Uniform1i(loc("u_tex2d"), kUnit2d);
-  gl.Uniform1i(loc("u_texcube"), kUnitCube);
+  gl.UniformMatrix4fv(gl.GetUniformLocation(program, "u_eye_to_map"), kMaxShadowLights, GL_FALSE,
+                      &eye_to_map[0][0]);
   const char* map_names[kMaxShadowLights] = {"u_map0", "u_map1", "u_map2", "u_map3"};
   for (int k = 0; k < kMaxShadowLights; ++k) {
     const size_t slot = std::min<size_t>(k, lights.size() - 1);
     gl.ActiveTexture(GL_TEXTURE0 + kUnitMap0 + k);
     gl.BindTexture(GL_TEXTURE_2D, map_tex_[slot]);
-    gl.Uniform1i(loc(map_names[k]), kUnitMap0 + k);
+    gl.Uniform1i(gl.GetUniformLocation(program, map_names[k]), kUnitMap0 + k);
   }
-  const GLint u_rgba = loc("u_rgba"), u_emission = loc("u_emission"),
-              u_specular = loc("u_specular"), u_shininess = loc("u_shininess"),
-              u_texmode_v = loc("u_texmode"), u_s = loc("u_plane_s"), u_t = loc("u_plane_t"),
-              u_r = loc("u_plane_r");
-
-  for (int j = 0; j < scn->ngeom; ++j) {
+  const GeomUniforms u = Locations(gl, program);
+  for (int n = -1; n < scn->ngeom; ++n) {
+    const int j = n < 0 ? reflective : n;
+    if (j < 0 || (n >= 0 && j == reflective)) continue;
     const mjvGeom& g = scn->geoms[j];
-    gl.Uniform4fv(u_rgba, 1, g.rgba);
-    gl.Uniform1f(u_emission, g.emission);
-    gl.Uniform1f(u_specular, g.specular);
-    gl.Uniform1f(u_shininess, g.shininess * 128.0f);
-    const GeomTexture tex = TextureOf(g, *con);
-    gl.Uniform1i(u_texmode_v, tex.mode);
-    gl.Uniform4fv(u_s, 1, tex.s);
-    gl.Uniform4fv(u_t, 1, tex.t);
-    gl.Uniform4fv(u_r, 1, tex.r);
-    if (tex.mode == 3) {
-      gl.ActiveTexture(GL_TEXTURE0 + kUnitCube);
-      gl.BindTexture(GL_TEXTURE_CUBE_MAP, tex.texture);
-    } else if (tex.mode != 0) {
-      gl.ActiveTexture(GL_TEXTURE0 + kUnit2d);
-      gl.BindTexture(GL_TEXTURE_2D, tex.texture);
-    }
+    SetGeom(gl, u, g, *con, 1.0f);
     if (j == reflective) {
       gl.Enable(GL_BLEND);
       gl.BlendFunc(GL_ONE, GL_ONE);

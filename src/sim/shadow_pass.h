@@ -52,6 +52,17 @@ class ShadowPass {
  private:
   // The shader program for nlight lights of which nmap cast shadows (built on first use).
   unsigned int Program(int nlight, int nmap);
+  // Without a skybox the pass draws the whole frame itself (no mjr_render).
+  bool OwnFrame(const mjvScene& scn, const mjrContext& con) const;
+  // mjr_render's GL state, clear and camera for the own frame; the camera's matrices out.
+  void BeginFrame(const mjrRect& viewport, const mjvScene& scn, const mjrContext& con,
+                  float* cam_project, float* cam_view);
+  // mjr_render's reflection of the scene in the reflective geom (index, -1 for none).
+  void DrawReflection(const mjvScene& scn, const mjrContext& con, int reflective,
+                      const float* cam_view);
+  // The light uniforms of `program` under the modelview `view`; shadow_lights get map slots.
+  void SetLights(unsigned int program, const mjvScene& scn, const float* view,
+                 const std::vector<int>& shadow_lights);
   // Binds the builtin shapes as the vertex and normal arrays (on), or unbinds them.
   void BindShapes(bool on);
   void DrawMaps(const mjvScene& scn, const mjrContext& con, const std::vector<int>& lights);

@@ -50,6 +50,7 @@ varying vec3 v_tc;
 void main() {
   vec4 eye = gl_ModelViewMatrix * gl_Vertex;
   gl_Position = ftransform();
+  gl_ClipVertex = eye;  // the reflection's clip plane
   vec3 p = eye.xyz / eye.w;
   vec3 n = normalize(gl_NormalMatrix * gl_Normal);
   vec3 v = normalize(-p);

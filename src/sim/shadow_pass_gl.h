@@ -32,6 +32,15 @@ namespace mlspaces::sim {
   X(BindTexture)                   \
   X(BlendFunc)                     \
   X(CallList)                      \
+  X(ClearColor)                    \
+  X(ClearDepth)                    \
+  X(ClearStencil)                  \
+  X(ClipPlane)                     \
+  X(CullFace)                      \
+  X(FrontFace)                     \
+  X(Scissor)                       \
+  X(StencilFunc)                   \
+  X(StencilOp)                     \
   X(CheckFramebufferStatus)        \
   X(Clear)                         \
   X(ColorMask)                     \
@@ -59,6 +68,7 @@ namespace mlspaces::sim {
   X(GetProgramiv)                  \
   X(GetShaderInfoLog)              \
   X(GetShaderiv)                   \
+  X(GetString)                     \
   X(GetUniformLocation)            \
   X(IsEnabled)                     \
   X(LinkProgram)                   \
@@ -85,6 +95,8 @@ namespace mlspaces::sim {
 
 struct ShadowPass::Gl {
 #define MLSPACES_DECLARE(name) decltype(&::gl##name) name = nullptr;
+  /// glClipControl (ARB_clip_control), null without it: MuJoCo reverses depth with it.
+  decltype(&::glClipControl) ClipControl = nullptr;
   MLSPACES_SHADOW_PASS_GL(MLSPACES_DECLARE)
 #undef MLSPACES_DECLARE
 };

@@ -4,8 +4,9 @@
 #     (build/bench/datagen_render_quality_bench: ms per camera frame, frames/s, SSIM per camera
 #     against the full-quality frame, the per-episode cost of physics, render and encode);
 #  2. `mlspaces datagen` on the tutorial with WORKERS workers: successful episodes per hour with
-#     cameras at the default settings, at the last defaults without fitted shadow maps (2048²),
-#     at the original's full quality, and without cameras.
+#     cameras at the default settings (one-pass fitted shadows), with MuJoCo's multi-pass
+#     shadows at the same maps, without fitted maps (2048², multi-pass), at the original's full
+#     quality, and without cameras.
 #
 #   bench/render_bench.sh [BUILD_DIR]      (default build)
 #   GL=egl EPISODES=2 RUN_EPISODES=8 WORKERS=2 bench/render_bench.sh
@@ -53,7 +54,9 @@ run() {
 
 echo "== mlspaces datagen, tutorial, $RUN_EPISODES episodes, $WORKERS workers ($GL)"
 run default
-run unfitted --set camera_config.fit_shadows=false --set camera_config.shadow_size=2048
+run multipass --set camera_config.one_pass_shadows=false
+run unfitted --set camera_config.one_pass_shadows=false --set camera_config.fit_shadows=false \
+  --set camera_config.shadow_size=2048
 run full --set camera_config.shadow_size=0 --set camera_config.multisamples=-1 \
-  --set camera_config.fit_shadows=false
+  --set camera_config.fit_shadows=false --set camera_config.one_pass_shadows=false
 run no_cameras --set task_config.enable_rendering=false

@@ -200,7 +200,8 @@ void Box(Builder& b, int quads) {
 
 }  // namespace
 
-BuiltinShapes MakeBuiltinShapes(int numslices, int numstacks, int numquads) {
+BuiltinShapes MakeBuiltinShapes(int numslices, int numstacks, int numquads, int cylinder_stacks) {
+  if (cylinder_stacks <= 0) cylinder_stacks = numstacks;
   BuiltinShapes s;
   Builder b(&s.vertices);
   auto shape = [&](BuiltinShape which, auto&& make) {
@@ -213,10 +214,10 @@ BuiltinShapes MakeBuiltinShapes(int numslices, int numstacks, int numquads) {
   shape(kShapeSphereBottom, [&] { HalfSphere(b, -1, numslices, numstacks / 2); });
   shape(kShapeCylinder, [&] {
     Disk(b, -1, numslices, numstacks / 2);
-    Cylinder(b, numslices, numstacks);
+    Cylinder(b, numslices, cylinder_stacks);
     Disk(b, +1, numslices, numstacks / 2);
   });
-  shape(kShapeCylinderOpen, [&] { Cylinder(b, numslices, numstacks); });
+  shape(kShapeCylinderOpen, [&] { Cylinder(b, numslices, cylinder_stacks); });
   shape(kShapeHaze, [] {});
   shape(kShapeBox, [&] { Box(b, numquads); });
   return s;

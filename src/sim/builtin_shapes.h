@@ -30,7 +30,10 @@ struct BuiltinShapes {
   std::array<Range, kShapeCount> ranges{};
 };
 
-/// The shapes for a model's vis.quality (numslices, numstacks, numquads).
-BuiltinShapes MakeBuiltinShapes(int numslices, int numstacks, int numquads);
+/// The shapes for a model's vis.quality (numslices, numstacks, numquads). `cylinder_stacks`
+/// (numstacks when <= 0) divides the cylinders' sides only, which are straight: coarser
+/// shapes for shadow maps.
+BuiltinShapes MakeBuiltinShapes(int numslices, int numstacks, int numquads,
+                                int cylinder_stacks = 0);
 
 }  // namespace mlspaces::sim

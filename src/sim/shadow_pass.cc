@@ -18,7 +18,7 @@ ShadowPass::ShadowPass(GlProcLoader load, const mjModel* m)
       // error under a millimetre on a 6 cm capsule, below the maps' texels.
       shapes_(std::make_unique<BuiltinShapes>(
           MakeBuiltinShapes(std::min(m->vis.quality.numslices, kMapSlices),
-                            std::min(m->vis.quality.numstacks, kMapStacks), 1))) {
+                            std::min(m->vis.quality.numstacks, kMapStacks), 1, 1))) {
   Gl& gl = *gl_;
 #define MLSPACES_LOAD(name)                                            \
   gl.name = reinterpret_cast<decltype(&::gl##name)>(load("gl" #name)); \
@@ -34,26 +34,7 @@ ShadowPass::ShadowPass(GlProcLoader load, const mjModel* m)
   }
   // The shaders build here once, so that a driver without GLSL 1.20 fails at construction.
   Program(1, 1);
-  gl.GenBuffers(1, &shape_buffer_);
-  gl.BindBuffer(GL_ARRAY_BUFFER, shape_buffer_);
-  gl.BufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(shapes_->vertices.size() * sizeof(float)),
-                shapes_->vertices.data(), GL_STATIC_DRAW);
-  gl.BindBuffer(GL_ARRAY_BUFFER, 0);
-}
-
-void ShadowPass::BindShapes(bool on) {
-  Gl& gl = *gl_;
-  if (on) {
-    gl.BindBuffer(GL_ARRAY_BUFFER, shape_buffer_);
-    gl.VertexPointer(3, GL_FLOAT, 6 * sizeof(float), nullptr);
-    gl.NormalPointer(GL_FLOAT, 6 * sizeof(float), reinterpret_cast<const void*>(3 * sizeof(float)));
-    gl.EnableClientState(GL_VERTEX_ARRAY);
-    gl.EnableClientState(GL_NORMAL_ARRAY);
-  } else {
-    gl.DisableClientState(GL_VERTEX_ARRAY);
-    gl.DisableClientState(GL_NORMAL_ARRAY);
-    gl.BindBuffer(GL_ARRAY_BUFFER, 0);
-  }
+  gl.GenBuffers(1, &caster_buffer_);
 }
 
 unsigned int ShadowPass::Program(int nlight, int nmap) {
@@ -108,7 +89,7 @@ unsigned int ShadowPass::Program(int nlight, int nmap) {
 
 ShadowPass::~ShadowPass() {
   Gl& gl = *gl_;
-  if (shape_buffer_) gl.DeleteBuffers(1, &shape_buffer_);
+  if (caster_buffer_) gl.DeleteBuffers(1, &caster_buffer_);
   for (int k = 0; k < kMaxShadowLights; ++k) {
     if (map_fbo_[k]) gl.DeleteFramebuffers(1, &map_fbo_[k]);
     if (map_tex_[k]) gl.DeleteTextures(1, &map_tex_[k]);
@@ -217,7 +198,20 @@ void ShadowPass::DrawMaps(const mjvScene& scn, const mjrContext& con,
     gl.Disable(GL_TEXTURE_2D);
     gl.Disable(GL_TEXTURE_CUBE_MAP);
   }
-  BindShapes(true);
+  // The casters in world coordinates, one array for every map of this state: a draw per
+  // geom costs more than its vertices on llvmpipe. Other types keep their display lists.
+  casters_.clear();
+  std::vector<int> listed;
+  for (int j = 0; j < scn.ngeom; ++j) {
+    const mjvGeom& g = scn.geoms[j];
+    if (g.type == mjGEOM_LINE || g.category == mjCAT_DECOR) continue;
+    if (!AppendWorldShape(*shapes_, g, &casters_)) listed.push_back(j);
+  }
+  gl.BindBuffer(GL_ARRAY_BUFFER, caster_buffer_);
+  gl.BufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(casters_.size() * sizeof(float)),
+                casters_.data(), GL_STREAM_DRAW);
+  gl.VertexPointer(3, GL_FLOAT, 0, nullptr);
+  gl.BindBuffer(GL_ARRAY_BUFFER, 0);
   float bias[16] = {0.5f, 0, 0, 0, 0, 0.5f, 0, 0, 0, 0, 1, 0, 0.5f, 0.5f, 0, 1};
   if (!zero_to_one) bias[10] = bias[14] = 0.5f;
   for (size_t k = 0; k < lights.size(); ++k) {
@@ -256,13 +250,11 @@ void ShadowPass::DrawMaps(const mjvScene& scn, const mjrContext& con,
     gl.Viewport(0, 0, map_size_, map_size_);
     gl.Clear(GL_DEPTH_BUFFER_BIT);
     gl.Viewport(1, 1, map_size_ - 2, map_size_ - 2);
-    for (int j = 0; j < scn.ngeom; ++j) {
-      const mjvGeom& g = scn.geoms[j];
-      if (g.type == mjGEOM_LINE || g.category == mjCAT_DECOR) continue;
-      DrawGeom(gl, g, con, shapes_.get());
-    }
+    gl.EnableClientState(GL_VERTEX_ARRAY);
+    gl.DrawArrays(GL_TRIANGLES, 0, static_cast<GLsizei>(casters_.size() / 3));
+    gl.DisableClientState(GL_VERTEX_ARRAY);
+    for (int j : listed) DrawGeom(gl, scn.geoms[j], con);
   }
-  BindShapes(false);
   if (cull) gl.Enable(GL_CULL_FACE);
   gl.Disable(GL_POLYGON_OFFSET_FILL);
   gl.Enable(GL_LIGHTING);
@@ -470,7 +462,7 @@ void ShadowPass::DrawReflection(const mjvScene& scn, const mjrContext& con, int 
   gl.Clear(GL_STENCIL_BUFFER_BIT);
   gl.StencilFunc(GL_ALWAYS, 1, 0xFF);
   gl.StencilOp(GL_REPLACE, GL_REPLACE, GL_REPLACE);
-  DrawGeom(gl, plane, con, nullptr);
+  DrawGeom(gl, plane, con);
   gl.Enable(GL_DEPTH_TEST);
   gl.ColorMask(1, 1, 1, 1);
   gl.StencilFunc(GL_EQUAL, 1, 0xFF);
@@ -496,7 +488,7 @@ void ShadowPass::DrawReflection(const mjvScene& scn, const mjrContext& con, int 
   for (int j = 0; j < scn.ngeom; ++j) {
     if (j == reflective) continue;
     SetGeom(gl, u, scn.geoms[j], con, plane.reflectance);
-    DrawGeom(gl, scn.geoms[j], con, nullptr);
+    DrawGeom(gl, scn.geoms[j], con);
   }
   gl.UseProgram(0);
   gl.PopMatrix();
@@ -593,7 +585,7 @@ void ShadowPass::Render(const mjrRect& viewport, mjvScene* scn, const mjrContext
       gl.Enable(GL_BLEND);
       gl.BlendFunc(GL_ONE, GL_ONE);
     }
-    DrawGeom(gl, g, *con, nullptr);
+    DrawGeom(gl, g, *con);
     if (j == reflective) gl.Disable(GL_BLEND);
   }
 

@@ -63,12 +63,11 @@ class ShadowPass {
   // The light uniforms of `program` under the modelview `view`; shadow_lights get map slots.
   void SetLights(unsigned int program, const mjvScene& scn, const float* view,
                  const std::vector<int>& shadow_lights);
-  // Binds the builtin shapes as the vertex and normal arrays (on), or unbinds them.
-  void BindShapes(bool on);
   void DrawMaps(const mjvScene& scn, const mjrContext& con, const std::vector<int>& lights);
   std::unique_ptr<Gl> gl_;
   std::unique_ptr<BuiltinShapes> shapes_;
-  unsigned int shape_buffer_ = 0;
+  unsigned int caster_buffer_ = 0;
+  std::vector<float> casters_;  // the maps' casters in world coordinates (x y z per vertex)
   std::map<int, unsigned int> programs_;
   std::array<unsigned int, 4> map_tex_{};
   std::array<unsigned int, 4> map_fbo_{};

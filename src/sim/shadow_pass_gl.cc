@@ -273,15 +273,8 @@ bool DrawnType(int type) {
 // from behind here: Supports() leaves those scenes to mjr_render). The builtin shapes come
 // from `shapes` when given (bound as the vertex and normal arrays), else from MuJoCo's
 // display lists, as planes, height fields and meshes always do.
-void DrawGeom(const ShadowPass::Gl& gl, const mjvGeom& g, const mjrContext& con,
-              const BuiltinShapes* shapes) {
-  auto draw = [&](BuiltinShape which) {
-    if (shapes == nullptr) {
-      gl.CallList(con.baseBuiltin + which);
-    } else {
-      gl.DrawArrays(GL_TRIANGLES, shapes->ranges[which].first, shapes->ranges[which].count);
-    }
-  };
+void DrawGeom(const ShadowPass::Gl& gl, const mjvGeom& g, const mjrContext& con) {
+  auto draw = [&](BuiltinShape which) { gl.CallList(con.baseBuiltin + which); };
   const float* size = g.size;
   const float mat[16] = {g.mat[0], g.mat[3], g.mat[6], 0, g.mat[1], g.mat[4], g.mat[7], 0,
                          g.mat[2], g.mat[5], g.mat[8], 0, 0,        0,        0,        1};
@@ -332,6 +325,49 @@ void DrawGeom(const ShadowPass::Gl& gl, const mjvGeom& g, const mjrContext& con,
       break;
   }
   gl.PopMatrix();
+}
+
+bool AppendWorldShape(const BuiltinShapes& shapes, const mjvGeom& g, std::vector<float>* out) {
+  const float* size = g.size;
+  // One shape: its unit vertices v placed at pos + mat * (scale .* v + shift).
+  auto add = [&](BuiltinShape which, const float scale[3], const float shift[3]) {
+    const BuiltinShapes::Range r = shapes.ranges[which];
+    for (int v = r.first; v < r.first + r.count; ++v) {
+      const float* p = &shapes.vertices[6 * static_cast<size_t>(v)];
+      float local[3];
+      for (int i = 0; i < 3; ++i) local[i] = scale[i] * p[i] + shift[i];
+      for (int i = 0; i < 3; ++i) {
+        out->push_back(g.pos[i] + g.mat[3 * i] * local[0] + g.mat[3 * i + 1] * local[1] +
+                       g.mat[3 * i + 2] * local[2]);
+      }
+    }
+  };
+  const float none[3] = {0, 0, 0};
+  switch (g.type) {
+    case mjGEOM_SPHERE:
+    case mjGEOM_ELLIPSOID:
+      add(kShapeSphere, size, none);
+      return true;
+    case mjGEOM_CYLINDER:
+      add(kShapeCylinder, size, none);
+      return true;
+    case mjGEOM_BOX:
+      add(kShapeBox, size, none);
+      return true;
+    case mjGEOM_CAPSULE: {
+      // renderGeom's end caps: unit half spheres centred at z = +-1, scaled by the mean
+      // radius along z and moved to the cylinder's ends.
+      const float av = 0.5f * (size[0] + size[1]);
+      const float cap[3] = {size[0], size[1], av};
+      const float top[3] = {0, 0, size[2] - av}, bottom[3] = {0, 0, av - size[2]};
+      add(kShapeCylinderOpen, size, none);
+      add(kShapeSphereTop, cap, top);
+      add(kShapeSphereBottom, cap, bottom);
+      return true;
+    }
+    default:
+      return false;
+  }
 }
 
 // settexture's choice for a geom (MuJoCo 3.5.0's render_gl3.c): mode (as the shader's

@@ -8,6 +8,7 @@
 #include <mujoco/mujoco.h>
 
 #include <array>
+#include <vector>
 
 #include "builtin_shapes.h"
 #include "shadow_pass.h"
@@ -131,11 +132,12 @@ void OrthoVec(float* res, const float* v);
 std::array<float, 16> LookAtMatrix(const float* eye, const float* forward, const float* up);
 /// The geom types DrawGeom draws.
 bool DrawnType(int type);
-/// renderGeom's transform and shapes: builtin shapes from `shapes` when not null (bound as
-/// the vertex and normal arrays), else from MuJoCo's display lists, as planes, height fields
-/// and meshes always are. A plane is drawn as seen from the front.
-void DrawGeom(const ShadowPass::Gl& gl, const mjvGeom& g, const mjrContext& con,
-              const BuiltinShapes* shapes);
+/// renderGeom's transform and MuJoCo's display lists. A plane is drawn as seen from the front.
+void DrawGeom(const ShadowPass::Gl& gl, const mjvGeom& g, const mjrContext& con);
+/// Appends the triangles of `g`'s builtin shape (sphere, ellipsoid, capsule, cylinder, box) in
+/// world coordinates, as renderGeom places them, to `out` (x y z per vertex); false, with
+/// nothing appended, for other types.
+bool AppendWorldShape(const BuiltinShapes& shapes, const mjvGeom& g, std::vector<float>* out);
 
 /// settexture's choice for a geom: mode (the shader's u_texmode: 0 none, 1 texture
 /// coordinates, 2 2D object planes, 3 cube), GL texture and object planes.

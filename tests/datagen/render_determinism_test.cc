@@ -28,13 +28,14 @@ testing::CliResult RunTutorial(const fs::path& out, const std::string& gl, int w
        "--set", "camera_config.shadow_size=256"});
 }
 
-TEST(RenderDeterminismTest, DefaultSettingsRenderWithFittedShadowsAndWithoutMultisampling) {
+TEST(RenderDeterminismTest, DefaultSettingsRenderFittedShadowsInOnePassWithoutMultisampling) {
   const CameraSystemConfig c;
   EXPECT_TRUE(c.shadows);
   EXPECT_TRUE(c.reflections);
   EXPECT_EQ(c.shadow_size, 1024);
   EXPECT_EQ(c.multisamples, 0);
   EXPECT_TRUE(c.fit_shadows);
+  EXPECT_TRUE(c.one_pass_shadows);
 }
 
 class RenderDeterminismTest : public ::testing::TestWithParam<std::string> {};

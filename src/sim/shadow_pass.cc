@@ -576,9 +576,27 @@ void ShadowPass::Render(const mjrRect& viewport, mjvScene* scn, const mjrContext
     gl.Uniform1i(gl.GetUniformLocation(program, map_names[k]), kUnitMap0 + k);
   }
   const GeomUniforms u = Locations(gl, program);
-  for (int n = -1; n < scn->ngeom; ++n) {
-    const int j = n < 0 ? reflective : n;
-    if (j < 0 || (n >= 0 && j == reflective)) continue;
+  // The order: geoms wholly on the camera's side of the reflective geom's plane first (the
+  // plane cannot hide them, and its fragments behind them are then never shaded), the
+  // reflective geom added over its reflection, then the rest (mjr_render draws the reflective
+  // geom first: what is behind its plane stays hidden by it).
+  std::vector<char> before(scn->ngeom, 0);
+  if (own && reflective >= 0) {
+    const mjvGeom& r = scn->geoms[reflective];
+    float normal[3], origin[3];
+    for (int i = 0; i < 3; ++i) {
+      normal[i] = r.mat[3 * i + 2];
+      origin[i] = r.pos[i] + (r.type == mjGEOM_BOX ? r.size[2] * normal[i] : 0.0f);
+    }
+    for (int j = 0; j < scn->ngeom; ++j) {
+      const float radius = BoundingRadius(scn->geoms[j]);
+      if (j == reflective || radius < 0) continue;
+      float height = 0;
+      for (int i = 0; i < 3; ++i) height += (scn->geoms[j].pos[i] - origin[i]) * normal[i];
+      before[j] = height > radius;
+    }
+  }
+  auto draw = [&](int j) {
     const mjvGeom& g = scn->geoms[j];
     SetGeom(gl, u, g, *con, 1.0f);
     if (j == reflective) {
@@ -587,6 +605,13 @@ void ShadowPass::Render(const mjrRect& viewport, mjvScene* scn, const mjrContext
     }
     DrawGeom(gl, g, *con);
     if (j == reflective) gl.Disable(GL_BLEND);
+  };
+  for (int j = 0; j < scn->ngeom; ++j) {
+    if (before[j]) draw(j);
+  }
+  if (reflective >= 0) draw(reflective);
+  for (int j = 0; j < scn->ngeom; ++j) {
+    if (!before[j] && j != reflective) draw(j);
   }
 
   gl.UseProgram(0);

@@ -252,6 +252,24 @@ std::array<float, 16> LookAtMatrix(const float* eye, const float* forward, const
           1};
 }
 
+float BoundingRadius(const mjvGeom& g) {
+  const float* s = g.size;
+  switch (g.type) {
+    case mjGEOM_SPHERE:
+      return s[0];
+    case mjGEOM_ELLIPSOID:
+      return std::max({s[0], s[1], s[2]});
+    case mjGEOM_CAPSULE:
+      return std::max(s[0], s[1]) + s[2];
+    case mjGEOM_CYLINDER:
+      return std::sqrt(std::max(s[0], s[1]) * std::max(s[0], s[1]) + s[2] * s[2]);
+    case mjGEOM_BOX:
+      return std::sqrt(s[0] * s[0] + s[1] * s[1] + s[2] * s[2]);
+    default:
+      return -1;
+  }
+}
+
 bool DrawnType(int type) {
   switch (type) {
     case mjGEOM_PLANE:

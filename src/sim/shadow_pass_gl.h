@@ -130,6 +130,8 @@ std::array<float, 16> InverseRigid(const float* m);
 void OrthoVec(float* res, const float* v);
 /// mjr_lookAt's matrix (column-major).
 std::array<float, 16> LookAtMatrix(const float* eye, const float* forward, const float* up);
+/// A bounding radius of a builtin shape about its position; -1 for other types.
+float BoundingRadius(const mjvGeom& g);
 /// The geom types DrawGeom draws.
 bool DrawnType(int type);
 /// renderGeom's transform and MuJoCo's display lists. A plane is drawn as seen from the front.

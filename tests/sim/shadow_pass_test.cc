@@ -18,8 +18,9 @@ namespace {
 constexpr int kW = 320, kH = 240;
 
 // A reflective checker floor, a textured box, a capsule and a ball; a shadow-casting sun, a
-// shadow-casting spot lamp and a fill light without shadows. `glass` adds a transparent geom.
-std::string Xml(bool glass) {
+// shadow-casting spot lamp and a fill light without shadows. `buried` adds a block half sunk
+// in the floor and a ball under it (which the floor hides), `glass` a transparent geom.
+std::string Xml(bool glass, bool buried = false) {
   return std::string(R"(
 <mujoco>
   <asset>
@@ -47,6 +48,11 @@ std::string Xml(bool glass) {
     </body>
     <camera name="high" pos="1.2 -1.4 1.3" xyaxes="0.76 0.65 0 -0.4 0.47 0.78" fovy="50"/>
     <camera name="low" pos="-1.3 -0.6 0.5" xyaxes="0.42 -0.91 0 0.2 0.09 0.97" fovy="60"/>)") +
+         (buried ? R"(<geom name="sunk" type="box" pos="0.35 -0.35 0.02" size="0.08 0.08 0.06"
+                          rgba="0.2 0.8 0.3 1"/>
+                    <geom name="under" type="sphere" pos="-0.2 -0.3 -0.3" size="0.2"
+                          rgba="1 0 1 1"/>)"
+                 : "") +
          (glass ? R"(<geom name="glass" type="box" pos="0.2 -0.3 0.2" size="0.1 0.02 0.2"
                          rgba="0.5 0.8 1 0.4"/>)"
                 : "") +
@@ -58,8 +64,8 @@ std::string Xml(bool glass) {
 struct World {
   ModelPtr m;
   DataPtr d;
-  explicit World(bool glass = false) {
-    m = LoadModelFromMemory(Xml(glass));
+  explicit World(bool glass = false, bool buried = false) {
+    m = LoadModelFromMemory(Xml(glass, buried));
     d = MakeData(m.get());
     mj_forward(m.get(), d.get());
   }
@@ -109,28 +115,31 @@ Difference Compare(const std::vector<unsigned char>& a, const std::vector<unsign
 }
 
 TEST(ShadowPassTest, DrawsMujocosShadowsInOnePass) {
-  World w;
-  for (const bool fit : {false, true}) {
-    Renderer mujoco(w.m.get(), Options(false, fit));
-    Renderer one(w.m.get(), Options(true, fit));
-    for (const char* cam : {"high", "low"}) {
-      SCOPED_TRACE(std::string(cam) + (fit ? ", fitted maps" : ", MuJoCo's square"));
-      const std::vector<unsigned char> want = Shoot(mujoco, w, cam);
-      const std::vector<unsigned char> got = Shoot(one, w, cam);
-      const std::vector<unsigned char> unshadowed = Shoot(mujoco, w, cam, false);
-      // The scene has shadows to get right: without them a tenth of the picture changes.
-      const Difference shadows = Compare(want, unshadowed, 24);
-      EXPECT_GT(shadows.share, 0.05);
-      const Difference d = Compare(want, got, 24);
-      std::printf(
-          "%s%s: one pass against MuJoCo: mean %.3f levels, %.4f of pixels > 24 apart"
-          " (shadows change %.3f)\n",
-          cam, fit ? " fitted" : "", d.mean, d.share, shadows.share);
-      EXPECT_LT(d.mean, 1.0);
-      EXPECT_LT(d.share, 0.005);
+  for (const bool buried : {false, true}) {
+    World w(/*glass=*/false, buried);
+    for (const bool fit : {false, true}) {
+      Renderer mujoco(w.m.get(), Options(false, fit));
+      Renderer one(w.m.get(), Options(true, fit));
+      for (const char* cam : {"high", "low"}) {
+        SCOPED_TRACE(std::string(cam) + (fit ? ", fitted maps" : ", MuJoCo's square") +
+                     (buried ? ", geoms in and under the floor" : ""));
+        const std::vector<unsigned char> want = Shoot(mujoco, w, cam);
+        const std::vector<unsigned char> got = Shoot(one, w, cam);
+        const std::vector<unsigned char> unshadowed = Shoot(mujoco, w, cam, false);
+        // The scene has shadows to get right: without them a tenth of the picture changes.
+        const Difference shadows = Compare(want, unshadowed, 24);
+        EXPECT_GT(shadows.share, 0.05);
+        const Difference d = Compare(want, got, 24);
+        std::printf(
+            "%s%s%s: one pass against MuJoCo: mean %.3f levels, %.4f of pixels > 24 apart"
+            " (shadows change %.3f)\n",
+            cam, fit ? " fitted" : "", buried ? " buried" : "", d.mean, d.share, shadows.share);
+        EXPECT_LT(d.mean, 1.0);
+        EXPECT_LT(d.share, 0.005);
+      }
+      EXPECT_EQ(mujoco.shadow_map_renders(), 0);
+      EXPECT_GT(one.shadow_map_renders(), 0);
     }
-    EXPECT_EQ(mujoco.shadow_map_renders(), 0);
-    EXPECT_GT(one.shadow_map_renders(), 0);
   }
 }
 

@@ -606,9 +606,21 @@ void ShadowPass::Render(const mjrRect& viewport, mjvScene* scn, const mjrContext
     DrawGeom(gl, g, *con);
     if (j == reflective) gl.Disable(GL_BLEND);
   };
-  for (int j = 0; j < scn->ngeom; ++j) {
-    if (before[j]) draw(j);
+  // Nearest first, so that fewer hidden fragments are shaded.
+  std::vector<std::pair<float, int>> front;
+  {
+    float head[3];
+    HeadPos(*scn, head);
+    for (int j = 0; j < scn->ngeom; ++j) {
+      if (!before[j]) continue;
+      const float* p = scn->geoms[j].pos;
+      front.emplace_back((p[0] - head[0]) * (p[0] - head[0]) + (p[1] - head[1]) * (p[1] - head[1]) +
+                             (p[2] - head[2]) * (p[2] - head[2]),
+                         j);
+    }
+    std::sort(front.begin(), front.end());
   }
+  for (const auto& [distance, j] : front) draw(j);
   if (reflective >= 0) draw(reflective);
   for (int j = 0; j < scn->ngeom; ++j) {
     if (!before[j] && j != reflective) draw(j);

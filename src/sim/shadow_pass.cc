@@ -43,8 +43,14 @@ unsigned int ShadowPass::Program(int nlight, int nmap) {
   Gl& gl = *gl_;
   const std::string defines = "#version 120\n#define NLIGHT " + std::to_string(nlight) +
                               "\n#define NMAP " + std::to_string(nmap) + "\n";
+  // One line, whatever the driver's log holds.
+  auto fail = [](const std::string& what, const char* log) {
+    std::string line(log);
+    for (char& c : line) c = c == '\n' ? ' ' : c;
+    throw Error("one-pass shadows: the shader does not " + what + ": " + line);
+  };
   auto compile = [&](GLenum kind, const char* body) {
-    const std::string text = defines + body;
+    const std::string text = defines + kVaryings + body;
     const char* source = text.c_str();
     const GLuint sh = gl.CreateShader(kind);
     gl.ShaderSource(sh, 1, &source, nullptr);
@@ -55,9 +61,7 @@ unsigned int ShadowPass::Program(int nlight, int nmap) {
       char log[1024] = {0};
       gl.GetShaderInfoLog(sh, sizeof log, nullptr, log);
       gl.DeleteShader(sh);
-      std::string line(log);
-      for (char& c : line) c = c == '\n' ? ' ' : c;
-      throw Error("one-pass shadows: the shader does not compile: " + line);
+      fail("compile", log);
     }
     return sh;
   };
@@ -81,7 +85,7 @@ unsigned int ShadowPass::Program(int nlight, int nmap) {
     char log[1024] = {0};
     gl.GetProgramInfoLog(program, sizeof log, nullptr, log);
     gl.DeleteProgram(program);
-    throw Error(std::string("one-pass shadows: the shader does not link: ") + log);
+    fail("link", log);
   }
   programs_[key] = program;
   return program;

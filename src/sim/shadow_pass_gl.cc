@@ -10,6 +10,27 @@ namespace mlspaces::sim::detail {
 // for ambient and diffuse, local viewer, one side, clamped per vertex) and texture modulation,
 // with each shadow light's term kept apart and multiplied by its map's test, as MuJoCo's
 // per-light passes add it (alpha test 0.99 included).
+const char* const kVaryings = R"(
+varying vec4 v_base;
+#if NMAP > 0
+varying vec3 v_l0;
+varying vec4 v_m0;
+#endif
+#if NMAP > 1
+varying vec3 v_l1;
+varying vec4 v_m1;
+#endif
+#if NMAP > 2
+varying vec3 v_l2;
+varying vec4 v_m2;
+#endif
+#if NMAP > 3
+varying vec3 v_l3;
+varying vec4 v_m3;
+#endif
+varying vec3 v_tc;
+)";
+
 const char* const kVertexShader = R"(
 uniform vec4 u_lpos[8];
 uniform vec3 u_lspotdir[8];
@@ -29,24 +50,6 @@ uniform vec4 u_plane_s;
 uniform vec4 u_plane_t;
 uniform vec4 u_plane_r;
 uniform mat4 u_eye_to_map[4];
-varying vec4 v_base;
-#if NMAP > 0
-varying vec3 v_l0;
-varying vec4 v_m0;
-#endif
-#if NMAP > 1
-varying vec3 v_l1;
-varying vec4 v_m1;
-#endif
-#if NMAP > 2
-varying vec3 v_l2;
-varying vec4 v_m2;
-#endif
-#if NMAP > 3
-varying vec3 v_l3;
-varying vec4 v_m3;
-#endif
-varying vec3 v_tc;
 void main() {
   vec4 eye = gl_ModelViewMatrix * gl_Vertex;
   gl_Position = ftransform();
@@ -115,24 +118,6 @@ uniform sampler2DShadow u_map0;
 uniform sampler2DShadow u_map1;
 uniform sampler2DShadow u_map2;
 uniform sampler2DShadow u_map3;
-varying vec4 v_base;
-#if NMAP > 0
-varying vec3 v_l0;
-varying vec4 v_m0;
-#endif
-#if NMAP > 1
-varying vec3 v_l1;
-varying vec4 v_m1;
-#endif
-#if NMAP > 2
-varying vec3 v_l2;
-varying vec4 v_m2;
-#endif
-#if NMAP > 3
-varying vec3 v_l3;
-varying vec4 v_m3;
-#endif
-varying vec3 v_tc;
 vec3 term(vec3 light, float lit, vec4 tex, float alpha) {
   return lit * alpha >= 0.99 ? light * tex.rgb : vec3(0.0);
 }
@@ -287,10 +272,8 @@ bool DrawnType(int type) {
   }
 }
 
-// renderGeom's transform and shapes, for the types DrawnType() accepts (a plane is never seen
-// from behind here: Supports() leaves those scenes to mjr_render). The builtin shapes come
-// from `shapes` when given (bound as the vertex and normal arrays), else from MuJoCo's
-// display lists, as planes, height fields and meshes always do.
+// renderGeom's transform and display lists, for the types DrawnType() accepts (a plane is
+// never seen from behind here: Supports() leaves those scenes to mjr_render).
 void DrawGeom(const ShadowPass::Gl& gl, const mjvGeom& g, const mjrContext& con) {
   auto draw = [&](BuiltinShape which) { gl.CallList(con.baseBuiltin + which); };
   const float* size = g.size;

@@ -111,8 +111,10 @@ inline constexpr int kMaxLights = 8;  // the fixed-function lights mjr_render ca
 // Texture units: material textures on 0 (2D) and 1 (cube), the shadow maps from 2.
 inline constexpr int kUnit2d = 0, kUnitCube = 1, kUnitMap0 = 2;
 
-/// The vertex and fragment shaders' bodies (after "#version 120" and the NLIGHT and NMAP
-/// defines): MuJoCo's fixed-function lighting per light, shadow lights kept apart.
+/// The vertex and fragment shaders' bodies (after "#version 120", the NLIGHT and NMAP defines
+/// and kVaryings, which both declare): MuJoCo's fixed-function lighting per light, shadow
+/// lights kept apart.
+extern const char* const kVaryings;
 extern const char* const kVertexShader;
 extern const char* const kFragmentShader;
 

@@ -176,6 +176,22 @@ TEST(ShadowPassTest, LeavesWhatItCannotDrawToMujoco) {
   EXPECT_EQ(off.shadow_map_renders(), 0);
 }
 
+TEST(ShadowPassTest, LeavesMujocosDepth) {
+  World w(/*glass=*/false, /*buried=*/true);
+  Renderer mujoco(w.m.get(), Options(false, true));
+  Renderer one(w.m.get(), Options(true, true));
+  for (const char* cam : {"high", "low"}) {
+    std::vector<unsigned char> rgb(3 * kW * kH);
+    std::vector<float> want(kW * kH), got(kW * kH);
+    mujoco.RenderCamera(w.d.get(), w.Camera(cam), rgb.data(), want.data());
+    one.RenderCamera(w.d.get(), w.Camera(cam), rgb.data(), got.data());
+    long apart = 0;
+    for (size_t i = 0; i < want.size(); ++i) apart += std::abs(want[i] - got[i]) > 1e-3f;
+    EXPECT_EQ(apart, 0) << cam;
+  }
+  EXPECT_GT(one.shadow_map_renders(), 0);
+}
+
 TEST(ShadowPassTest, RendersTheSameBytesEachTime) {
   World w;
   Renderer a(w.m.get(), Options(true, true));

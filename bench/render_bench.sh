@@ -10,7 +10,9 @@
 #
 #   bench/render_bench.sh [BUILD_DIR]      (default build)
 #   GL=egl EPISODES=2 RUN_EPISODES=8 WORKERS=2 bench/render_bench.sh
-#   SKIP_CURVE=1 bench/render_bench.sh     (the datagen runs only)
+#   SKIP_CURVE=1 bench/render_bench.sh     (the datagen runs only; SKIP_DATAGEN=1: the curve only)
+#   RUNS="default no_cameras" bench/render_bench.sh   (some of the datagen runs: default,
+#                                          multipass, unfitted, full, no_cameras)
 # GL: osmesa (default) or egl (the EGL device platform: a GPU where one is installed).
 # On llvmpipe each worker renders with one rasteriser thread (LP_NUM_THREADS=1, as datagen sets
 # it with one worker per core), so figures are per core.
@@ -21,6 +23,7 @@ GL=${GL:-osmesa}
 EPISODES=${EPISODES:-2}
 RUN_EPISODES=${RUN_EPISODES:-8}
 WORKERS=${WORKERS:-$(nproc)}
+RUNS=" ${RUNS:-default multipass unfitted full no_cameras} "
 BENCH=$BUILD/bench/datagen_render_quality_bench
 CLI=$BUILD/apps/mlspaces/mlspaces
 for f in "$BENCH" "$CLI"; do
@@ -31,13 +34,16 @@ trap 'rm -rf "$TMP"' EXIT
 
 if [[ -z ${SKIP_CURVE:-} ]]; then
   echo "== render settings: speed and SSIM against full quality ($GL, $EPISODES episodes)"
-  LP_NUM_THREADS=${LP_NUM_THREADS:-1} "$BENCH" --gl "$GL" --episodes "$EPISODES"
+  LP_NUM_THREADS=${LP_NUM_THREADS:-1} stdbuf -oL "$BENCH" --gl "$GL" --episodes "$EPISODES"
 fi
+
+[[ -z ${SKIP_DATAGEN:-} ]] || exit 0
 
 # run NAME EXTRA...: one datagen run; prints wall time and successful episodes per hour.
 run() {
   local name=$1
   shift
+  [[ $RUNS == *" $name "* ]] || return 0
   local t0 t1
   t0=$(date +%s.%N)
   "$CLI" datagen examples/custom_assets/datagen.yaml -q --gl "$GL" --seed 1 --workers "$WORKERS" \

@@ -378,12 +378,71 @@ void ShadowPass::SetLights(unsigned int program, const mjvScene& scn, const floa
   gl.Uniform1i(loc("u_texcube"), kUnitCube);
 }
 
-bool ShadowPass::OwnFrame(const mjvScene& scn, const mjrContext& con) const {
-  if (!scn.flags[mjRND_SKYBOX]) return true;
-  for (int i = 0; i < con.ntexture; ++i) {
-    if (con.textureType[i] == mjTEXTURE_SKYBOX) return false;
+void ShadowPass::DrawSkybox(const mjvScene& scn, const mjrContext& con) {
+  Gl& gl = *gl_;
+  if (!scn.flags[mjRND_SKYBOX]) return;
+  // As mjr_render after its shadows: a cylinder around the head with the first skybox
+  // texture (the one mjr_makeContext puts on the last material), then the haze of the first
+  // infinite plane; unlit, inner faces, behind the geoms through the depth test.
+  bool has_skybox = false;
+  for (int i = 0; i < con.ntexture && !has_skybox; ++i) {
+    has_skybox = con.textureType[i] == mjTEXTURE_SKYBOX;
   }
-  return true;
+  if (!has_skybox) return;
+  const int texid = con.mat_texid[mjNTEXROLE * (mjMAXMATERIAL - 1) + mjTEXROLE_RGB];
+  float head[3];
+  HeadPos(scn, head);
+  const float distance = mjv_averageCamera(scn.camera, scn.camera + 1).frustum_far * 0.70f;
+  gl.UseProgram(0);
+  gl.Disable(GL_LIGHTING);
+  gl.Disable(GL_COLOR_MATERIAL);
+  gl.CullFace(GL_FRONT);
+  gl.PushMatrix();
+  gl.Translatef(head[0], head[1], head[2]);
+  gl.Scalef(distance, distance, distance);
+  gl.ActiveTexture(GL_TEXTURE0);
+  if (texid >= 0) {
+    gl.Enable(GL_TEXTURE_CUBE_MAP);
+    const GLenum coords[3] = {GL_S, GL_T, GL_R};
+    // mjr_render's mapping: rotated 90 degrees about x.
+    const float planes[3][4] = {{1, 0, 0, 0}, {0, 0, 1, 0}, {0, -1, 0, 0}};
+    for (int k = 0; k < 3; ++k) {
+      gl.Enable(GL_TEXTURE_GEN_S + k);
+      gl.TexGeni(coords[k], GL_TEXTURE_GEN_MODE, GL_OBJECT_LINEAR);
+      gl.TexGenfv(coords[k], GL_OBJECT_PLANE, planes[k]);
+    }
+    gl.BindTexture(GL_TEXTURE_CUBE_MAP, con.texture[texid]);
+  }
+  gl.Color4f(1, 1, 1, 1);
+  gl.CallList(con.baseBuiltin + kShapeCylinder);
+  gl.Disable(GL_TEXTURE_CUBE_MAP);
+  for (int k = 0; k < 3; ++k) gl.Disable(GL_TEXTURE_GEN_S + k);
+  if (scn.flags[mjRND_HAZE]) {
+    for (int j = 0; j < scn.ngeom; ++j) {
+      const mjvGeom& g = scn.geoms[j];
+      if (g.type != mjGEOM_PLANE || g.size[0] != 0 || g.size[1] != 0) continue;
+      const float* r = g.mat;
+      const float elevation = ((head[0] - g.pos[0]) * r[2] + (head[1] - g.pos[1]) * r[5] +
+                               (head[2] - g.pos[2]) * r[8]) /
+                              distance;
+      if (elevation >= 0) {
+        const float rotation[16] = {r[0], r[3], r[6], 0, r[1], r[4], r[7], 0,
+                                    r[2], r[5], r[8], 0, 0,    0,    0,    1};
+        gl.MultMatrixf(rotation);
+        gl.Translatef(0, 0, -elevation);
+        gl.Scalef(1, 1, elevation);
+        gl.Enable(GL_BLEND);
+        gl.BlendFunc(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA);
+        gl.CallList(con.baseBuiltin + kShapeHaze);
+        gl.Disable(GL_BLEND);
+      }
+      break;  // the first infinite plane only
+    }
+  }
+  gl.PopMatrix();
+  gl.Enable(GL_LIGHTING);
+  gl.Enable(GL_COLOR_MATERIAL);
+  gl.CullFace(GL_BACK);
 }
 
 void ShadowPass::BeginFrame(const mjrRect& viewport, const mjvScene& scn, const mjrContext& con,
@@ -509,35 +568,10 @@ void ShadowPass::Render(const mjrRect& viewport, mjvScene* scn, const mjrContext
     const mjvGeom& g = scn->geoms[j];
     if ((g.type == mjGEOM_PLANE || g.type == mjGEOM_BOX) && g.reflectance > 0) reflective = j;
   }
+  // The whole frame: clear, reflection, the maps, one lit pass, the skybox.
   float cam_project[16], cam_view[16];
-  const bool own = OwnFrame(*scn, *con);
-  if (own) {
-    // Without a skybox, the whole frame: clear, reflection, then the pass below.
-    BeginFrame(viewport, *scn, *con, cam_project, cam_view);
-    DrawReflection(*scn, *con, reflective, cam_view);
-  } else {
-    // mjr_render without its shadows (reflection, skybox, every light), its opaque geoms
-    // drawn over below through its depth buffer. The reflective geom is black there, so that
-    // the pass below adds it over its reflection, as mjr_render's passes sum it.
-    float saved[4] = {0, 0, 0, 0};
-    if (reflective >= 0) {
-      mjvGeom& g = scn->geoms[reflective];
-      std::memcpy(saved, g.rgba, 3 * sizeof(float));
-      saved[3] = g.specular;
-      g.rgba[0] = g.rgba[1] = g.rgba[2] = 0;
-      g.specular = 0;
-    }
-    scn->flags[mjRND_SHADOW] = 0;
-    mjr_render(viewport, scn, con);
-    scn->flags[mjRND_SHADOW] = 1;
-    if (reflective >= 0) {
-      mjvGeom& g = scn->geoms[reflective];
-      std::memcpy(g.rgba, saved, 3 * sizeof(float));
-      g.specular = saved[3];
-    }
-    gl.GetFloatv(GL_PROJECTION_MATRIX, cam_project);
-    gl.GetFloatv(GL_MODELVIEW_MATRIX, cam_view);
-  }
+  BeginFrame(viewport, *scn, *con, cam_project, cam_view);
+  DrawReflection(*scn, *con, reflective, cam_view);
 
   std::vector<int> lights;  // shadow-casting lights, in map order
   for (int i = 0; i < scn->nlight; ++i) {
@@ -552,12 +586,10 @@ void ShadowPass::Render(const mjrRect& viewport, mjvScene* scn, const mjrContext
   gl.LoadMatrixf(cam_project);
   gl.MatrixMode(GL_MODELVIEW);
   gl.LoadMatrixf(cam_view);
-  // Own frame: the pass writes depth, the reflective geom first (over its reflection, as
-  // mjr_render draws it). Over mjr_render's frame: its depth buffer says which fragments are
-  // in front (the same display lists under the same matrices give the same depths).
+  // The pass writes depth (mjr_render's: the same display lists under the same matrices).
   gl.Enable(GL_DEPTH_TEST);
   gl.DepthFunc(GL_GEQUAL);
-  gl.DepthMask(own ? GL_TRUE : GL_FALSE);
+  gl.DepthMask(GL_TRUE);
   int nlight = 0;
   for (int i = 0; i < scn->nlight; ++i) nlight += Supported(scn->lights[i]);
   const GLuint program = Program(nlight, static_cast<int>(lights.size()));
@@ -585,7 +617,7 @@ void ShadowPass::Render(const mjrRect& viewport, mjvScene* scn, const mjrContext
   // reflective geom added over its reflection, then the rest (mjr_render draws the reflective
   // geom first: what is behind its plane stays hidden by it).
   std::vector<char> before(scn->ngeom, 0);
-  if (own && reflective >= 0) {
+  if (reflective >= 0) {
     const mjvGeom& r = scn->geoms[reflective];
     float normal[3], origin[3];
     for (int i = 0; i < 3; ++i) {
@@ -639,6 +671,7 @@ void ShadowPass::Render(const mjrRect& viewport, mjvScene* scn, const mjrContext
   gl.ActiveTexture(GL_TEXTURE0 + kUnitCube);
   gl.BindTexture(GL_TEXTURE_CUBE_MAP, 0);
   gl.ActiveTexture(GL_TEXTURE0);
+  DrawSkybox(*scn, *con);
 }
 
 }  // namespace mlspaces::sim

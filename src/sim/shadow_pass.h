@@ -3,11 +3,11 @@
 //
 // MuJoCo's mjr_render draws the scene twice more for each shadow-casting light (its shadow
 // map, then the scene lit by that light alone, added on top), for every camera. ShadowPass
-// renders the same picture with fewer passes: mjr_render without shadows (reflection, every
-// light, skybox), then one pass over the opaque geoms whose shader computes MuJoCo's
-// fixed-function lighting per light and looks each shadow light up in its own map; the maps
-// are drawn once per scene state, so the cameras of one state share them. The reflective
-// geom keeps MuJoCo's reflection: the pass takes the shadowed light off it instead.
+// renders the same picture with fewer passes and no mjr_render: mjr_render's clear and
+// reflection (the mirrored scene through the stencil), then one pass over the opaque geoms
+// whose shader computes MuJoCo's fixed-function lighting per light and looks each shadow
+// light up in its own map, then mjr_render's skybox and haze. The maps are drawn once per
+// scene state, so the cameras of one state share them.
 #include <mujoco/mujoco.h>
 
 #include <array>
@@ -52,9 +52,9 @@ class ShadowPass {
  private:
   // The shader program for nlight lights of which nmap cast shadows (built on first use).
   unsigned int Program(int nlight, int nmap);
-  // Without a skybox the pass draws the whole frame itself (no mjr_render).
-  bool OwnFrame(const mjvScene& scn, const mjrContext& con) const;
-  // mjr_render's GL state, clear and camera for the own frame; the camera's matrices out.
+  // mjr_render's skybox and haze behind what the pass drew (none without a skybox texture).
+  void DrawSkybox(const mjvScene& scn, const mjrContext& con);
+  // mjr_render's GL state, clear and camera; the camera's matrices out.
   void BeginFrame(const mjrRect& viewport, const mjvScene& scn, const mjrContext& con,
                   float* cam_project, float* cam_view);
   // mjr_render's reflection of the scene in the reflective geom (index, -1 for none).

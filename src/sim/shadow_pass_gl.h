@@ -33,6 +33,9 @@ namespace mlspaces::sim {
   X(BindTexture)                   \
   X(BlendFunc)                     \
   X(CallList)                      \
+  X(Color4f)                       \
+  X(TexGenfv)                      \
+  X(TexGeni)                       \
   X(ClearColor)                    \
   X(ClearDepth)                    \
   X(ClearStencil)                  \

@@ -19,11 +19,16 @@ constexpr int kW = 320, kH = 240;
 
 // A reflective checker floor, a textured box, a capsule and a ball; a shadow-casting sun, a
 // shadow-casting spot lamp and a fill light without shadows. `buried` adds a block half sunk
-// in the floor and a ball under it (which the floor hides), `glass` a transparent geom.
-std::string Xml(bool glass, bool buried = false) {
+// in the floor and a ball under it (which the floor hides), `glass` a transparent geom, `sky`
+// a skybox over an infinite floor (with MuJoCo's haze on the horizon).
+std::string Xml(bool glass, bool buried = false, bool sky = false) {
   return std::string(R"(
 <mujoco>
-  <asset>
+  <asset>)") +
+         (sky ? R"(<texture type="skybox" builtin="gradient" rgb1="0.3 0.5 0.8" rgb2="0 0 0"
+                            width="64" height="384"/>)"
+              : "") +
+         R"(
     <texture name="grid" type="2d" builtin="checker" rgb1="0.7 0.7 0.7" rgb2="0.3 0.35 0.4"
              width="256" height="256"/>
     <material name="floor" texture="grid" texrepeat="4 4" texuniform="true" reflectance="0.2"/>
@@ -38,7 +43,8 @@ std::string Xml(bool glass, bool buried = false) {
            castshadow="true" diffuse="0.5 0.4 0.3"/>
     <light name="fill" pos="0 0 3" dir="0 0 -1" directional="true" castshadow="false"
            diffuse="0.2 0.2 0.2"/>
-    <geom name="floor" type="plane" size="3 3 0.1" material="floor"/>
+    <geom name="floor" type="plane" size=")" +
+         (sky ? "0 0" : "3 3") + R"( 0.1" material="floor"/>
     <geom name="box" type="box" pos="0 0 0.15" size="0.1 0.1 0.15" material="crate"/>
     <geom name="arm" type="capsule" fromto="0.4 0.2 0.3 0.7 0.1 0.6" size="0.04"
           rgba="0 0 1 1"/>
@@ -47,7 +53,7 @@ std::string Xml(bool glass, bool buried = false) {
       <geom type="sphere" size="0.08" rgba="0.9 0.9 0.2 1"/>
     </body>
     <camera name="high" pos="1.2 -1.4 1.3" xyaxes="0.76 0.65 0 -0.4 0.47 0.78" fovy="50"/>
-    <camera name="low" pos="-1.3 -0.6 0.5" xyaxes="0.42 -0.91 0 0.2 0.09 0.97" fovy="60"/>)") +
+    <camera name="low" pos="-1.3 -0.6 0.5" xyaxes="0.42 -0.91 0 0.2 0.09 0.97" fovy="60"/>)" +
          (buried ? R"(<geom name="sunk" type="box" pos="0.35 -0.35 0.02" size="0.08 0.08 0.06"
                           rgba="0.2 0.8 0.3 1"/>
                     <geom name="under" type="sphere" pos="-0.2 -0.3 -0.3" size="0.2"
@@ -64,8 +70,8 @@ std::string Xml(bool glass, bool buried = false) {
 struct World {
   ModelPtr m;
   DataPtr d;
-  explicit World(bool glass = false, bool buried = false) {
-    m = LoadModelFromMemory(Xml(glass, buried));
+  explicit World(bool glass = false, bool buried = false, bool sky = false) {
+    m = LoadModelFromMemory(Xml(glass, buried, sky));
     d = MakeData(m.get());
     mj_forward(m.get(), d.get());
   }
@@ -176,20 +182,52 @@ TEST(ShadowPassTest, LeavesWhatItCannotDrawToMujoco) {
   EXPECT_EQ(off.shadow_map_renders(), 0);
 }
 
-TEST(ShadowPassTest, LeavesMujocosDepth) {
-  World w(/*glass=*/false, /*buried=*/true);
+TEST(ShadowPassTest, DrawsMujocosSkyboxAndHaze) {
+  World w(/*glass=*/false, /*buried=*/false, /*sky=*/true);
+  World bare;
   Renderer mujoco(w.m.get(), Options(false, true));
   Renderer one(w.m.get(), Options(true, true));
-  for (const char* cam : {"high", "low"}) {
-    std::vector<unsigned char> rgb(3 * kW * kH);
-    std::vector<float> want(kW * kH), got(kW * kH);
-    mujoco.RenderCamera(w.d.get(), w.Camera(cam), rgb.data(), want.data());
-    one.RenderCamera(w.d.get(), w.Camera(cam), rgb.data(), got.data());
-    long apart = 0;
-    for (size_t i = 0; i < want.size(); ++i) apart += std::abs(want[i] - got[i]) > 1e-3f;
-    EXPECT_EQ(apart, 0) << cam;
+  Renderer bare_mujoco(bare.m.get(), Options(false, true));
+  for (const bool haze : {true, false}) {
+    mujoco.scene().flags[mjRND_HAZE] = one.scene().flags[mjRND_HAZE] = haze ? 1 : 0;
+    const std::vector<unsigned char> want = Shoot(mujoco, w, "low");
+    const std::vector<unsigned char> got = Shoot(one, w, "low");
+    const Difference d = Compare(want, got, 24);
+    std::printf("skybox%s: one pass against MuJoCo: mean %.3f levels, %.4f of pixels > 24 apart\n",
+                haze ? " and haze" : "", d.mean, d.share);
+    EXPECT_LT(d.mean, 1.0) << "haze " << haze;
+    EXPECT_LT(d.share, 0.005) << "haze " << haze;
+    if (!haze) {
+      // The sky fills a good part of the low camera's view (black without a skybox)...
+      EXPECT_GT(Compare(want, Shoot(bare_mujoco, bare, "low"), 24).share, 0.1);
+    } else {
+      // ... and the haze changes the horizon.
+      mujoco.scene().flags[mjRND_HAZE] = 0;
+      EXPECT_GT(Compare(want, Shoot(mujoco, w, "low"), 8).share, 0.005);
+    }
   }
   EXPECT_GT(one.shadow_map_renders(), 0);
+}
+
+TEST(ShadowPassTest, LeavesMujocosDepth) {
+  for (const bool sky : {false, true}) {
+    World w(/*glass=*/false, /*buried=*/!sky, sky);
+    Renderer mujoco(w.m.get(), Options(false, true));
+    Renderer one(w.m.get(), Options(true, true));
+    for (const char* cam : {"high", "low"}) {
+      std::vector<unsigned char> rgb(3 * kW * kH);
+      std::vector<float> want(kW * kH), got(kW * kH);
+      mujoco.RenderCamera(w.d.get(), w.Camera(cam), rgb.data(), want.data());
+      one.RenderCamera(w.d.get(), w.Camera(cam), rgb.data(), got.data());
+      long apart = 0;
+      // A millimetre, or a thousandth beyond a metre (the skybox at 55 m: a few depth steps).
+      for (size_t i = 0; i < want.size(); ++i) {
+        apart += std::abs(want[i] - got[i]) > 1e-3f * std::max(1.0f, want[i]);
+      }
+      EXPECT_EQ(apart, 0) << cam << (sky ? " with a skybox" : "");
+    }
+    EXPECT_GT(one.shadow_map_renders(), 0);
+  }
 }
 
 TEST(ShadowPassTest, RendersTheSameBytesEachTime) {

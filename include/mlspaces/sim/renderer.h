@@ -96,10 +96,11 @@ struct MLSPACES_API RenderOptions {
   /// fitted square (measured on the model's initial state, plus a quarter): the same shadows
   /// for less work (docs/sim.md, "Render speed and quality"). false: MuJoCo's fixed square.
   bool fit_shadows = false;
-  /// Draw the shadows in one pass (sim/shadow_pass.h): mjr_render without shadows, then the
-  /// opaque geoms once more with every light and a map per shadow light, the maps drawn once
-  /// per scene state (so shared by the cameras of one state). Scenes it cannot draw as
-  /// mjr_render would (transparent geoms, labels, fog, ...) still go through mjr_render.
+  /// Draw the shadows in one pass (sim/shadow_pass.h): mjr_render's clear, reflection and
+  /// skybox around one pass of the opaque geoms with every light and a map per shadow light,
+  /// the maps drawn once per scene state (so shared by the cameras of one state). Scenes it
+  /// cannot draw as mjr_render would (transparent geoms, labels, fog, ...) go through
+  /// mjr_render.
   bool one_pass_shadows = false;
 };
 

@@ -656,8 +656,14 @@ Renderer::Renderer(const mjModel* m, RenderOptions options) : impl_(std::make_un
                         ")");
     }
     if (options.one_pass_shadows) {
-      s.shadow_pass =
-          std::make_unique<ShadowPass>(backend == GlBackend::kOsMesa ? &OsMesaProc : &EglProc, mc);
+      try {
+        s.shadow_pass = std::make_unique<ShadowPass>(
+            backend == GlBackend::kOsMesa ? &OsMesaProc : &EglProc, mc);
+      } catch (const Error& e) {
+        Fail(backend, std::string(e.what()) +
+                          " (one_pass_shadows off, camera_config.one_pass_shadows: false in a"
+                          " datagen config, renders with MuJoCo's own passes)");
+      }
     }
   } catch (const MujocoError& e) {
     Fail(backend, std::string("MuJoCo cannot make its render context: ") + e.what());

@@ -104,7 +104,9 @@ TEST(EpisodePicturesTest, FramesAtEachPhaseChangeFromTheVideo) {
     names.push_back(f.phase_name);
     EXPECT_EQ(f.image.width, 96);
     EXPECT_EQ(f.image.height, 64);
-    if (i > 0) EXPECT_GT(f.step, frames.frames[i - 1].step);
+    if (i > 0) {
+      EXPECT_GT(f.step, frames.frames[i - 1].step);
+    }
   }
   // The pick's phases, in order (docs/datagen.md, "The planner").
   const auto at = [&](const std::string& n) {

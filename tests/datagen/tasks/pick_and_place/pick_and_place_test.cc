@@ -201,7 +201,9 @@ TEST(PickAndPlaceRunTest, EpisodesPerReceptacleRotatesTheReceptacle) {
         if (e + per < 5) {
           EXPECT_NE(by_episode[e], by_episode[e + per]) << name << " episode " << e;
         }
-        if (per == 2 && e % 2 == 1) EXPECT_EQ(by_episode[e], by_episode[e - 1]) << name;
+        if (per == 2 && e % 2 == 1) {
+          EXPECT_EQ(by_episode[e], by_episode[e - 1]) << name;
+        }
       }
     }
   }

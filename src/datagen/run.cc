@@ -259,6 +259,7 @@ class ItemRunner {
       runner_ =
           std::make_unique<EpisodeRunner>(*env_, sampler_, registry_, config_, runner_options);
       env_house_ = item.house;
+      one_pass_told_ = false;
     }
     int64_t sequential_rejects = 0;
     // Attempts of this invocation, and those that failed for an input reason (the first kept).
@@ -267,6 +268,7 @@ class ItemRunner {
     for (int64_t a = next; kept < item.episodes && a < item.max_attempts; ++a) {
       EpisodeResult result = runner_->Run(item.first_episode + a);
       ++ran;
+      TellOnePassMissed(scene);
       if (result.input_error) {
         ++input_failed;
         if (!input_error) input_error = result.input_error;
@@ -337,8 +339,23 @@ class ItemRunner {
   TaskSampler& sampler_;
   std::string hash_;  // DataConfigHashHex(config_)
   std::optional<Env> env_;
+  // Once per scene: frames with shadows that one pass could not draw (they cost about twice
+  // as much through mjr_render), and why. The same text from every worker: said once.
+  void TellOnePassMissed(const std::string& scene) {
+    const CameraRecorder* cameras = runner_->cameras();
+    if (one_pass_told_ || cameras == nullptr || cameras->renderer().one_pass_missed().empty()) {
+      return;
+    }
+    emit_(Json{{"warning", scene + ": one-pass shadows cannot draw its camera frames (" +
+                               cameras->renderer().one_pass_missed() +
+                               "): they take MuJoCo's passes, about twice the render time"
+                               " (docs/sim.md, \"Shadows in one pass\")"}});
+    one_pass_told_ = true;
+  }
+
   std::unique_ptr<EpisodeRunner> runner_;
   int64_t env_house_ = -1;
+  bool one_pass_told_ = false;
 };
 
 // A forked worker: runs its items, reports through `fd`; returns the exit status.
@@ -549,9 +566,13 @@ RunReport RunDatagen(const ExperimentConfig& input, const TaskSamplerRegistry& s
   // input stops the run sooner: its error line alone says why).
   bar.Start(static_cast<size_t>(done_episodes), progress_note());
   // Every message of every worker comes through here: the journal's only writer.
+  std::set<std::string> said;  // warnings logged
   auto handle = [&](const Json& m) {
     if (m.contains("warning")) {
-      log(LogLevel::kWarning, m["warning"].get<std::string>());
+      // Workers on the same scene say the same: once is enough.
+      if (said.insert(m["warning"].get<std::string>()).second) {
+        log(LogLevel::kWarning, m["warning"].get<std::string>());
+      }
       return;
     }
     const WorkItem& item = items.at(m["item"].get<size_t>());

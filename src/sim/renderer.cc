@@ -529,6 +529,8 @@ struct Renderer::Impl {
   float default_clip = 0;
   // RenderOptions::one_pass_shadows; its GL objects are freed before MuJoCo's.
   std::unique_ptr<ShadowPass> shadow_pass;
+  long long frames = 0, one_pass_frames = 0;
+  std::string one_pass_missed;  // why the last frame one pass could not draw was not drawn so
 
   ~Impl() {
     if (context_made && gl) {
@@ -736,9 +738,23 @@ void Renderer::Draw(unsigned char* rgb, float* depth_m) {
   const mjrRect viewport{0, 0, w, h};
   mjr_setBuffer(mjFB_OFFSCREEN, &s.con);
   if (s.options.fit_shadows) FitShadowMaps(s.model.get(), &s.scn, &s.con, s.default_clip);
-  if (s.shadow_pass && s.shadow_pass->Supports(s.scn, s.con)) {
+  ++s.frames;
+  int geom = -1;
+  const bool one_pass = s.shadow_pass && ShadowPass::HasShadows(s.scn, s.con);
+  const char* missed = one_pass ? s.shadow_pass->Unsupported(s.scn, s.con, &geom) : nullptr;
+  if (one_pass && missed == nullptr) {
     s.shadow_pass->Render(viewport, &s.scn, &s.con);
+    ++s.one_pass_frames;
   } else {
+    if (missed != nullptr) {
+      s.one_pass_missed = missed;
+      const mjvGeom* g = geom >= 0 ? &s.scn.geoms[geom] : nullptr;
+      if (g != nullptr && g->objtype == mjOBJ_GEOM) {
+        const std::string name = MjName(s.model.get(), mjOBJ_GEOM, g->objid);
+        s.one_pass_missed +=
+            name.empty() ? " (geom " + std::to_string(g->objid) + ")" : " ('" + name + "')";
+      }
+    }
     mjr_render(viewport, &s.scn, &s.con);
   }
   mjr_readPixels(rgb, depth_m, viewport, &s.con);
@@ -797,6 +813,9 @@ int Renderer::height() const { return impl_->options.height; }
 GlBackend Renderer::backend() const { return impl_->options.backend; }
 int Renderer::egl_device() const { return impl_->egl_device; }
 int Renderer::shadow_size() const { return impl_->con.shadowSize; }
+long long Renderer::frames() const { return impl_->frames; }
+long long Renderer::one_pass_frames() const { return impl_->one_pass_frames; }
+const std::string& Renderer::one_pass_missed() const { return impl_->one_pass_missed; }
 long long Renderer::shadow_map_renders() const {
   return impl_->shadow_pass ? impl_->shadow_pass->map_renders() : 0;
 }

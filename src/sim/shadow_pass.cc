@@ -101,29 +101,48 @@ ShadowPass::~ShadowPass() {
   for (const auto& [key, program] : programs_) gl.DeleteProgram(program);
 }
 
-bool ShadowPass::Supports(const mjvScene& scn, const mjrContext& con) const {
+bool ShadowPass::HasShadows(const mjvScene& scn, const mjrContext& con) {
   if (!scn.flags[mjRND_SHADOW] || !con.shadowFBO || con.shadowSize <= 2) return false;
-  if (scn.flags[mjRND_FOG] || scn.flags[mjRND_SEGMENT] || scn.flags[mjRND_WIREFRAME] ||
-      scn.flags[mjRND_IDCOLOR] || scn.flags[mjRND_DEPTH]) {
-    return false;
+  for (int i = 0; i < scn.nlight; ++i) {
+    if (scn.lights[i].castshadow) return true;
   }
-  if (scn.stereo != mjSTEREO_NONE || scn.framewidth > 0 || scn.enabletransform) return false;
-  if (scn.nlight > kMaxLights || scn.nskin > 0) return false;
+  return false;
+}
+
+const char* ShadowPass::Unsupported(const mjvScene& scn, const mjrContext& con, int* geom) const {
+  if (geom != nullptr) *geom = -1;
+  if (!HasShadows(scn, con)) return "no shadows";
+  if (scn.flags[mjRND_FOG]) return "fog";
+  if (scn.flags[mjRND_SEGMENT] || scn.flags[mjRND_IDCOLOR]) return "segmentation";
+  if (scn.flags[mjRND_WIREFRAME]) return "wireframe";
+  if (scn.flags[mjRND_DEPTH]) return "depth rendering";
+  if (scn.stereo != mjSTEREO_NONE) return "stereo";
+  if (scn.framewidth > 0) return "a frame";
+  if (scn.enabletransform) return "a scene transform";
+  if (scn.nskin > 0) return "skins";
+  if (scn.nlight > kMaxLights) return "more than 8 lights";
   int shadow_lights = 0;
   for (int i = 0; i < scn.nlight; ++i) {
     // MuJoCo 3.5 enables point and image lights with the last position set: left to it.
-    if (!Supported(scn.lights[i])) return false;
+    if (!Supported(scn.lights[i])) return "a point or image light";
     shadow_lights += scn.lights[i].castshadow;
   }
-  if (shadow_lights == 0 || shadow_lights > kMaxShadowLights) return false;
+  if (shadow_lights > kMaxShadowLights) return "more than 4 shadow-casting lights";
   float head[3];
   HeadPos(scn, head);
   for (int i = 0; i < scn.ngeom; ++i) {
     const mjvGeom& g = scn.geoms[i];
-    if (!DrawnType(g.type) || g.label[0] != '\0') return false;
-    if (g.rgba[3] < 0.995f || (g.type == mjGEOM_PLANE && Behind(head, g))) return false;
+    const char* why = !DrawnType(g.type)                          ? "a geom type it does not draw"
+                      : g.label[0] != '\0'                        ? "a label"
+                      : g.rgba[3] < 0.995f                        ? "a transparent geom"
+                      : g.type == mjGEOM_PLANE && Behind(head, g) ? "a plane seen from behind"
+                                                                  : nullptr;
+    if (why != nullptr) {
+      if (geom != nullptr) *geom = i;
+      return why;
+    }
   }
-  return true;
+  return nullptr;
 }
 
 void ShadowPass::DrawMaps(const mjvScene& scn, const mjrContext& con,

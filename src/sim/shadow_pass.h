@@ -33,14 +33,18 @@ class ShadowPass {
   ShadowPass(const ShadowPass&) = delete;
   ShadowPass& operator=(const ShadowPass&) = delete;
 
-  /// Whether Render draws `scn` as mjr_render would: shadows on, one to four shadow-casting
-  /// lights, at most eight lights, no transparent geom (nor plane seen from behind), no
-  /// label, fog, segmentation, wireframe, stereo, frame or scene transform, and only geom
-  /// types it draws (planes, height fields, spheres, capsules, ellipsoids, cylinders, boxes,
-  /// meshes). Otherwise the caller renders with mjr_render.
-  bool Supports(const mjvScene& scn, const mjrContext& con) const;
+  /// Whether mjr_render would draw shadows in `scn`: shadows on, a shadow map, a light that
+  /// casts shadows. Without, one pass has nothing to save.
+  static bool HasShadows(const mjvScene& scn, const mjrContext& con);
+  /// Why Render cannot draw `scn` as mjr_render would, or null when it can: shadows
+  /// (HasShadows), at most four shadow-casting lights, at most eight lights, no transparent geom
+  /// (nor plane seen from behind), no label, fog, segmentation, wireframe, stereo, frame or scene
+  /// transform, and only geom types it draws (planes, height fields, spheres, capsules, ellipsoids,
+  /// cylinders, boxes, meshes). `geom` (may be null) gets the geom the reason is about, or -1.
+  /// When not null, the caller renders with mjr_render. The text is static.
+  const char* Unsupported(const mjvScene& scn, const mjrContext& con, int* geom) const;
 
-  /// Renders `scn` (Supports() true) into `con`'s current buffer, as mjr_render(viewport,
+  /// Renders `scn` (Unsupported() null) into `con`'s current buffer, as mjr_render(viewport,
   /// scn, con) with its shadows. `scn` is modified as mjr_render modifies it.
   void Render(const mjrRect& viewport, mjvScene* scn, const mjrContext* con);
 

@@ -273,7 +273,7 @@ bool DrawnType(int type) {
 }
 
 // renderGeom's transform and display lists, for the types DrawnType() accepts (a plane is
-// never seen from behind here: Supports() leaves those scenes to mjr_render).
+// never seen from behind here: Unsupported() leaves those scenes to mjr_render).
 void DrawGeom(const ShadowPass::Gl& gl, const mjvGeom& g, const mjrContext& con) {
   auto draw = [&](BuiltinShape which) { gl.CallList(con.baseBuiltin + which); };
   const float* size = g.size;

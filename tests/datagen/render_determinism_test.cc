@@ -64,6 +64,34 @@ TEST_P(RenderDeterminismTest, SameConfigAndSeedGiveTheSameVideoBytes) {
   }
 }
 
+// A scene one pass cannot draw (a pane of glass): the run goes on through MuJoCo's passes and
+// says so once, naming the geom, though two workers render it.
+TEST(RenderDeterminismTest, AFrameOnePassCannotDrawIsToldOncePerScene) {
+  testing::TempDir dir;
+  fs::copy(kExample, dir / "p", fs::copy_options::recursive);
+  std::string xml = testing::Slurp(dir / "p/scene.xml");
+  xml.replace(xml.find("  </worldbody>"), 0,
+              "    <geom name=\"pane\" type=\"box\" pos=\"1.5 1.5 0.5\" size=\"0.2 0.01 0.2\""
+              " rgba=\"0.6 0.8 1 0.3\" contype=\"0\" conaffinity=\"0\"/>\n");
+  testing::WriteText(dir / "p/scene.xml", xml);
+  const testing::CliResult r = testing::RunCli(
+      {"datagen", (dir / "p/datagen.yaml").string(), "--output", (dir / "run").string(),
+       "--episodes", "2", "--seed", "4", "-q", "--workers", "2", "--set",
+       "task_sampler_config.episodes_per_batch=1", "--set", "camera_config.img_resolution=[96, 64]",
+       "--set", "camera_config.shadow_size=256"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(testing::FilesByExtension(dir / "run", {".mp4"}).size(), 4u);
+  const std::string told =
+      "house_0: one-pass shadows cannot draw its camera frames (a transparent geom ('pane'))";
+  const size_t at = r.err.find(told);
+  ASSERT_NE(at, std::string::npos) << r.err;
+  EXPECT_EQ(r.err.find(told, at + 1), std::string::npos) << "told twice: " << r.err;
+  // The tutorial itself: nothing to tell.
+  const testing::CliResult plain = RunTutorial(dir / "plain", "osmesa", 2);
+  ASSERT_EQ(plain.exit_code, 0) << plain.err;
+  EXPECT_EQ(plain.err.find("one-pass shadows"), std::string::npos) << plain.err;
+}
+
 INSTANTIATE_TEST_SUITE_P(Renderers, RenderDeterminismTest, ::testing::Values("osmesa", "egl"),
                          [](const auto& info) { return info.param; });
 

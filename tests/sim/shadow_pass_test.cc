@@ -145,6 +145,8 @@ TEST(ShadowPassTest, DrawsMujocosShadowsInOnePass) {
       }
       EXPECT_EQ(mujoco.shadow_map_renders(), 0);
       EXPECT_GT(one.shadow_map_renders(), 0);
+      EXPECT_EQ(one.one_pass_frames(), one.frames());
+      EXPECT_EQ(one.one_pass_missed(), "");
     }
   }
 }
@@ -174,12 +176,26 @@ TEST(ShadowPassTest, LeavesWhatItCannotDrawToMujoco) {
   Renderer one(w.m.get(), Options(true, false));
   EXPECT_EQ(Shoot(one, w, "high"), Shoot(mujoco, w, "high"));
   EXPECT_EQ(one.shadow_map_renders(), 0);
-  // Shadows off: nothing for the pass to do.
+  // It says why, naming the geom.
+  EXPECT_EQ(one.frames(), 1);
+  EXPECT_EQ(one.one_pass_frames(), 0);
+  EXPECT_EQ(one.one_pass_missed(), "a transparent geom ('glass')");
+  EXPECT_EQ(mujoco.one_pass_missed(), "");  // one pass off: nothing missed
+  // Shadows off: nothing for the pass to do, and nothing missed.
   World plain;
   Renderer off(plain.m.get(), Options(true, false));
   Renderer off_mujoco(plain.m.get(), Options(false, false));
   EXPECT_EQ(Shoot(off, plain, "high", false), Shoot(off_mujoco, plain, "high", false));
   EXPECT_EQ(off.shadow_map_renders(), 0);
+  EXPECT_EQ(off.one_pass_missed(), "");
+  // Then fog, which the pass does not draw; without it the pass draws again.
+  Shoot(off, plain, "high");
+  EXPECT_EQ(off.one_pass_frames(), 1);
+  off.scene().flags[mjRND_FOG] = 1;
+  Shoot(off, plain, "high");
+  EXPECT_EQ(off.one_pass_missed(), "fog");
+  EXPECT_EQ(off.frames(), 3);
+  EXPECT_EQ(off.one_pass_frames(), 1);
 }
 
 TEST(ShadowPassTest, DrawsMujocosSkyboxAndHaze) {

@@ -112,6 +112,8 @@ class MLSPACES_API CameraRecorder {
   // Access
 
   const CameraSystem& cameras() const { return system_; }
+  /// The renderer (its frame counts, sim::Renderer::one_pass_missed()); valid while this lives.
+  const sim::Renderer& renderer() const { return *renderer_; }
   /// Seconds spent rendering / encoding so far, over every episode.
   double render_seconds() const { return render_seconds_; }
   double encode_seconds() const { return encode_seconds_; }

@@ -176,6 +176,14 @@ class MLSPACES_API Renderer {
   /// With one_pass_shadows: how many times the shadow maps were drawn (once per scene state,
   /// whatever the cameras); 0 otherwise, and for frames rendered by mjr_render.
   long long shadow_map_renders() const;
+  /// Frames rendered so far, and of those the ones one pass drew (one_pass_shadows); the
+  /// rest went through mjr_render (frames without shadows too: one pass saves nothing there).
+  long long frames() const;
+  long long one_pass_frames() const;
+  /// With one_pass_shadows: why the last frame with shadows that went through mjr_render
+  /// could not be drawn in one pass ("a transparent geom ('window')", "fog", ...); "" when none
+  /// did.
+  const std::string& one_pass_missed() const;
   /// The abstract scene: its flags (scene().flags[mjRND_SHADOW], mjRND_REFLECTION,
   /// mjRND_SKYBOX, ...) may be changed between renders. Owned by the Renderer, valid while
   /// it lives.

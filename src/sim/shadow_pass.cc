@@ -134,7 +134,6 @@ const char* ShadowPass::Unsupported(const mjvScene& scn, const mjrContext& con, 
     const mjvGeom& g = scn.geoms[i];
     const char* why = !DrawnType(g.type)                          ? "a geom type it does not draw"
                       : g.label[0] != '\0'                        ? "a label"
-                      : g.rgba[3] < 0.995f                        ? "a transparent geom"
                       : g.type == mjGEOM_PLANE && Behind(head, g) ? "a plane seen from behind"
                                                                   : nullptr;
     if (why != nullptr) {
@@ -335,6 +334,59 @@ std::array<float, 16> ReflectMatrix(const float* pos, const float* mat) {
   return r;
 }
 
+// mjr_render's transparent geoms (setting mjvGeom::transparent and camdist as it does).
+std::vector<int> SortTransparent(mjvScene* scn) {
+  // As mjr_render: alpha under 0.995 (planes seen from behind too, which Unsupported leaves
+  // to mjr_render), nearest first by the distance to the head less the bounding radius, in
+  // a stable order (MuJoCo's merge sort).
+  float head[3];
+  HeadPos(*scn, head);
+  std::vector<int> order;
+  for (int i = 0; i < scn->ngeom; ++i) {
+    mjvGeom& g = scn->geoms[i];
+    g.transparent = g.rgba[3] < 0.995f || (g.type == mjGEOM_PLANE && Behind(head, g));
+    if (!g.transparent) continue;
+    const float d[3] = {g.pos[0] - head[0], g.pos[1] - head[1], g.pos[2] - head[2]};
+    g.camdist = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    // MuJoCo's mjv_rbound (not exported): the model's radius, else one from the size.
+    const float* z = g.size;
+    g.camdist -= g.objtype == mjOBJ_GEOM     ? g.modelrbound
+                 : g.type == mjGEOM_SPHERE   ? z[0]
+                 : g.type == mjGEOM_CAPSULE  ? z[0] + z[2]
+                 : g.type == mjGEOM_CYLINDER ? std::sqrt(z[0] * z[0] + z[2] * z[2])
+                 : g.type == mjGEOM_BOX      ? std::sqrt(z[0] * z[0] + z[1] * z[1] + z[2] * z[2])
+                                             : std::max(z[0], std::max(z[1], z[2]));
+    if (g.type == mjGEOM_PLANE) g.camdist = 1e10f;
+    order.push_back(i);
+  }
+  std::stable_sort(order.begin(), order.end(),
+                   [&](int a, int b) { return scn->geoms[a].camdist < scn->geoms[b].camdist; });
+  return order;
+}
+
+// The transparent geoms, blended as mjr_render draws them.
+void DrawBlended(const ShadowPass::Gl& gl, const mjvScene& scn, const mjrContext& con,
+                 const GeomUniforms& u, const std::vector<int>& transparent, float rgb_scale) {
+  if (transparent.empty()) return;
+  // mjr_render's blending: nearest first, then (unless additive) farthest first; no depth.
+  gl.DepthMask(GL_FALSE);
+  gl.Enable(GL_BLEND);
+  const bool additive = scn.flags[mjRND_ADDITIVE];
+  gl.BlendFunc(GL_SRC_ALPHA, additive ? GL_ONE : GL_ONE_MINUS_SRC_ALPHA);
+  for (int j : transparent) {
+    SetGeom(gl, u, scn.geoms[j], con, rgb_scale);
+    DrawGeom(gl, scn.geoms[j], con);
+  }
+  if (!additive) {
+    for (auto it = transparent.rbegin(); it != transparent.rend(); ++it) {
+      SetGeom(gl, u, scn.geoms[*it], con, rgb_scale);
+      DrawGeom(gl, scn.geoms[*it], con);
+    }
+  }
+  gl.DepthMask(GL_TRUE);
+  gl.Disable(GL_BLEND);
+}
+
 }  // namespace
 
 void ShadowPass::SetLights(unsigned int program, const mjvScene& scn, const float* view,
@@ -524,7 +576,7 @@ void ShadowPass::BeginFrame(const mjrRect& viewport, const mjvScene& scn, const 
 }
 
 void ShadowPass::DrawReflection(const mjvScene& scn, const mjrContext& con, int reflective,
-                                const float* cam_view) {
+                                const float* cam_view, const std::vector<int>& transparent) {
   Gl& gl = *gl_;
   if (reflective < 0 || !scn.flags[mjRND_REFLECTION]) return;
   // As mjr_render: a box reflects in its +z face.
@@ -568,10 +620,11 @@ void ShadowPass::DrawReflection(const mjvScene& scn, const mjrContext& con, int 
   SetLights(program, scn, mirrored.data(), {});
   const GeomUniforms u = Locations(gl, program);
   for (int j = 0; j < scn.ngeom; ++j) {
-    if (j == reflective) continue;
+    if (j == reflective || scn.geoms[j].transparent) continue;
     SetGeom(gl, u, scn.geoms[j], con, plane.reflectance);
     DrawGeom(gl, scn.geoms[j], con);
   }
+  DrawBlended(gl, scn, con, u, transparent, plane.reflectance);
   gl.UseProgram(0);
   gl.PopMatrix();
   gl.FrontFace(GL_CCW);
@@ -581,16 +634,19 @@ void ShadowPass::DrawReflection(const mjvScene& scn, const mjrContext& con, int 
 
 void ShadowPass::Render(const mjrRect& viewport, mjvScene* scn, const mjrContext* con) {
   Gl& gl = *gl_;
-  // The reflective geom: mjr_render keeps the first.
+  const std::vector<int> transparent = SortTransparent(scn);
+  // The reflective geom: mjr_render keeps the first opaque one.
   int reflective = -1;
   for (int j = 0; j < scn->ngeom && reflective < 0; ++j) {
     const mjvGeom& g = scn->geoms[j];
-    if ((g.type == mjGEOM_PLANE || g.type == mjGEOM_BOX) && g.reflectance > 0) reflective = j;
+    if ((g.type == mjGEOM_PLANE || g.type == mjGEOM_BOX) && g.reflectance > 0 && !g.transparent) {
+      reflective = j;
+    }
   }
   // The whole frame: clear, reflection, the maps, one lit pass, the skybox.
   float cam_project[16], cam_view[16];
   BeginFrame(viewport, *scn, *con, cam_project, cam_view);
-  DrawReflection(*scn, *con, reflective, cam_view);
+  DrawReflection(*scn, *con, reflective, cam_view, transparent);
 
   std::vector<int> lights;  // shadow-casting lights, in map order
   for (int i = 0; i < scn->nlight; ++i) {
@@ -645,7 +701,7 @@ void ShadowPass::Render(const mjrRect& viewport, mjvScene* scn, const mjrContext
     }
     for (int j = 0; j < scn->ngeom; ++j) {
       const float radius = BoundingRadius(scn->geoms[j]);
-      if (j == reflective || radius < 0) continue;
+      if (j == reflective || radius < 0 || scn->geoms[j].transparent) continue;
       float height = 0;
       for (int i = 0; i < 3; ++i) height += (scn->geoms[j].pos[i] - origin[i]) * normal[i];
       before[j] = height > radius;
@@ -678,7 +734,7 @@ void ShadowPass::Render(const mjrRect& viewport, mjvScene* scn, const mjrContext
   for (const auto& [distance, j] : front) draw(j);
   if (reflective >= 0) draw(reflective);
   for (int j = 0; j < scn->ngeom; ++j) {
-    if (!before[j] && j != reflective) draw(j);
+    if (!before[j] && j != reflective && !scn->geoms[j].transparent) draw(j);
   }
 
   gl.UseProgram(0);
@@ -691,6 +747,18 @@ void ShadowPass::Render(const mjrRect& viewport, mjvScene* scn, const mjrContext
   gl.BindTexture(GL_TEXTURE_CUBE_MAP, 0);
   gl.ActiveTexture(GL_TEXTURE0);
   DrawSkybox(*scn, *con);
+  if (!transparent.empty()) {
+    // As mjr_render last: the transparent geoms with every light, no shadows, blended.
+    const GLuint program = Program(nlight, 0);
+    gl.UseProgram(program);
+    SetLights(program, *scn, cam_view, {});
+    DrawBlended(gl, *scn, *con, Locations(gl, program), transparent, 1.0f);
+    gl.UseProgram(0);
+    gl.ActiveTexture(GL_TEXTURE0 + kUnitCube);
+    gl.BindTexture(GL_TEXTURE_CUBE_MAP, 0);
+    gl.ActiveTexture(GL_TEXTURE0 + kUnit2d);
+    gl.BindTexture(GL_TEXTURE_2D, 0);
+  }
 }
 
 }  // namespace mlspaces::sim

@@ -6,7 +6,8 @@
 // renders the same picture with fewer passes and no mjr_render: mjr_render's clear and
 // reflection (the mirrored scene through the stencil), then one pass over the opaque geoms
 // whose shader computes MuJoCo's fixed-function lighting per light and looks each shadow
-// light up in its own map, then mjr_render's skybox and haze. The maps are drawn once per
+// light up in its own map, then mjr_render's skybox and haze, then the transparent geoms
+// blended with every light (mjr_render's order). The maps are drawn once per
 // scene state, so the cameras of one state share them.
 #include <mujoco/mujoco.h>
 
@@ -37,11 +38,12 @@ class ShadowPass {
   /// casts shadows. Without, one pass has nothing to save.
   static bool HasShadows(const mjvScene& scn, const mjrContext& con);
   /// Why Render cannot draw `scn` as mjr_render would, or null when it can: shadows
-  /// (HasShadows), at most four shadow-casting lights, at most eight lights, no transparent geom
-  /// (nor plane seen from behind), no label, fog, segmentation, wireframe, stereo, frame or scene
-  /// transform, and only geom types it draws (planes, height fields, spheres, capsules, ellipsoids,
-  /// cylinders, boxes, meshes). `geom` (may be null) gets the geom the reason is about, or -1.
-  /// When not null, the caller renders with mjr_render. The text is static.
+  /// (HasShadows), at most four shadow-casting lights, at most eight lights, only directional
+  /// and spot lights, no plane seen from behind, no label, fog, segmentation, wireframe,
+  /// stereo, frame, scene transform or skin, and only geom types it draws (planes, height
+  /// fields, spheres, capsules, ellipsoids, cylinders, boxes, meshes). `geom` (may be null)
+  /// gets the geom the reason is about, or -1. When not null, the caller renders with
+  /// mjr_render. The text is static.
   const char* Unsupported(const mjvScene& scn, const mjrContext& con, int* geom) const;
 
   /// Renders `scn` (Unsupported() null) into `con`'s current buffer, as mjr_render(viewport,
@@ -63,7 +65,7 @@ class ShadowPass {
                   float* cam_project, float* cam_view);
   // mjr_render's reflection of the scene in the reflective geom (index, -1 for none).
   void DrawReflection(const mjvScene& scn, const mjrContext& con, int reflective,
-                      const float* cam_view);
+                      const float* cam_view, const std::vector<int>& transparent);
   // The light uniforms of `program` under the modelview `view`; shadow_lights get map slots.
   void SetLights(unsigned int program, const mjvScene& scn, const float* view,
                  const std::vector<int>& shadow_lights);

@@ -64,15 +64,15 @@ TEST_P(RenderDeterminismTest, SameConfigAndSeedGiveTheSameVideoBytes) {
   }
 }
 
-// A scene one pass cannot draw (a pane of glass): the run goes on through MuJoCo's passes and
-// says so once, naming the geom, though two workers render it.
+// A scene one pass cannot draw (a point light): the run goes on through MuJoCo's passes and
+// says so once, though two workers render it.
 TEST(RenderDeterminismTest, AFrameOnePassCannotDrawIsToldOncePerScene) {
   testing::TempDir dir;
   fs::copy(kExample, dir / "p", fs::copy_options::recursive);
   std::string xml = testing::Slurp(dir / "p/scene.xml");
-  xml.replace(xml.find("  </worldbody>"), 0,
-              "    <geom name=\"pane\" type=\"box\" pos=\"1.5 1.5 0.5\" size=\"0.2 0.01 0.2\""
-              " rgba=\"0.6 0.8 1 0.3\" contype=\"0\" conaffinity=\"0\"/>\n");
+  xml.replace(
+      xml.find("  </worldbody>"), 0,
+      "    <light name=\"bulb\" type=\"point\" pos=\"0 0 1.5\" diffuse=\"0.2 0.2 0.2\"/>\n");
   testing::WriteText(dir / "p/scene.xml", xml);
   const testing::CliResult r = testing::RunCli(
       {"datagen", (dir / "p/datagen.yaml").string(), "--output", (dir / "run").string(),
@@ -82,7 +82,7 @@ TEST(RenderDeterminismTest, AFrameOnePassCannotDrawIsToldOncePerScene) {
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_EQ(testing::FilesByExtension(dir / "run", {".mp4"}).size(), 4u);
   const std::string told =
-      "house_0: one-pass shadows cannot draw its camera frames (a transparent geom ('pane'))";
+      "house_0: one-pass shadows cannot draw its camera frames (a point or image light)";
   const size_t at = r.err.find(told);
   ASSERT_NE(at, std::string::npos) << r.err;
   EXPECT_EQ(r.err.find(told, at + 1), std::string::npos) << "told twice: " << r.err;

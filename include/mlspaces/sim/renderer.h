@@ -99,7 +99,7 @@ struct MLSPACES_API RenderOptions {
   /// Draw the shadows in one pass (sim/shadow_pass.h): mjr_render's clear, reflection and
   /// skybox around one pass of the opaque geoms with every light and a map per shadow light,
   /// the maps drawn once per scene state (so shared by the cameras of one state). Scenes it
-  /// cannot draw as mjr_render would (transparent geoms, labels, fog, ...) go through
+  /// cannot draw as mjr_render would (labels, fog, point lights, ...) go through
   /// mjr_render.
   bool one_pass_shadows = false;
 };
@@ -181,7 +181,7 @@ class MLSPACES_API Renderer {
   long long frames() const;
   long long one_pass_frames() const;
   /// With one_pass_shadows: why the last frame with shadows that went through mjr_render
-  /// could not be drawn in one pass ("a transparent geom ('window')", "fog", ...); "" when none
+  /// could not be drawn in one pass ("a label ('floor')", "fog", ...); "" when none
   /// did.
   const std::string& one_pass_missed() const;
   /// The abstract scene: its flags (scene().flags[mjRND_SHADOW], mjRND_REFLECTION,

@@ -40,6 +40,7 @@ EvalEnv::EvalEnv(ExperimentConfig config, std::unique_ptr<TaskSampler> sampler,
     : config_(std::move(config)), sampler_(std::move(sampler)), options_(options) {
   if (!sampler_) throw Error("EvalEnv: no task sampler");
   substeps_ = PolicySubsteps(config_);
+  task_.episode = -1;
 }
 
 EvalEnv::~EvalEnv() = default;

@@ -111,7 +111,7 @@ class MLSPACES_API EvalEnv {
   std::unique_ptr<robots::RobotView> robot_;
   std::unique_ptr<CameraSystem> cameras_;
   std::unique_ptr<sim::Renderer> renderer_;
-  Task task_{.episode = -1};
+  Task task_;  // episode -1 until Reset (set in the constructor)
   int object_ = -1;
   Rng noise_rng_{0};
   PickSuccess verdict_;

@@ -530,7 +530,7 @@ struct Renderer::Impl {
   // RenderOptions::one_pass_shadows; its GL objects are freed before MuJoCo's.
   std::unique_ptr<ShadowPass> shadow_pass;
   long long frames = 0, one_pass_frames = 0;
-  std::string one_pass_missed;  // why the last frame one pass could not draw was not drawn so
+  std::string one_pass_missed;  // why one pass could not draw the last frame it missed
 
   ~Impl() {
     if (context_made && gl) {

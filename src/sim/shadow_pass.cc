@@ -348,14 +348,7 @@ std::vector<int> SortTransparent(mjvScene* scn) {
     if (!g.transparent) continue;
     const float d[3] = {g.pos[0] - head[0], g.pos[1] - head[1], g.pos[2] - head[2]};
     g.camdist = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-    // MuJoCo's mjv_rbound (not exported): the model's radius, else one from the size.
-    const float* z = g.size;
-    g.camdist -= g.objtype == mjOBJ_GEOM     ? g.modelrbound
-                 : g.type == mjGEOM_SPHERE   ? z[0]
-                 : g.type == mjGEOM_CAPSULE  ? z[0] + z[2]
-                 : g.type == mjGEOM_CYLINDER ? std::sqrt(z[0] * z[0] + z[2] * z[2])
-                 : g.type == mjGEOM_BOX      ? std::sqrt(z[0] * z[0] + z[1] * z[1] + z[2] * z[2])
-                                             : std::max(z[0], std::max(z[1], z[2]));
+    g.camdist -= Rbound(g);
     if (g.type == mjGEOM_PLANE) g.camdist = 1e10f;
     order.push_back(i);
   }
@@ -737,15 +730,19 @@ void ShadowPass::Render(const mjrRect& viewport, mjvScene* scn, const mjrContext
     if (!before[j] && j != reflective && !scn->geoms[j].transparent) draw(j);
   }
 
-  gl.UseProgram(0);
+  // No program, no texture left bound (the maps, the geoms' textures), unit 0 active.
+  auto unbind = [&] {
+    gl.UseProgram(0);
+    for (int t = kMaxShadowLights + kUnitMap0 - 1; t >= 0; --t) {
+      gl.ActiveTexture(GL_TEXTURE0 + t);
+      gl.BindTexture(GL_TEXTURE_2D, 0);
+    }
+    gl.ActiveTexture(GL_TEXTURE0 + kUnitCube);
+    gl.BindTexture(GL_TEXTURE_CUBE_MAP, 0);
+    gl.ActiveTexture(GL_TEXTURE0);
+  };
   gl.DepthMask(GL_TRUE);
-  for (int t = kMaxShadowLights + kUnitMap0 - 1; t >= 0; --t) {
-    gl.ActiveTexture(GL_TEXTURE0 + t);
-    gl.BindTexture(GL_TEXTURE_2D, 0);
-  }
-  gl.ActiveTexture(GL_TEXTURE0 + kUnitCube);
-  gl.BindTexture(GL_TEXTURE_CUBE_MAP, 0);
-  gl.ActiveTexture(GL_TEXTURE0);
+  unbind();
   DrawSkybox(*scn, *con);
   if (!transparent.empty()) {
     // As mjr_render last: the transparent geoms with every light, no shadows, blended.
@@ -753,11 +750,7 @@ void ShadowPass::Render(const mjrRect& viewport, mjvScene* scn, const mjrContext
     gl.UseProgram(program);
     SetLights(program, *scn, cam_view, {});
     DrawBlended(gl, *scn, *con, Locations(gl, program), transparent, 1.0f);
-    gl.UseProgram(0);
-    gl.ActiveTexture(GL_TEXTURE0 + kUnitCube);
-    gl.BindTexture(GL_TEXTURE_CUBE_MAP, 0);
-    gl.ActiveTexture(GL_TEXTURE0 + kUnit2d);
-    gl.BindTexture(GL_TEXTURE_2D, 0);
+    unbind();
   }
 }
 

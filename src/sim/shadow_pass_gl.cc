@@ -255,6 +255,23 @@ float BoundingRadius(const mjvGeom& g) {
   }
 }
 
+float Rbound(const mjvGeom& g) {
+  if (g.objtype == mjOBJ_GEOM) return g.modelrbound;
+  const float* s = g.size;
+  switch (g.type) {
+    case mjGEOM_SPHERE:
+      return s[0];
+    case mjGEOM_CAPSULE:
+      return s[0] + s[2];
+    case mjGEOM_CYLINDER:
+      return std::sqrt(s[0] * s[0] + s[2] * s[2]);
+    case mjGEOM_BOX:
+      return std::sqrt(s[0] * s[0] + s[1] * s[1] + s[2] * s[2]);
+    default:
+      return std::max(s[0], std::max(s[1], s[2]));
+  }
+}
+
 bool DrawnType(int type) {
   switch (type) {
     case mjGEOM_PLANE:

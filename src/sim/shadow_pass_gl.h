@@ -137,6 +137,10 @@ void OrthoVec(float* res, const float* v);
 std::array<float, 16> LookAtMatrix(const float* eye, const float* forward, const float* up);
 /// A bounding radius of a builtin shape about its position; -1 for other types.
 float BoundingRadius(const mjvGeom& g);
+/// mjv_rbound (MuJoCo 3.5's engine_vis_init.c, not exported): the model geom's radius, else
+/// one from the size; mjr_render sorts transparent geoms by it. Unlike BoundingRadius, not a
+/// bound for every type (arrows).
+float Rbound(const mjvGeom& g);
 /// The geom types DrawGeom draws.
 bool DrawnType(int type);
 /// renderGeom's transform and MuJoCo's display lists. A plane is drawn as seen from the front.

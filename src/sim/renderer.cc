@@ -819,6 +819,9 @@ const std::string& Renderer::one_pass_missed() const { return impl_->one_pass_mi
 long long Renderer::shadow_map_renders() const {
   return impl_->shadow_pass ? impl_->shadow_pass->map_renders() : 0;
 }
+long long Renderer::one_pass_left_out() const {
+  return impl_->shadow_pass ? impl_->shadow_pass->left_out() : 0;
+}
 mjvScene& Renderer::scene() { return impl_->scn; }
 mjvOption& Renderer::vis_option() { return impl_->opt; }
 

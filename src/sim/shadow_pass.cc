@@ -35,6 +35,23 @@ ShadowPass::ShadowPass(GlProcLoader load, const mjModel* m)
   // The shaders build here once, so that a driver without GLSL 1.20 fails at construction.
   Program(1, 1);
   gl.GenBuffers(1, &caster_buffer_);
+  // Meshes are drawn from mesh_vert in the geom's frame (mjr_uploadMesh).
+  mesh_radius_.resize(static_cast<size_t>(m->nmesh));
+  for (int i = 0; i < m->nmesh; ++i) {
+    double r2 = 0;
+    const float* v = m->mesh_vert + 3 * static_cast<size_t>(m->mesh_vertadr[i]);
+    for (int k = 0; k < m->mesh_vertnum[i]; ++k, v += 3) {
+      r2 = std::max(r2, static_cast<double>(v[0]) * v[0] + static_cast<double>(v[1]) * v[1] +
+                            static_cast<double>(v[2]) * v[2]);
+    }
+    mesh_radius_[static_cast<size_t>(i)] = static_cast<float>(std::sqrt(r2));
+  }
+}
+
+bool ShadowPass::LeftOut(const ViewVolume& volume, const mjvGeom& g) {
+  const bool out = Outside(volume, g.pos, DrawnRadius(g, mesh_radius_));
+  left_out_ += out;
+  return out;
 }
 
 unsigned int ShadowPass::Program(int nlight, int nmap) {
@@ -220,22 +237,11 @@ void ShadowPass::DrawMaps(const mjvScene& scn, const mjrContext& con,
     gl.Disable(GL_TEXTURE_2D);
     gl.Disable(GL_TEXTURE_CUBE_MAP);
   }
-  // The casters in world coordinates, one array for every map of this state: a draw per
-  // geom costs more than its vertices on llvmpipe. Other types keep their display lists.
-  casters_.clear();
-  std::vector<int> listed;
-  for (int j = 0; j < scn.ngeom; ++j) {
-    const mjvGeom& g = scn.geoms[j];
-    if (g.type == mjGEOM_LINE || g.category == mjCAT_DECOR) continue;
-    if (!AppendWorldShape(*shapes_, g, &casters_)) listed.push_back(j);
-  }
-  gl.BindBuffer(GL_ARRAY_BUFFER, caster_buffer_);
-  gl.BufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(casters_.size() * sizeof(float)),
-                casters_.data(), GL_STREAM_DRAW);
-  gl.VertexPointer(3, GL_FLOAT, 0, nullptr);
-  gl.BindBuffer(GL_ARRAY_BUFFER, 0);
+  // Each map's matrices (MuJoCo's), and what its view volume holds.
   float bias[16] = {0.5f, 0, 0, 0, 0, 0.5f, 0, 0, 0, 0, 1, 0, 0.5f, 0.5f, 0, 1};
   if (!zero_to_one) bias[10] = bias[14] = 0.5f;
+  std::array<std::array<float, 16>, kMaxShadowLights> project{}, view_gl{};
+  std::array<ViewVolume, kMaxShadowLights> volume{};
   for (size_t k = 0; k < lights.size(); ++k) {
     const mjvLight& l = scn.lights[lights[k]];
     float up[3];
@@ -257,16 +263,40 @@ void ShadowPass::DrawMaps(const mjvScene& scn, const mjrContext& con,
           std::tan(static_cast<double>(static_cast<float>(fovy)) / 360.0 * mjPI) * cam.frustum_near;
       gl.Frustum(-h, h, -h, h, cam.frustum_near, cam.frustum_far);
     }
-    float project[16];
-    gl.GetFloatv(GL_PROJECTION_MATRIX, project);
+    gl.GetFloatv(GL_PROJECTION_MATRIX, project[k].data());
     gl.MatrixMode(GL_MODELVIEW);
     gl.LoadIdentity();
     const std::array<float, 16> view = LookAtMatrix(l.pos, l.dir, up);
     gl.MultMatrixf(view.data());
-    float view_gl[16];
-    gl.GetFloatv(GL_MODELVIEW_MATRIX, view_gl);
-    map_matrix_[k] = Mul(bias, Mul(project, view_gl).data());
-
+    gl.GetFloatv(GL_MODELVIEW_MATRIX, view_gl[k].data());
+    const std::array<float, 16> clip = Mul(project[k].data(), view_gl[k].data());
+    map_matrix_[k] = Mul(bias, clip.data());
+    volume[k] = ViewVolumeOf(clip.data());
+  }
+  auto outside = [&](const mjvGeom& g, size_t k) { return LeftOut(volume[k], g); };
+  // The casters in world coordinates, one array for every map of this state (those in no
+  // map's view volume left out): a draw per geom costs more than its vertices on llvmpipe.
+  // Other types keep their display lists.
+  casters_.clear();
+  std::vector<int> listed;
+  for (int j = 0; j < scn.ngeom; ++j) {
+    const mjvGeom& g = scn.geoms[j];
+    if (g.type == mjGEOM_LINE || g.category == mjCAT_DECOR) continue;
+    bool seen = false;
+    for (size_t k = 0; k < lights.size() && !seen; ++k) seen = !outside(g, k);
+    if (!seen) continue;
+    if (!AppendWorldShape(*shapes_, g, &casters_)) listed.push_back(j);
+  }
+  gl.BindBuffer(GL_ARRAY_BUFFER, caster_buffer_);
+  gl.BufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(casters_.size() * sizeof(float)),
+                casters_.data(), GL_STREAM_DRAW);
+  gl.VertexPointer(3, GL_FLOAT, 0, nullptr);
+  gl.BindBuffer(GL_ARRAY_BUFFER, 0);
+  for (size_t k = 0; k < lights.size(); ++k) {
+    gl.MatrixMode(GL_PROJECTION);
+    gl.LoadMatrixf(project[k].data());
+    gl.MatrixMode(GL_MODELVIEW);
+    gl.LoadMatrixf(view_gl[k].data());
     gl.BindFramebuffer(GL_FRAMEBUFFER, map_fbo_[k]);
     gl.DrawBuffer(GL_NONE);
     gl.Viewport(0, 0, map_size_, map_size_);
@@ -275,7 +305,9 @@ void ShadowPass::DrawMaps(const mjvScene& scn, const mjrContext& con,
     gl.EnableClientState(GL_VERTEX_ARRAY);
     gl.DrawArrays(GL_TRIANGLES, 0, static_cast<GLsizei>(casters_.size() / 3));
     gl.DisableClientState(GL_VERTEX_ARRAY);
-    for (int j : listed) DrawGeom(gl, scn.geoms[j], con);
+    for (int j : listed) {
+      if (!outside(scn.geoms[j], k)) DrawGeom(gl, scn.geoms[j], con);
+    }
   }
   if (cull) gl.Enable(GL_CULL_FACE);
   gl.Disable(GL_POLYGON_OFFSET_FILL);
@@ -569,7 +601,8 @@ void ShadowPass::BeginFrame(const mjrRect& viewport, const mjvScene& scn, const 
 }
 
 void ShadowPass::DrawReflection(const mjvScene& scn, const mjrContext& con, int reflective,
-                                const float* cam_view, const std::vector<int>& transparent) {
+                                const float* cam_project, const float* cam_view,
+                                const std::vector<int>& transparent) {
   Gl& gl = *gl_;
   if (reflective < 0 || !scn.flags[mjRND_REFLECTION]) return;
   // As mjr_render: a box reflects in its +z face.
@@ -612,8 +645,10 @@ void ShadowPass::DrawReflection(const mjvScene& scn, const mjrContext& con, int 
   gl.UseProgram(program);
   SetLights(program, scn, mirrored.data(), {});
   const GeomUniforms u = Locations(gl, program);
+  const ViewVolume mirror_volume = ViewVolumeOf(Mul(cam_project, mirrored.data()).data());
   for (int j = 0; j < scn.ngeom; ++j) {
     if (j == reflective || scn.geoms[j].transparent) continue;
+    if (LeftOut(mirror_volume, scn.geoms[j])) continue;
     SetGeom(gl, u, scn.geoms[j], con, plane.reflectance);
     DrawGeom(gl, scn.geoms[j], con);
   }
@@ -639,7 +674,7 @@ void ShadowPass::Render(const mjrRect& viewport, mjvScene* scn, const mjrContext
   // The whole frame: clear, reflection, the maps, one lit pass, the skybox.
   float cam_project[16], cam_view[16];
   BeginFrame(viewport, *scn, *con, cam_project, cam_view);
-  DrawReflection(*scn, *con, reflective, cam_view, transparent);
+  DrawReflection(*scn, *con, reflective, cam_project, cam_view, transparent);
 
   std::vector<int> lights;  // shadow-casting lights, in map order
   for (int i = 0; i < scn->nlight; ++i) {
@@ -700,8 +735,10 @@ void ShadowPass::Render(const mjrRect& viewport, mjvScene* scn, const mjrContext
       before[j] = height > radius;
     }
   }
+  const ViewVolume view_volume = ViewVolumeOf(Mul(cam_project, cam_view).data());
   auto draw = [&](int j) {
     const mjvGeom& g = scn->geoms[j];
+    if (LeftOut(view_volume, g)) return;
     SetGeom(gl, u, g, *con, 1.0f);
     if (j == reflective) {
       gl.Enable(GL_BLEND);

@@ -8,7 +8,9 @@
 // whose shader computes MuJoCo's fixed-function lighting per light and looks each shadow
 // light up in its own map, then mjr_render's skybox and haze, then the transparent geoms
 // blended with every light (mjr_render's order). The maps are drawn once per
-// scene state, so the cameras of one state share them.
+// scene state, so the cameras of one state share them. A geom wholly outside the view volume
+// of a pass (the camera, its reflection, a map) is left out of it: the GL would clip away
+// all it draws, after transforming its vertices.
 #include <mujoco/mujoco.h>
 
 #include <array>
@@ -52,10 +54,15 @@ class ShadowPass {
 
   /// How many times the maps were drawn (a state seen by two cameras draws them once).
   long long map_renders() const { return map_renders_; }
+  /// How many geom draws were left out, the geom being wholly outside the view volume of
+  /// the camera, its reflection or a map (what it would draw is clipped away).
+  long long left_out() const { return left_out_; }
 
   struct Gl;
 
  private:
+  // Whether `g` is wholly outside `volume` (counted in left_out_).
+  bool LeftOut(const std::array<std::array<float, 4>, 6>& volume, const mjvGeom& g);
   // The shader program for nlight lights of which nmap cast shadows (built on first use).
   unsigned int Program(int nlight, int nmap);
   // mjr_render's skybox and haze behind what the pass drew (none without a skybox texture).
@@ -65,7 +72,8 @@ class ShadowPass {
                   float* cam_project, float* cam_view);
   // mjr_render's reflection of the scene in the reflective geom (index, -1 for none).
   void DrawReflection(const mjvScene& scn, const mjrContext& con, int reflective,
-                      const float* cam_view, const std::vector<int>& transparent);
+                      const float* cam_project, const float* cam_view,
+                      const std::vector<int>& transparent);
   // The light uniforms of `program` under the modelview `view`; shadow_lights get map slots.
   void SetLights(unsigned int program, const mjvScene& scn, const float* view,
                  const std::vector<int>& shadow_lights);
@@ -73,7 +81,8 @@ class ShadowPass {
   std::unique_ptr<Gl> gl_;
   std::unique_ptr<BuiltinShapes> shapes_;
   unsigned int caster_buffer_ = 0;
-  std::vector<float> casters_;  // the maps' casters in world coordinates (x y z per vertex)
+  std::vector<float> mesh_radius_;  // per mesh: the largest distance of a vertex from its frame
+  std::vector<float> casters_;      // the maps' casters in world coordinates (x y z per vertex)
   std::map<int, unsigned int> programs_;
   std::array<unsigned int, 4> map_tex_{};
   std::array<unsigned int, 4> map_fbo_{};
@@ -82,6 +91,7 @@ class ShadowPass {
   std::array<std::array<float, 16>, 4> map_matrix_{};
   std::vector<float> map_key_;  // what the maps were drawn from
   long long map_renders_ = 0;
+  long long left_out_ = 0;
 };
 
 }  // namespace mlspaces::sim

@@ -255,6 +255,45 @@ float BoundingRadius(const mjvGeom& g) {
   }
 }
 
+float DrawnRadius(const mjvGeom& g, const std::vector<float>& mesh_radius) {
+  if (g.type == mjGEOM_MESH || g.type == mjGEOM_SDF) {
+    // MuJoCo's display lists: 2 * mesh id, + 1 for the convex hull (a subset of the vertices).
+    const size_t mesh = static_cast<size_t>(g.dataid / 2);
+    return g.dataid >= 0 && mesh < mesh_radius.size() ? mesh_radius[mesh] : -1.0f;
+  }
+  return BoundingRadius(g);
+}
+
+ViewVolume ViewVolumeOf(const float* c) {
+  // Gribb and Hartmann: the rows of the clip matrix, w +- x, w +- y, w +- z.
+  ViewVolume f{};
+  for (int k = 0; k < 6; ++k) {
+    const int axis = k / 2;
+    const float sign = k % 2 == 0 ? 1.0f : -1.0f;
+    double n = 0;
+    for (int i = 0; i < 4; ++i) {
+      f[k][i] = c[i * 4 + 3] + sign * c[i * 4 + axis];
+      if (i < 3) n += static_cast<double>(f[k][i]) * f[k][i];
+    }
+    const float len = static_cast<float>(std::sqrt(n));
+    if (len > 0) {
+      for (float& v : f[k]) v /= len;
+    }
+  }
+  return f;
+}
+
+bool Outside(const ViewVolume& f, const float* center, float radius) {
+  if (radius < 0) return false;
+  // The margin covers float rounding in the planes and in the GL's own transform.
+  const float r = radius * 1.01f + 1e-3f;
+  for (const auto& p : f) {
+    if (p[0] == 0 && p[1] == 0 && p[2] == 0) continue;  // a degenerate plane culls nothing
+    if (p[0] * center[0] + p[1] * center[1] + p[2] * center[2] + p[3] < -r) return true;
+  }
+  return false;
+}
+
 float Rbound(const mjvGeom& g) {
   if (g.objtype == mjOBJ_GEOM) return g.modelrbound;
   const float* s = g.size;

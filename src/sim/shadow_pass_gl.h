@@ -137,6 +137,18 @@ void OrthoVec(float* res, const float* v);
 std::array<float, 16> LookAtMatrix(const float* eye, const float* forward, const float* up);
 /// A bounding radius of a builtin shape about its position; -1 for other types.
 float BoundingRadius(const mjvGeom& g);
+/// A radius about its position that holds every vertex DrawGeom draws for `g`: builtin
+/// shapes from their size, meshes from `mesh_radius` (per mesh id); -1 when unknown (planes,
+/// height fields, other types).
+float DrawnRadius(const mjvGeom& g, const std::vector<float>& mesh_radius);
+/// The six planes (a, b, c, d: inside where a x + b y + c z + d >= 0, unit normals) of the
+/// view volume of a column-major clip matrix (projection * modelview), in the modelview's
+/// input coordinates.
+using ViewVolume = std::array<std::array<float, 4>, 6>;
+ViewVolume ViewVolumeOf(const float* clip);
+/// Whether the sphere lies wholly outside one of the planes, with a margin: what it holds
+/// is then clipped away entirely, and leaving it out changes no pixel. False for radius < 0.
+bool Outside(const ViewVolume& f, const float* center, float radius);
 /// mjv_rbound (MuJoCo 3.5's engine_vis_init.c, not exported): the model geom's radius, else
 /// one from the size; mjr_render sorts transparent geoms by it. Unlike BoundingRadius, not a
 /// bound for every type (arrows).

@@ -250,6 +250,58 @@ TEST(ShadowPassTest, LeavesMujocosDepth) {
   }
 }
 
+// A camera at the floor's edge, looking along +y: a red ball cut by the image's right edge, a
+// green mesh bar (its vertices far from the model origin) cut by the left edge, mostly outside, and
+// boxes behind the camera and beside the view.
+constexpr char kEdgesXml[] = R"(
+<mujoco>
+  <asset>
+    <material name="mirror" rgba="0.6 0.6 0.6 1" reflectance="0.3"/>
+    <mesh name="block" vertex="-1.6 -0.05 0.45  -0.9 -0.05 0.45  -1.6 0.05 0.45  -0.9 0.05 0.45
+                              -1.6 -0.05 0.55  -0.9 -0.05 0.55  -1.6 0.05 0.55  -0.9 0.05 0.55"/>
+  </asset>
+  <worldbody>
+    <light name="sun" pos="0 0 3" dir="0.3 0.5 -1" directional="true" castshadow="true"/>
+    <geom name="floor" type="plane" size="4 4 0.1" material="mirror"/>
+    <geom name="ball" type="sphere" pos="0.97 0 0.5" size="0.25" rgba="1 0 0 1"/>
+    <geom name="block" type="mesh" mesh="block" rgba="0 1 0 1"/>
+    <geom name="behind" type="box" pos="0 -3 0.5" size="0.2 0.2 0.2" rgba="0 0 1 1"/>
+    <geom name="beside" type="capsule" pos="-3 0 0.5" size="0.1 0.3" rgba="1 1 0 1"/>
+    <camera name="edge" pos="0 -2 0.5" xyaxes="1 0 0 0 0 1" fovy="40"/>
+  </worldbody>
+</mujoco>)";
+
+TEST(ShadowPassTest, LeavesOutOnlyGeomsOutsideTheView) {
+  World w;
+  w.m = LoadModelFromMemory(kEdgesXml);
+  w.d = MakeData(w.m.get());
+  mj_forward(w.m.get(), w.d.get());
+  for (const bool fit : {false, true}) {
+    SCOPED_TRACE(fit ? "fitted maps" : "MuJoCo's square");
+    Renderer mujoco(w.m.get(), Options(false, fit));
+    Renderer one(w.m.get(), Options(true, fit));
+    const std::vector<unsigned char> want = Shoot(mujoco, w, "edge");
+    const std::vector<unsigned char> got = Shoot(one, w, "edge");
+    const Difference d = Compare(want, got, 24);
+    EXPECT_LT(d.mean, 1.0);
+    EXPECT_LT(d.share, 0.005);
+    // The geoms cut by the edges are drawn: red at the right edge, green at the left.
+    auto pixel = [&](int x, int y) { return &got[3 * (static_cast<size_t>(y) * kW + x)]; };
+    const unsigned char* ball = pixel(kW - 8, kH / 2);
+    const unsigned char* block = pixel(4, kH / 2);
+    EXPECT_GT(ball[0], 60);
+    EXPECT_LT(2 * ball[1], ball[0]);
+    EXPECT_LT(2 * ball[2], ball[0]);
+    EXPECT_GT(block[1], 60);
+    EXPECT_LT(2 * block[0], block[1]);
+    EXPECT_LT(2 * block[2], block[1]);
+    // The boxes behind and beside the camera are left out (of the view and its reflection).
+    EXPECT_GE(one.one_pass_left_out(), 4);
+    EXPECT_EQ(mujoco.one_pass_left_out(), 0);
+    EXPECT_EQ(one.one_pass_frames(), 1);
+  }
+}
+
 TEST(ShadowPassTest, RendersTheSameBytesEachTime) {
   World w;
   Renderer a(w.m.get(), Options(true, true));

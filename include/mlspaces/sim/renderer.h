@@ -176,6 +176,9 @@ class MLSPACES_API Renderer {
   /// With one_pass_shadows: how many times the shadow maps were drawn (once per scene state,
   /// whatever the cameras); 0 otherwise, and for frames rendered by mjr_render.
   long long shadow_map_renders() const;
+  /// With one_pass_shadows: how many geom draws one pass left out because the geom lay wholly
+  /// outside the view volume (of the camera, its reflection or a shadow map); 0 otherwise.
+  long long one_pass_left_out() const;
   /// Frames rendered so far, and of those the ones one pass drew (one_pass_shadows); the
   /// rest went through mjr_render (frames without shadows too: one pass saves nothing there).
   long long frames() const;

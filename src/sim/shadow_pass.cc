@@ -33,7 +33,7 @@ ShadowPass::ShadowPass(GlProcLoader load, const mjModel* m)
     gl.ClipControl = reinterpret_cast<decltype(gl.ClipControl)>(load("glClipControl"));
   }
   // The shaders build here once, so that a driver without GLSL 1.20 fails at construction.
-  Program(1, 1);
+  Program(1, 1, 0);
   gl.GenBuffers(1, &caster_buffer_);
   // Meshes are drawn from mesh_vert in the geom's frame (mjr_uploadMesh).
   mesh_radius_.resize(static_cast<size_t>(m->nmesh));
@@ -54,12 +54,13 @@ bool ShadowPass::LeftOut(const ViewVolume& volume, const mjvGeom& g) {
   return out;
 }
 
-unsigned int ShadowPass::Program(int nlight, int nmap) {
-  const int key = nlight * (kMaxShadowLights + 1) + nmap;
+unsigned int ShadowPass::Program(int nlight, int nmap, int texmode) {
+  const int key = (nlight * (kMaxShadowLights + 1) + nmap) * 4 + texmode;
   if (auto it = programs_.find(key); it != programs_.end()) return it->second;
   Gl& gl = *gl_;
   const std::string defines = "#version 120\n#define NLIGHT " + std::to_string(nlight) +
-                              "\n#define NMAP " + std::to_string(nmap) + "\n";
+                              "\n#define NMAP " + std::to_string(nmap) + "\n#define TEXMODE " +
+                              std::to_string(texmode) + "\n";
   // One line, whatever the driver's log holds.
   auto fail = [](const std::string& what, const char* log) {
     std::string line(log);
@@ -317,37 +318,84 @@ void ShadowPass::DrawMaps(const mjvScene& scn, const mjrContext& con,
   ++map_renders_;
 }
 
-namespace {
-
 // A program's uniform locations for the per-geom state.
-struct GeomUniforms {
-  GLint rgba, emission, specular, shininess, texmode, s, t, r;
+struct ShadowPass::GeomUniforms {
+  GLint rgba, emission, specular, shininess, s, t, r;
 };
 
-GeomUniforms Locations(const ShadowPass::Gl& gl, GLuint program) {
-  auto loc = [&](const char* name) { return gl.GetUniformLocation(program, name); };
-  return {loc("u_rgba"),    loc("u_emission"), loc("u_specular"), loc("u_shininess"),
-          loc("u_texmode"), loc("u_plane_s"),  loc("u_plane_t"),  loc("u_plane_r")};
+struct ShadowPass::Programs {
+  Programs(ShadowPass* owner, const mjvScene& scene, const float* modelview,
+           std::vector<int> maps = {}, const float* map_matrices = nullptr)
+      : pass(*owner),
+        scn(scene),
+        view(modelview),
+        shadow_lights(std::move(maps)),
+        eye_to_map(map_matrices) {
+    for (int i = 0; i < scn.nlight; ++i) nlight += Supported(scn.lights[i]);
+  }
+  // Makes the program for `texmode` current (set up for this pass on first use); its
+  // per-geom uniforms.
+  const GeomUniforms& Use(int texmode);
+
+  ShadowPass& pass;
+  const mjvScene& scn;
+  const float* view;               // the pass's modelview: lights in eye coordinates
+  std::vector<int> shadow_lights;  // in map order
+  const float* eye_to_map;         // kMaxShadowLights matrices (column-major), with maps
+  int nlight = 0;
+  std::array<GLuint, 4> program{};
+  std::array<GeomUniforms, 4> uniforms{};
+  int current = -1;
+};
+
+const ShadowPass::GeomUniforms& ShadowPass::Programs::Use(int texmode) {
+  Gl& gl = *pass.gl_;
+  if (texmode == current) return uniforms[texmode];
+  current = texmode;
+  if (program[texmode] != 0) {
+    gl.UseProgram(program[texmode]);
+    return uniforms[texmode];
+  }
+  const GLuint p = pass.Program(nlight, static_cast<int>(shadow_lights.size()), texmode);
+  program[texmode] = p;
+  gl.UseProgram(p);
+  pass.SetLights(p, scn, view, shadow_lights);
+  if (!shadow_lights.empty()) {
+    gl.UniformMatrix4fv(gl.GetUniformLocation(p, "u_eye_to_map"), kMaxShadowLights, GL_FALSE,
+                        eye_to_map);
+    const char* map_names[kMaxShadowLights] = {"u_map0", "u_map1", "u_map2", "u_map3"};
+    for (int k = 0; k < kMaxShadowLights; ++k) {
+      gl.Uniform1i(gl.GetUniformLocation(p, map_names[k]), kUnitMap0 + k);
+    }
+  }
+  auto loc = [&](const char* name) { return gl.GetUniformLocation(p, name); };
+  uniforms[texmode] = {loc("u_rgba"),    loc("u_emission"), loc("u_specular"), loc("u_shininess"),
+                       loc("u_plane_s"), loc("u_plane_t"),  loc("u_plane_r")};
+  return uniforms[texmode];
 }
 
-// renderGeom's material and texture for `g` (its rgb times `rgb_scale`, as a reflection).
-void SetGeom(const ShadowPass::Gl& gl, const GeomUniforms& u, const mjvGeom& g,
+namespace {
+
+// renderGeom's material and texture for `g` (its rgb times `rgb_scale`, as a reflection),
+// with the program for its texture mode.
+void SetGeom(const ShadowPass::Gl& gl, ShadowPass::Programs& programs, const mjvGeom& g,
              const mjrContext& con, float rgb_scale) {
+  const GeomTexture tex = TextureOf(g, con);
+  const ShadowPass::GeomUniforms& u = programs.Use(tex.mode);
   const float rgba[4] = {g.rgba[0] * rgb_scale, g.rgba[1] * rgb_scale, g.rgba[2] * rgb_scale,
                          g.rgba[3]};
   gl.Uniform4fv(u.rgba, 1, rgba);
   gl.Uniform1f(u.emission, g.emission);
   gl.Uniform1f(u.specular, g.specular);
   gl.Uniform1f(u.shininess, g.shininess * 128.0f);
-  const GeomTexture tex = TextureOf(g, con);
-  gl.Uniform1i(u.texmode, tex.mode);
+  if (tex.mode == 0) return;
   gl.Uniform4fv(u.s, 1, tex.s);
   gl.Uniform4fv(u.t, 1, tex.t);
   gl.Uniform4fv(u.r, 1, tex.r);
   if (tex.mode == 3) {
     gl.ActiveTexture(GL_TEXTURE0 + kUnitCube);
     gl.BindTexture(GL_TEXTURE_CUBE_MAP, tex.texture);
-  } else if (tex.mode != 0) {
+  } else {
     gl.ActiveTexture(GL_TEXTURE0 + kUnit2d);
     gl.BindTexture(GL_TEXTURE_2D, tex.texture);
   }
@@ -391,7 +439,7 @@ std::vector<int> SortTransparent(mjvScene* scn) {
 
 // The transparent geoms, blended as mjr_render draws them.
 void DrawBlended(const ShadowPass::Gl& gl, const mjvScene& scn, const mjrContext& con,
-                 const GeomUniforms& u, const std::vector<int>& transparent, float rgb_scale) {
+                 ShadowPass::Programs& u, const std::vector<int>& transparent, float rgb_scale) {
   if (transparent.empty()) return;
   // mjr_render's blending: nearest first, then (unless additive) farthest first; no depth.
   gl.DepthMask(GL_FALSE);
@@ -639,12 +687,7 @@ void ShadowPass::DrawReflection(const mjvScene& scn, const mjrContext& con, int 
   const std::array<float, 16> mirrored = Mul(cam_view, reflect.data());
 
   // Every light, no shadows, each geom's colour times the plane's reflectance.
-  int nlight = 0;
-  for (int i = 0; i < scn.nlight; ++i) nlight += Supported(scn.lights[i]);
-  const GLuint program = Program(nlight, 0);
-  gl.UseProgram(program);
-  SetLights(program, scn, mirrored.data(), {});
-  const GeomUniforms u = Locations(gl, program);
+  Programs u(this, scn, mirrored.data());
   const ViewVolume mirror_volume = ViewVolumeOf(Mul(cam_project, mirrored.data()).data());
   for (int j = 0; j < scn.ngeom; ++j) {
     if (j == reflective || scn.geoms[j].transparent) continue;
@@ -693,28 +736,18 @@ void ShadowPass::Render(const mjrRect& viewport, mjvScene* scn, const mjrContext
   gl.Enable(GL_DEPTH_TEST);
   gl.DepthFunc(GL_GEQUAL);
   gl.DepthMask(GL_TRUE);
-  int nlight = 0;
-  for (int i = 0; i < scn->nlight; ++i) nlight += Supported(scn->lights[i]);
-  const GLuint program = Program(nlight, static_cast<int>(lights.size()));
-  gl.UseProgram(program);
-  SetLights(program, *scn, cam_view, lights);
-
   const std::array<float, 16> inv_view = InverseRigid(cam_view);
   float eye_to_map[kMaxShadowLights][16] = {};
   for (size_t k = 0; k < lights.size(); ++k) {
     const std::array<float, 16> m = Mul(map_matrix_[k].data(), inv_view.data());
     std::memcpy(eye_to_map[k], m.data(), sizeof eye_to_map[k]);
   }
-  gl.UniformMatrix4fv(gl.GetUniformLocation(program, "u_eye_to_map"), kMaxShadowLights, GL_FALSE,
-                      &eye_to_map[0][0]);
-  const char* map_names[kMaxShadowLights] = {"u_map0", "u_map1", "u_map2", "u_map3"};
   for (int k = 0; k < kMaxShadowLights; ++k) {
     const size_t slot = std::min<size_t>(k, lights.size() - 1);
     gl.ActiveTexture(GL_TEXTURE0 + kUnitMap0 + k);
     gl.BindTexture(GL_TEXTURE_2D, map_tex_[slot]);
-    gl.Uniform1i(gl.GetUniformLocation(program, map_names[k]), kUnitMap0 + k);
   }
-  const GeomUniforms u = Locations(gl, program);
+  Programs u(this, *scn, cam_view, lights, &eye_to_map[0][0]);
   // The order: geoms wholly on the camera's side of the reflective geom's plane first (the
   // plane cannot hide them, and its fragments behind them are then never shaded), the
   // reflective geom added over its reflection, then the rest (mjr_render draws the reflective
@@ -783,10 +816,8 @@ void ShadowPass::Render(const mjrRect& viewport, mjvScene* scn, const mjrContext
   DrawSkybox(*scn, *con);
   if (!transparent.empty()) {
     // As mjr_render last: the transparent geoms with every light, no shadows, blended.
-    const GLuint program = Program(nlight, 0);
-    gl.UseProgram(program);
-    SetLights(program, *scn, cam_view, {});
-    DrawBlended(gl, *scn, *con, Locations(gl, program), transparent, 1.0f);
+    Programs blended(this, *scn, cam_view);
+    DrawBlended(gl, *scn, *con, blended, transparent, 1.0f);
     unbind();
   }
 }

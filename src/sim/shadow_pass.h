@@ -59,12 +59,18 @@ class ShadowPass {
   long long left_out() const { return left_out_; }
 
   struct Gl;
+  /// One pass's programs (one per texture mode, given the pass's lights on first use), and
+  /// a program's per-geom uniform locations: shadow_pass.cc's own.
+  struct Programs;
+  struct GeomUniforms;
 
  private:
   // Whether `g` is wholly outside `volume` (counted in left_out_).
   bool LeftOut(const std::array<std::array<float, 4>, 6>& volume, const mjvGeom& g);
-  // The shader program for nlight lights of which nmap cast shadows (built on first use).
-  unsigned int Program(int nlight, int nmap);
+  // The shader program for nlight lights of which nmap cast shadows, for geoms of texture
+  // mode `texmode` (GeomTexture::mode), built on first use.
+  unsigned int Program(int nlight, int nmap, int texmode);
+
   // mjr_render's skybox and haze behind what the pass drew (none without a skybox texture).
   void DrawSkybox(const mjvScene& scn, const mjrContext& con);
   // mjr_render's GL state, clear and camera; the camera's matrices out.

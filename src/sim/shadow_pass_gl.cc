@@ -28,7 +28,9 @@ varying vec4 v_m2;
 varying vec3 v_l3;
 varying vec4 v_m3;
 #endif
+#if TEXMODE > 0
 varying vec3 v_tc;
+#endif
 )";
 
 const char* const kVertexShader = R"(
@@ -45,7 +47,6 @@ uniform vec4 u_rgba;
 uniform float u_emission;
 uniform float u_specular;
 uniform float u_shininess;
-uniform int u_texmode;     // 0 none, 1 texture coordinates, 2 2D object planes, 3 cube planes
 uniform vec4 u_plane_s;
 uniform vec4 u_plane_t;
 uniform vec4 u_plane_r;
@@ -102,16 +103,15 @@ void main() {
   v_l3 = clamp(sl[3], 0.0, 1.0);
   v_m3 = u_eye_to_map[3] * eye;
 #endif
-  if (u_texmode == 1) {
-    v_tc = vec3(gl_MultiTexCoord0.xy, 0.0);
-  } else {
-    v_tc = vec3(dot(u_plane_s, gl_Vertex), dot(u_plane_t, gl_Vertex), dot(u_plane_r, gl_Vertex));
-  }
+#if TEXMODE == 1
+  v_tc = vec3(gl_MultiTexCoord0.xy, 0.0);
+#elif TEXMODE > 1
+  v_tc = vec3(dot(u_plane_s, gl_Vertex), dot(u_plane_t, gl_Vertex), dot(u_plane_r, gl_Vertex));
+#endif
 }
 )";
 
 const char* const kFragmentShader = R"(
-uniform int u_texmode;
 uniform sampler2D u_tex2d;
 uniform samplerCube u_texcube;
 uniform sampler2DShadow u_map0;
@@ -122,9 +122,13 @@ vec3 term(vec3 light, float lit, vec4 tex, float alpha) {
   return lit * alpha >= 0.99 ? light * tex.rgb : vec3(0.0);
 }
 void main() {
+#if TEXMODE == 1 || TEXMODE == 2
+  vec4 tex = texture2D(u_tex2d, v_tc.xy);
+#elif TEXMODE == 3
+  vec4 tex = textureCube(u_texcube, v_tc);
+#else
   vec4 tex = vec4(1.0);
-  if (u_texmode == 1 || u_texmode == 2) tex = texture2D(u_tex2d, v_tc.xy);
-  else if (u_texmode == 3) tex = textureCube(u_texcube, v_tc);
+#endif
   float alpha = v_base.a * tex.a;
   vec3 sum = vec3(0.0);
 #if NMAP > 0
@@ -428,7 +432,7 @@ bool AppendWorldShape(const BuiltinShapes& shapes, const mjvGeom& g, std::vector
 }
 
 // settexture's choice for a geom (MuJoCo 3.5.0's render_gl3.c): mode (as the shader's
-// u_texmode), GL texture and object planes.
+// TEXMODE), GL texture and object planes.
 
 GeomTexture TextureOf(const mjvGeom& g, const mjrContext& con) {
   GeomTexture out;

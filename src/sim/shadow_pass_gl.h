@@ -114,9 +114,10 @@ inline constexpr int kMaxLights = 8;  // the fixed-function lights mjr_render ca
 // Texture units: material textures on 0 (2D) and 1 (cube), the shadow maps from 2.
 inline constexpr int kUnit2d = 0, kUnitCube = 1, kUnitMap0 = 2;
 
-/// The vertex and fragment shaders' bodies (after "#version 120", the NLIGHT and NMAP defines
-/// and kVaryings, which both declare): MuJoCo's fixed-function lighting per light, shadow
-/// lights kept apart.
+/// The vertex and fragment shaders' bodies (after "#version 120", the NLIGHT, NMAP and TEXMODE
+/// defines and kVaryings, which both declare): MuJoCo's fixed-function lighting per light,
+/// shadow lights kept apart. A program per texture mode: on llvmpipe a branch on a uniform
+/// costs every fragment the texture lookups it skips.
 extern const char* const kVaryings;
 extern const char* const kVertexShader;
 extern const char* const kFragmentShader;
@@ -162,7 +163,7 @@ void DrawGeom(const ShadowPass::Gl& gl, const mjvGeom& g, const mjrContext& con)
 /// nothing appended, for other types.
 bool AppendWorldShape(const BuiltinShapes& shapes, const mjvGeom& g, std::vector<float>* out);
 
-/// settexture's choice for a geom: mode (the shader's u_texmode: 0 none, 1 texture
+/// settexture's choice for a geom: mode (the shader's TEXMODE: 0 none, 1 texture
 /// coordinates, 2 2D object planes, 3 cube), GL texture and object planes.
 struct GeomTexture {
   int mode = 0;

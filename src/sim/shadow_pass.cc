@@ -274,7 +274,6 @@ void ShadowPass::DrawMaps(const mjvScene& scn, const mjrContext& con,
     map_matrix_[k] = Mul(bias, clip.data());
     volume[k] = ViewVolumeOf(clip.data());
   }
-  auto outside = [&](const mjvGeom& g, size_t k) { return LeftOut(volume[k], g); };
   // The casters in world coordinates, one array for every map of this state (those in no
   // map's view volume left out): a draw per geom costs more than its vertices on llvmpipe.
   // Other types keep their display lists.
@@ -284,8 +283,13 @@ void ShadowPass::DrawMaps(const mjvScene& scn, const mjrContext& con,
     const mjvGeom& g = scn.geoms[j];
     if (g.type == mjGEOM_LINE || g.category == mjCAT_DECOR) continue;
     bool seen = false;
-    for (size_t k = 0; k < lights.size() && !seen; ++k) seen = !outside(g, k);
-    if (!seen) continue;
+    for (size_t k = 0; k < lights.size() && !seen; ++k) {
+      seen = !Outside(volume[k], g.pos, DrawnRadius(g, mesh_radius_));
+    }
+    if (!seen) {
+      left_out_ += static_cast<long long>(lights.size());
+      continue;
+    }
     if (!AppendWorldShape(*shapes_, g, &casters_)) listed.push_back(j);
   }
   gl.BindBuffer(GL_ARRAY_BUFFER, caster_buffer_);
@@ -307,7 +311,7 @@ void ShadowPass::DrawMaps(const mjvScene& scn, const mjrContext& con,
     gl.DrawArrays(GL_TRIANGLES, 0, static_cast<GLsizei>(casters_.size() / 3));
     gl.DisableClientState(GL_VERTEX_ARRAY);
     for (int j : listed) {
-      if (!outside(scn.geoms[j], k)) DrawGeom(gl, scn.geoms[j], con);
+      if (!LeftOut(volume[k], scn.geoms[j])) DrawGeom(gl, scn.geoms[j], con);
     }
   }
   if (cull) gl.Enable(GL_CULL_FACE);
@@ -439,7 +443,8 @@ std::vector<int> SortTransparent(mjvScene* scn) {
 
 // The transparent geoms, blended as mjr_render draws them.
 void DrawBlended(const ShadowPass::Gl& gl, const mjvScene& scn, const mjrContext& con,
-                 ShadowPass::Programs& u, const std::vector<int>& transparent, float rgb_scale) {
+                 ShadowPass::Programs& programs, const std::vector<int>& transparent,
+                 float rgb_scale) {
   if (transparent.empty()) return;
   // mjr_render's blending: nearest first, then (unless additive) farthest first; no depth.
   gl.DepthMask(GL_FALSE);
@@ -447,12 +452,12 @@ void DrawBlended(const ShadowPass::Gl& gl, const mjvScene& scn, const mjrContext
   const bool additive = scn.flags[mjRND_ADDITIVE];
   gl.BlendFunc(GL_SRC_ALPHA, additive ? GL_ONE : GL_ONE_MINUS_SRC_ALPHA);
   for (int j : transparent) {
-    SetGeom(gl, u, scn.geoms[j], con, rgb_scale);
+    SetGeom(gl, programs, scn.geoms[j], con, rgb_scale);
     DrawGeom(gl, scn.geoms[j], con);
   }
   if (!additive) {
     for (auto it = transparent.rbegin(); it != transparent.rend(); ++it) {
-      SetGeom(gl, u, scn.geoms[*it], con, rgb_scale);
+      SetGeom(gl, programs, scn.geoms[*it], con, rgb_scale);
       DrawGeom(gl, scn.geoms[*it], con);
     }
   }
@@ -687,15 +692,15 @@ void ShadowPass::DrawReflection(const mjvScene& scn, const mjrContext& con, int 
   const std::array<float, 16> mirrored = Mul(cam_view, reflect.data());
 
   // Every light, no shadows, each geom's colour times the plane's reflectance.
-  Programs u(this, scn, mirrored.data());
+  Programs programs(this, scn, mirrored.data());
   const ViewVolume mirror_volume = ViewVolumeOf(Mul(cam_project, mirrored.data()).data());
   for (int j = 0; j < scn.ngeom; ++j) {
     if (j == reflective || scn.geoms[j].transparent) continue;
     if (LeftOut(mirror_volume, scn.geoms[j])) continue;
-    SetGeom(gl, u, scn.geoms[j], con, plane.reflectance);
+    SetGeom(gl, programs, scn.geoms[j], con, plane.reflectance);
     DrawGeom(gl, scn.geoms[j], con);
   }
-  DrawBlended(gl, scn, con, u, transparent, plane.reflectance);
+  DrawBlended(gl, scn, con, programs, transparent, plane.reflectance);
   gl.UseProgram(0);
   gl.PopMatrix();
   gl.FrontFace(GL_CCW);
@@ -747,7 +752,7 @@ void ShadowPass::Render(const mjrRect& viewport, mjvScene* scn, const mjrContext
     gl.ActiveTexture(GL_TEXTURE0 + kUnitMap0 + k);
     gl.BindTexture(GL_TEXTURE_2D, map_tex_[slot]);
   }
-  Programs u(this, *scn, cam_view, lights, &eye_to_map[0][0]);
+  Programs programs(this, *scn, cam_view, lights, &eye_to_map[0][0]);
   // The order: geoms wholly on the camera's side of the reflective geom's plane first (the
   // plane cannot hide them, and its fragments behind them are then never shaded), the
   // reflective geom added over its reflection, then the rest (mjr_render draws the reflective
@@ -772,7 +777,7 @@ void ShadowPass::Render(const mjrRect& viewport, mjvScene* scn, const mjrContext
   auto draw = [&](int j) {
     const mjvGeom& g = scn->geoms[j];
     if (LeftOut(view_volume, g)) return;
-    SetGeom(gl, u, g, *con, 1.0f);
+    SetGeom(gl, programs, g, *con, 1.0f);
     if (j == reflective) {
       gl.Enable(GL_BLEND);
       gl.BlendFunc(GL_ONE, GL_ONE);

@@ -70,11 +70,13 @@ std::string Xml(bool glass, bool buried = false, bool sky = false) {
 struct World {
   ModelPtr m;
   DataPtr d;
-  explicit World(bool glass = false, bool buried = false, bool sky = false) {
-    m = LoadModelFromMemory(Xml(glass, buried, sky));
+  explicit World(const std::string& xml) {
+    m = LoadModelFromMemory(xml);
     d = MakeData(m.get());
     mj_forward(m.get(), d.get());
   }
+  explicit World(bool glass = false, bool buried = false, bool sky = false)
+      : World(Xml(glass, buried, sky)) {}
   int Camera(const char* name) const { return mj_name2id(m.get(), mjOBJ_CAMERA, name); }
 };
 
@@ -272,10 +274,7 @@ constexpr char kEdgesXml[] = R"(
 </mujoco>)";
 
 TEST(ShadowPassTest, LeavesOutOnlyGeomsOutsideTheView) {
-  World w;
-  w.m = LoadModelFromMemory(kEdgesXml);
-  w.d = MakeData(w.m.get());
-  mj_forward(w.m.get(), w.d.get());
+  World w{std::string(kEdgesXml)};
   for (const bool fit : {false, true}) {
     SCOPED_TRACE(fit ? "fitted maps" : "MuJoCo's square");
     Renderer mujoco(w.m.get(), Options(false, fit));

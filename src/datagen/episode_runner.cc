@@ -15,13 +15,8 @@
 #include "mlspaces/core/version.h"
 #include "mlspaces/datagen/policy_step.h"
 #include "mlspaces/datagen/preflight.h"
-#include "mlspaces/datagen/tasks/open_close/planner.h"
-#include "mlspaces/datagen/tasks/open_close/sampler.h"
-#include "mlspaces/datagen/tasks/open_close/success.h"
 #include "mlspaces/datagen/tasks/pick/success.h"
-#include "mlspaces/datagen/tasks/pick_and_place/planner.h"
-#include "mlspaces/datagen/tasks/pick_and_place/sampler.h"
-#include "mlspaces/datagen/tasks/pick_and_place/success.h"
+#include "mlspaces/datagen/tasks/task_family.h"
 #include "mlspaces/library/license_policy.h"
 #include "mlspaces/library/scene_metadata.h"
 #include "mlspaces/sim/mj_pose.h"
@@ -79,20 +74,6 @@ Outcome OutcomeOfFailure(PlanFailure f) {
   return Outcome::kGraspSlip;
 }
 
-// The referral expression of the pickup object: the asset's category, else the body name
-// with underscores as spaces.
-std::string Referral(const std::string& body, const Annotation* annotation) {
-  if (annotation != nullptr && annotation->json.is_object()) {
-    const auto it = annotation->json.find("category");
-    if (it != annotation->json.end() && it->is_string() && !it->get<std::string>().empty()) {
-      return it->get<std::string>();
-    }
-  }
-  std::string out = body;
-  std::replace(out.begin(), out.end(), '_', ' ');
-  return out;
-}
-
 // The licences of the assets a scene's metadata names (asset_id of each object that a library
 // holds), each UID once, sorted: recorded in every episode's provenance (role "scene").
 std::vector<AssetProvenance> SceneAssetLicenses(const Json& metadata, const Registry& registry) {
@@ -110,6 +91,7 @@ std::vector<AssetProvenance> SceneAssetLicenses(const Json& metadata, const Regi
     by_uid[uid] = {uid, library, AssetLicenseName(library, annotation.get()), "scene"};
   }
   std::vector<AssetProvenance> out;
+  out.reserve(by_uid.size());
   for (auto& [uid, asset] : by_uid) out.push_back(std::move(asset));
   return out;
 }
@@ -122,18 +104,6 @@ std::string LicenseRefusal(LicensePolicy policy, const std::string& uid,
       license == "CC-BY-NC-4.0" || license == "CC-BY-NC-SA-4.0" || IsNonCommercialLicense(license);
   if (!nc) return {};
   return "licence policy commercial_safe: asset " + uid + " is " + license + " (non-commercial)";
-}
-
-std::unique_ptr<PickPlanner> MakePlanner(const Env& env, const robots::RobotView& robot,
-                                         const ExperimentConfig& config) {
-  const double dt = config.policy_dt_ms / 1000.0;
-  if (IsOpenCloseTask(config.task_type)) {
-    return std::make_unique<OpenClosePlanner>(env, robot, config.policy_config, dt);
-  }
-  if (IsPickAndPlaceTask(config.task_type)) {
-    return std::make_unique<PickAndPlacePlanner>(env, robot, config.policy_config, dt);
-  }
-  return std::make_unique<PickPlanner>(env, robot, config.policy_config, dt);
 }
 
 }  // namespace
@@ -155,7 +125,7 @@ EpisodeRunner::EpisodeRunner(Env& env, TaskSampler& sampler, const Registry& reg
       config_(config),
       options_(std::move(options)),
       robot_(env.model(), env.robot()),
-      planner_owned_(MakePlanner(env, robot_, config)),
+      planner_owned_(TaskFamilyOf(config.task_type).make_planner(env, robot_, config)),
       planner_(*planner_owned_),
       impl_(std::make_unique<Impl>()) {
   substeps_ = PolicySubsteps(config);
@@ -184,8 +154,8 @@ struct EpisodeRunner::Episode {
   EpisodeResult result;
   AttemptRecord& attempt = result.attempt;
   int64_t index = 0;
-  Task task;
-  int object = -1;  ///< the pickup object's body
+  /// The sampled task, as its family plans, judges and records it.
+  std::unique_ptr<TaskEpisode> task;
   // The object's grasps, their asset and the grasp-library filter.
   std::string uid;
   std::shared_ptr<const Annotation> annotation;
@@ -195,19 +165,11 @@ struct EpisodeRunner::Episode {
   EpisodeRecord rec;
   Mat4 grasp_world;
   double start_z = 0;
-  Mat4 goal;
   /// The scene's free objects (env_states/actors, always empty in the original).
   std::vector<std::pair<std::string, int>> actors;
   Mat4 prev_tcp;
   std::vector<double> prev_arm_qpos;
   PickSuccess verdict;
-  // open / close: the joint and its verdict (which sets verdict.success and reward).
-  int joint_id = -1;
-  std::optional<OpenCloseVerdict> joint_verdict;
-  // pick_and_place*: the place target and its verdict (which sets verdict.success and reward).
-  int place_body = -1;
-  std::unique_ptr<PlaceJudge> place_judge;
-  std::optional<PlaceVerdict> place_verdict;
   int64_t step = 0;
   bool terminated = false, truncated = false;
 };
@@ -235,8 +197,9 @@ EpisodeResult EpisodeRunner::Run(int64_t episode) {
 
 bool EpisodeRunner::SampleTask(Episode& e) {
   const auto t0 = Clock::now();
+  Task task;
   try {
-    e.task = sampler_.SampleTask(env_, e.index);
+    task = sampler_.SampleTask(env_, e.index);
   } catch (const TaskRejected& error) {
     e.attempt.AddTiming("sample", Since(t0));
     e.attempt.outcome = Outcome::kSamplerReject;
@@ -244,31 +207,9 @@ bool EpisodeRunner::SampleTask(Episode& e) {
     return false;
   }
   e.attempt.AddTiming("sample", Since(t0));
-  e.object = env_.BodyId(e.task.pickup_obj_name);
-  if (IsOpenCloseTask(config_.task_type)) {
-    if (!e.task.joint) {
-      throw Error("task sampler '" + sampler_.name() + "' chose no joint; task_type " +
-                      std::string(EnumName(config_.task_type)) + " needs one (OpenTaskSampler)",
-                  "", "task_sampler_config.task_sampler_class");
-    }
-    e.joint_id = mj_name2id(env_.model(), mjOBJ_JOINT, e.task.joint->name.c_str());
-    if (e.joint_id < 0) {
-      throw Error("task sampler '" + sampler_.name() + "' chose joint '" + e.task.joint->name +
-                      "', which is not a joint of the scene",
-                  "", "joint_name");
-    }
-    e.attempt.extra["joint"] = e.task.joint->name;
-  }
-  if (IsPickAndPlaceTask(config_.task_type)) {
-    if (!e.task.place) {
-      throw Error("task sampler '" + sampler_.name() + "' chose no place target; task_type " +
-                      std::string(EnumName(config_.task_type)) +
-                      " needs one (PickAndPlaceTaskSampler)",
-                  "", "task_sampler_config.task_sampler_class");
-    }
-    e.place_body = env_.BodyId(e.task.place->receptacle);
-    e.attempt.extra["place_receptacle"] = e.task.place->receptacle;
-  }
+  e.task =
+      TaskFamilyOf(config_.task_type).make_episode(env_, config_, std::move(task), sampler_.name());
+  e.task->AddSampleInfo(e.attempt.extra);
   return true;
 }
 
@@ -280,7 +221,7 @@ bool EpisodeRunner::LoadGrasps(Episode& e) {
                                                    : std::vector<std::string>{};
   const fs::path metadata_file = SceneMetadataFileFor(env_.scene().composer().path());
   try {
-    e.uid = PickupAssetId(env_.metadata(), metadata_file, e.task.pickup_obj_name);
+    e.uid = PickupAssetId(env_.metadata(), metadata_file, e.task->task().pickup_obj_name);
     e.annotation = registry_.GetAnnotation(e.uid);
     const std::optional<AssetLocation> where = registry_.Locate(e.uid);
     const std::string license =
@@ -291,13 +232,7 @@ bool EpisodeRunner::LoadGrasps(Episode& e) {
       e.attempt.message = "the pickup object is refused: " + why;
       return false;
     }
-    if (e.task.joint) {
-      e.grasps = registry_.LoadGrasps({e.uid, e.task.joint->asset_joint, e.filter},
-                                      std::numeric_limits<size_t>::max());
-    } else {
-      e.grasps =
-          LoadPickupGrasps(registry_, e.uid, e.task.pickup_obj_name, metadata_file, e.filter);
-    }
+    e.grasps = e.task->LoadGrasps(registry_, e.uid, metadata_file, e.filter);
   } catch (const Error& error) {
     e.attempt.AddTiming("grasps", Since(t0));
     e.attempt.outcome = Outcome::kNoGrasp;
@@ -311,21 +246,7 @@ bool EpisodeRunner::LoadGrasps(Episode& e) {
 
 bool EpisodeRunner::Plan(Episode& e) {
   const auto t0 = Clock::now();
-  PlanFailure planned;
-  if (e.task.joint) {
-    // The articulation must be reachable past the success threshold, with a margin.
-    const double min_fraction = std::min(1.0, OpenCloseThreshold(config_) + 0.05);
-    planned = static_cast<OpenClosePlanner&>(planner_).ResetJoint(
-        env_.data(), e.joint_id, *e.task.joint, config_.task_type == TaskType::kOpen, min_fraction,
-        e.grasps.poses);
-  } else if (e.task.place) {
-    const TaskConfig& t = config_.task_config;
-    planned = static_cast<PickAndPlacePlanner&>(planner_).ResetPlace(
-        env_.data(), e.object, e.place_body, config_.task_type == TaskType::kPickAndPlaceNextTo,
-        0.5 * (t.min_surface_to_surface_gap + t.max_surface_to_surface_gap), e.grasps.poses);
-  } else {
-    planned = planner_.Reset(env_.data(), e.object, e.grasps.poses);
-  }
+  const PlanFailure planned = e.task->Plan(planner_, env_.data(), e.grasps.poses);
   AttemptRecord& attempt = e.attempt;
   attempt.AddTiming("plan", Since(t0));
   attempt.extra["num_grasps"] = e.grasps.poses.size();
@@ -336,22 +257,14 @@ bool EpisodeRunner::Plan(Episode& e) {
     return false;
   }
   attempt.extra["grasp_index"] = *planner_.grasp_index();
-  if (e.task.joint) {
-    attempt.extra["planned_fraction"] = static_cast<OpenClosePlanner&>(planner_).planned_fraction();
-  }
+  e.task->AddPlanInfo(planner_, attempt.extra);
   return true;
 }
 
 void EpisodeRunner::BeginRecording(Episode& e) {
   const mjModel* m = env_.model();
   e.grasp_world = planner_.grasp_pose();
-  e.start_z = e.task.pickup_obj_start_pose.pos[2];
-  e.goal = ToMat4(e.task.pickup_obj_goal_pose);
-  if (e.task.place) {
-    e.place_judge =
-        std::make_unique<PlaceJudge>(m, e.object, e.place_body, e.task.place->receptacle_start_pose,
-                                     config_.task_type, config_.task_config, env_.robot().prefix);
-  }
+  e.start_z = e.task->task().pickup_obj_start_pose.pos[2];
   for (int b = 1; b < m->nbody; ++b) {
     const char* name = mj_id2name(m, mjOBJ_BODY, b);
     if (name == nullptr || m->body_parentid[b] != 0 || m->body_jntnum[b] != 1) continue;
@@ -371,11 +284,7 @@ void EpisodeRunner::BeginRecording(Episode& e) {
     rec.extra["policy_num_retries"] = Series(DType::kInt64, {});
     rec.extra_json["task_info"].max_len = 4000;
     rec.extra_json["grasp_state_pickup_obj"].max_len = 2000;
-    if (e.task.joint) {
-      rec.extra["joint_position"] = Series(DType::kFloat32, {});
-      rec.extra["joint_opened_fraction"] = Series(DType::kFloat32, {});
-      rec.extra["joint_range"] = Series(DType::kFloat32, {2});
-    }
+    e.task->DeclareSeries(rec);
     rec.env_states["articulations/" + env_.robot().articulation_name] =
         Series(DType::kFloat32, {env_.robot().articulation_width});
     for (const auto& [name, joint] : e.actors) {
@@ -401,20 +310,11 @@ Mat4 EpisodeRunner::CommandedTcp(const std::vector<double>& q) {
 void EpisodeRunner::Observe(Episode& e, const PlannerAction* action) {
   const mjModel* m = env_.model();
   const mjData* d = env_.data();
-  const int object = e.object;
+  const Task& task = e.task->task();
+  const int object = e.task->object();
   e.verdict = EvaluatePickSuccess(m, d, object, e.start_z, env_.robot().prefix,
                                   config_.task_config.succ_pos_threshold);
-  if (e.task.joint) {
-    e.joint_verdict = EvaluateOpenClose(m, d, e.joint_id, *e.task.joint, config_.task_type,
-                                        OpenCloseThreshold(config_));
-    e.verdict.success = e.joint_verdict->success;
-    e.verdict.reward = e.joint_verdict->reward;
-  }
-  if (e.place_judge) {  // once per step, in order (the carry-forward memory)
-    e.place_verdict = e.place_judge->Evaluate(d);
-    e.verdict.success = e.place_verdict->success;
-    e.verdict.reward = e.place_verdict->reward;
-  }
+  e.task->Judge(d, e.verdict);
   if (!options_.record) return;
   EpisodeRecord& rec = e.rec;
   const size_t artic_width = env_.robot().articulation_width;
@@ -425,8 +325,8 @@ void EpisodeRunner::Observe(Episode& e, const PlannerAction* action) {
   const Mat4 base = robot_.BasePose(d);
   const Mat4 base_inv = InverseRigid(base);
   rec.extra["robot_base_pose"].Append(PoseRow(env_.GetRobotBasePose()));
-  rec.extra["obj_start"].Append(PoseRow(e.task.pickup_obj_start_pose));
-  rec.extra["obj_end"].Append(PoseRow(e.task.pickup_obj_goal_pose));
+  rec.extra["obj_start"].Append(PoseRow(task.pickup_obj_start_pose));
+  rec.extra["obj_end"].Append(PoseRow(task.pickup_obj_goal_pose));
   rec.extra["tcp_pose"].Append(PoseRow(base_inv * robot_.TcpPose(d)));
   rec.extra["grasp_pose"].Append(PoseRow(e.grasp_world));
   rec.extra["policy_phase"].AppendInts({static_cast<int64_t>(planner_.phase())});
@@ -450,26 +350,7 @@ void EpisodeRunner::Observe(Episode& e, const PlannerAction* action) {
     rec.env_states["actors/" + name].Append(row);
   }
 
-  const Mat4 obj = ToMat4(sim::BodyPose(d, object));
-  if (e.joint_verdict) {
-    // The original's open / close task_info keys, plus the opened fraction.
-    const OpenCloseVerdict& jv = *e.joint_verdict;
-    rec.extra["joint_position"].Append({jv.joint_position});
-    rec.extra["joint_opened_fraction"].Append({jv.opened_fraction});
-    rec.extra["joint_range"].Append({e.task.joint->range_lo, e.task.joint->range_hi});
-    rec.extra_json["task_info"].steps.push_back(Json{{"joint_position", jv.joint_position},
-                                                     {"opened_fraction", jv.opened_fraction},
-                                                     {"success", jv.success},
-                                                     {"episode_step", e.step}});
-  } else if (e.place_verdict) {
-    rec.extra_json["task_info"].steps.push_back(e.place_verdict->Info(config_.task_type, e.step));
-  } else {
-    rec.extra_json["task_info"].steps.push_back(
-        Json{{"episode_step", e.step},
-             {"position_error", TranslationDistance(obj, e.goal)},
-             {"rotation_error", RotationAngle(obj, e.goal)},
-             {"success", e.verdict.success}});
-  }
+  e.task->Record(rec, d, e.step, e.verdict);
   // Grasp state: contacts of the object with gripper geoms and with anything else.
   bool touching = false, other = false;
   for (int c = 0; c < d->ncon; ++c) {
@@ -617,8 +498,7 @@ void EpisodeRunner::Rollout(Episode& e) {
   attempt.extra["policy_steps"] = e.step;
   attempt.extra["retries"] = planner_.retries();
   attempt.extra["lift"] = e.verdict.lift;
-  if (e.joint_verdict) attempt.extra["opened_fraction"] = e.joint_verdict->opened_fraction;
-  if (e.place_verdict) attempt.extra["place"] = e.place_verdict->Info(config_.task_type, e.step);
+  e.task->AddRolloutInfo(attempt.extra, e.step);
 }
 
 void EpisodeRunner::Judge(Episode& e) {
@@ -635,28 +515,15 @@ void EpisodeRunner::Judge(Episode& e) {
     attempt.outcome = Outcome::kTimeout;
     attempt.message =
         "the horizon of " + std::to_string(config_.task_horizon) + " policy steps ran out";
-  } else if (e.joint_verdict) {
-    attempt.outcome = Outcome::kGraspSlip;
-    attempt.message = "the plan finished with joint " + e.task.joint->name +
-                      " at opened fraction " + std::to_string(e.joint_verdict->opened_fraction) +
-                      " (reward " + std::to_string(e.joint_verdict->reward) + " below " +
-                      std::to_string(OpenCloseThreshold(config_)) + ")";
-  } else if (e.place_verdict) {
-    attempt.outcome = Outcome::kGraspSlip;
-    attempt.message = "the plan finished but the object is not placed: " +
-                      e.place_verdict->Info(config_.task_type, e.step).dump();
   } else {
     attempt.outcome = Outcome::kGraspSlip;
-    attempt.message = "the plan finished but the object is not held: lift " +
-                      std::to_string(verdict.lift) + " m, " +
-                      std::to_string(verdict.robot_contacts) + " robot / " +
-                      std::to_string(verdict.other_contacts) + " other contacts";
+    attempt.message = e.task->FailureMessage(verdict, e.step);
   }
 }
 
 void EpisodeRunner::FinishRecord(Episode& e) {
   EpisodeRecord& rec = e.rec;
-  const Task& task = e.task;
+  const Task& task = e.task->task();
   const std::string& uid = e.uid;
   EpisodeMetadata& meta = rec.meta;
   if (options_.config_hash.empty()) options_.config_hash = DataConfigHashHex(config_);
@@ -665,24 +532,7 @@ void EpisodeRunner::FinishRecord(Episode& e) {
   meta.scene = options_.scene_name;
   meta.source_episode = e.index;
   const std::string expr = Referral(task.pickup_obj_name, e.annotation.get());
-  std::string part;        // open / close: the joint body's name, when it is not the object's
-  std::string place_expr;  // pick_and_place*: the place target's referral expression
-  if (task.joint) {
-    part = sim::MjName(env_.model(), mjOBJ_BODY, env_.model()->jnt_bodyid[e.joint_id]);
-    std::replace(part.begin(), part.end(), '_', ' ');
-    meta.task_description = OpenCloseDescription(config_.task_type, expr, part);
-  } else if (task.place) {
-    const Json& objects = env_.metadata().value("objects", Json::object());
-    const auto entry = objects.find(task.place->receptacle);
-    std::string place_uid;
-    if (entry != objects.end() && entry->is_object()) place_uid = entry->value("asset_id", "");
-    place_expr = Referral(task.place->receptacle.substr(task.place->receptacle.rfind('/') + 1),
-                          place_uid.empty() ? nullptr : registry_.GetAnnotation(place_uid).get());
-    meta.task_description =
-        PlaceDescription(config_.task_type, expr, place_expr, task.place->color);
-  } else {
-    meta.task_description = "Pick up the " + expr;
-  }
+  meta.task_description = e.task->Description(registry_, expr);
   const std::optional<AssetLocation> where = registry_.Locate(uid);
   const std::string library = where ? where->library : std::string("unknown");
   meta.assets.push_back(
@@ -724,46 +574,7 @@ void EpisodeRunner::FinishRecord(Episode& e) {
                              {"config_hash", meta.config_hash}}},
       {"text", std::string(EnumName(config_.task_type)) + " " + task.pickup_obj_name},
       {"object_name", task.pickup_obj_name}};
-  if (task.joint) {
-    // The chosen joint as explicit fields (the original keeps it only in a pickled config).
-    const TaskJoint& j = *task.joint;
-    int index = 0;
-    for (const ArticulatedJoint& a : ArticulatedJoints(env_, task.pickup_obj_name)) {
-      if (a.joint.name == j.name) index = a.index;
-    }
-    const Json joint{{"joint_name", j.name},
-                     {"asset_joint_name", j.asset_joint},
-                     {"joint_index", index},
-                     {"joint_start_position", j.start},
-                     {"joint_range", Json::array({j.range_lo, j.range_hi})},
-                     {"joint_closed_position", j.closed},
-                     {"joint_open_position", j.open},
-                     {"task_success_threshold", OpenCloseThreshold(config_)}};
-    for (const auto& [key, value] : joint.items()) {
-      rec.obs_scene["frozen_config"][key] = value;
-    }
-    rec.obs_scene["joint"] = joint;
-  }
-  if (task.place) {
-    // The original's pick-and-place records (spec A.5.6), the colour variant's colours.
-    const TaskPlace& p = *task.place;
-    rec.obs_scene["text"] =
-        std::string(EnumName(config_.task_type)) + " " + task.pickup_obj_name + " " + p.receptacle;
-    rec.obs_scene["place_receptacle_name"] = p.receptacle;
-    rec.obs_scene["referral_expressions"] =
-        Json{{"pickup_name", Json::array({Json::array({expr, 1.0})})},
-             {"place_name", Json::array({Json::array({place_expr, 1.0})})}};
-    Json& frozen = rec.obs_scene["frozen_config"];
-    frozen["place_receptacle_name"] = p.receptacle;
-    frozen["place_receptacle_start_pose"] = ToArray7(p.receptacle_start_pose);
-    if (config_.task_type == TaskType::kPickAndPlaceColor) {
-      frozen["target_color"] = p.color;
-      frozen["other_receptacle_names"] = p.other_receptacles;
-      Json poses = Json::array();
-      for (const Pose& q : p.other_receptacle_start_poses) poses.push_back(ToArray7(q));
-      frozen["other_receptacle_start_poses"] = poses;
-    }
-  }
+  e.task->AddToObsScene(registry_, expr, rec.obs_scene);
   e.result.record = std::move(rec);
 }
 

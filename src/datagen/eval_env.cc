@@ -8,33 +8,10 @@
 
 #include "mlspaces/core/error.h"
 #include "mlspaces/datagen/policy_step.h"
-#include "mlspaces/datagen/tasks/open_close/sampler.h"
-#include "mlspaces/datagen/tasks/open_close/success.h"
-#include "mlspaces/datagen/tasks/pick_and_place/sampler.h"
-#include "mlspaces/datagen/tasks/pick_and_place/success.h"
+#include "mlspaces/datagen/tasks/task_family.h"
 #include "mlspaces/sim/scene.h"
 
 namespace mlspaces::datagen {
-namespace {
-
-// Open / close (docs/tasks.md): success and reward are the chosen joint's.
-void JudgeJoint(const ExperimentConfig& config, const Env& env, const Task& task,
-                PickSuccess& verdict) {
-  if (!IsOpenCloseTask(config.task_type)) return;
-  if (!task.joint) {
-    throw Error("the task sampler chose no joint; task_type " +
-                    std::string(EnumName(config.task_type)) + " needs one (OpenTaskSampler)",
-                "", "task_sampler_config.task_sampler_class");
-  }
-  const int j = mj_name2id(env.model(), mjOBJ_JOINT, task.joint->name.c_str());
-  const OpenCloseVerdict v = EvaluateOpenClose(env.model(), env.data(), j, *task.joint,
-                                               config.task_type, OpenCloseThreshold(config));
-  verdict.success = v.success;
-  verdict.reward = v.reward;
-}
-
-}  // namespace
-
 EvalEnv::EvalEnv(ExperimentConfig config, std::unique_ptr<TaskSampler> sampler,
                  EvalEnvOptions options)
     : config_(std::move(config)), sampler_(std::move(sampler)), options_(options) {
@@ -63,6 +40,7 @@ void EvalEnv::LoadHouse(int64_t house) {
                 "", "task_sampler_config.scene_xml_paths");
   }
   if (house != house_ || !env_) {
+    task_episode_.reset();
     renderer_.reset();
     cameras_.reset();
     robot_.reset();
@@ -94,29 +72,21 @@ void EvalEnv::Reset(uint64_t seed, int64_t house, int64_t episode) {
   LoadHouse(house);
   sampler_->set_run_seed(seed);
   steps_ = 0;
-  task_ = sampler_->SampleTask(*env_, episode);
-  object_ = env_->BodyId(task_.pickup_obj_name);
+  // Not started until the new episode is whole (a sampler or task error leaves none).
+  task_episode_.reset();
+  task_ = Task{};
+  task_.episode = -1;
+  Task task = sampler_->SampleTask(*env_, episode);
+  task_episode_ =
+      TaskFamilyOf(config_.task_type).make_episode(*env_, config_, task, sampler_->name());
+  task_ = std::move(task);
+  object_ = task_episode_->object();
   // The same noise stream as the datagen rollout of this episode.
   noise_rng_ = EpisodeNoiseRng(task_.seed);
   verdict_ =
       EvaluatePickSuccess(env_->model(), env_->data(), object_, task_.pickup_obj_start_pose.pos[2],
                           env_->robot().prefix, config_.task_config.succ_pos_threshold);
-  JudgeJoint(config_, *env_, task_, verdict_);
-  place_judge_.reset();
-  if (IsPickAndPlaceTask(config_.task_type)) {  // docs/tasks.md: the place target's verdict
-    if (!task_.place) {
-      throw Error("the task sampler chose no place target; task_type " +
-                      std::string(EnumName(config_.task_type)) + " needs one",
-                  "", "task_sampler_config.task_sampler_class");
-    }
-    place_judge_ =
-        std::make_shared<PlaceJudge>(env_->model(), object_, env_->BodyId(task_.place->receptacle),
-                                     task_.place->receptacle_start_pose, config_.task_type,
-                                     config_.task_config, env_->robot().prefix);
-    const PlaceVerdict v = place_judge_->Evaluate(env_->data());
-    verdict_.success = v.success;
-    verdict_.reward = v.reward;
-  }
+  task_episode_->Judge(env_->data(), verdict_);
 }
 
 EvalStep EvalEnv::Step(std::span<const double> arm, double gripper) {
@@ -146,12 +116,7 @@ EvalStep EvalEnv::Step(std::span<const double> arm, double gripper) {
   ++steps_;
   verdict_ = EvaluatePickSuccess(m, d, object_, task_.pickup_obj_start_pose.pos[2],
                                  env_->robot().prefix, config_.task_config.succ_pos_threshold);
-  JudgeJoint(config_, *env_, task_, verdict_);
-  if (place_judge_) {
-    const PlaceVerdict v = place_judge_->Evaluate(d);
-    verdict_.success = v.success;
-    verdict_.reward = v.reward;
-  }
+  task_episode_->Judge(d, verdict_);
   EvalStep out;
   out.verdict = verdict_;
   out.truncated = steps_ >= config_.task_horizon;

@@ -130,7 +130,7 @@ class MLSPACES_API EpisodeRunner {
   ExperimentConfig config_;
   EpisodeRunnerOptions options_;
   robots::RobotView robot_;
-  // The task's planner: PickPlanner, or OpenClosePlanner for task types open / close.
+  // The task family's planner (tasks/task_family.h).
   std::unique_ptr<PickPlanner> planner_owned_;
   PickPlanner& planner_;
   int substeps_ = 1;

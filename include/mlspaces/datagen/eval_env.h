@@ -33,7 +33,7 @@
 
 namespace mlspaces::datagen {
 
-class PlaceJudge;  // tasks/pick_and_place/success.h
+class TaskEpisode;  // tasks/task_family.h
 
 struct MLSPACES_API EvalEnvOptions {
   /// Render the configured cameras (Render()); off: no GL context is made.
@@ -80,7 +80,7 @@ class MLSPACES_API EvalEnv {
   // State (valid after Reset)
 
   /// A task was sampled (Reset ran).
-  bool started() const { return task_.episode >= 0 && env_ != nullptr; }
+  bool started() const { return task_.episode >= 0 && env_ != nullptr && task_episode_ != nullptr; }
   const Env& env() const;
   const robots::RobotView& robot() const;
   const Task& task() const { return task_; }
@@ -115,7 +115,7 @@ class MLSPACES_API EvalEnv {
   int object_ = -1;
   Rng noise_rng_{0};
   PickSuccess verdict_;
-  std::shared_ptr<PlaceJudge> place_judge_;  // pick_and_place*: the episode's judge
+  std::unique_ptr<TaskEpisode> task_episode_;  // the episode's, as its family judges it
   int64_t steps_ = 0;
 };
 

@@ -1,0 +1,68 @@
+// The pick family: task_type pick (spec section 6; docs/datagen.md).
+#include <memory>
+#include <string>
+#include <utility>
+
+#include "mlspaces/datagen/tasks/task_family.h"
+#include "mlspaces/sim/mj_pose.h"
+#include "tasks/families.h"
+
+namespace mlspaces::datagen {
+namespace {
+
+class PickEpisode final : public TaskEpisode {
+ public:
+  PickEpisode(const Env& env, const ExperimentConfig& config, Task task)
+      : TaskEpisode(env, config, std::move(task)), goal_(ToMat4(task_.pickup_obj_goal_pose)) {}
+
+  PlanFailure Plan(PickPlanner& planner, const mjData* d, std::vector<Mat4> grasps) const override {
+    return planner.Reset(d, object_, std::move(grasps));
+  }
+
+  void Judge(const mjData* /*d*/, PickSuccess& /*verdict*/) override {}
+
+  void Record(EpisodeRecord& rec, const mjData* d, int64_t step,
+              const PickSuccess& verdict) const override {
+    const Mat4 obj = ToMat4(sim::BodyPose(d, object_));
+    rec.extra_json["task_info"].steps.push_back(
+        Json{{"episode_step", step},
+             {"position_error", TranslationDistance(obj, goal_)},
+             {"rotation_error", RotationAngle(obj, goal_)},
+             {"success", verdict.success}});
+  }
+
+  std::string FailureMessage(const PickSuccess& verdict, int64_t /*step*/) const override {
+    return "the plan finished but the object is not held: lift " + std::to_string(verdict.lift) +
+           " m, " + std::to_string(verdict.robot_contacts) + " robot / " +
+           std::to_string(verdict.other_contacts) + " other contacts";
+  }
+
+  std::string Description(const Registry& /*registry*/, const std::string& pickup) const override {
+    return "Pick up the " + pickup;
+  }
+
+ private:
+  Mat4 goal_;
+};
+
+bool HasType(TaskType type) { return type == TaskType::kPick; }
+
+std::unique_ptr<PickPlanner> MakePlanner(const Env& env, const robots::RobotView& robot,
+                                         const ExperimentConfig& config) {
+  return std::make_unique<PickPlanner>(env, robot, config.policy_config,
+                                       config.policy_dt_ms / 1000.0);
+}
+
+std::unique_ptr<TaskEpisode> MakeEpisode(const Env& env, const ExperimentConfig& config, Task task,
+                                         std::string_view /*sampler*/) {
+  return std::make_unique<PickEpisode>(env, config, std::move(task));
+}
+
+}  // namespace
+
+const TaskFamily& detail::PickFamily() {
+  static const TaskFamily kFamily{"pick", HasType, MakePlanner, MakeEpisode};
+  return kFamily;
+}
+
+}  // namespace mlspaces::datagen

@@ -1,4 +1,4 @@
-// mlspaces generate-grasps LIBRARY_DIR [--uid UID...] [--robot droid] [--joints]
+// mlspaces generate-grasps LIBRARY_DIR [--uid UID...] [--robot droid|xarm7|NAME] [--joints]
 //   [--max-grasps N] [--seed S] [-j N] [--overwrite] [--min-quality Q] [--dtype f2|f8] [-o DIR]
 //   [-q]:
 // stable grasps for the objects of an asset library (docs/graspgen.md), written as
@@ -41,8 +41,10 @@ int Run(GenerateGraspsFlags& flags) {
         std::fflush(out);
       });
   const char* what = options.joints ? "joints" : "objects";
-  std::printf("generate-grasps: %zu %s done, %zu skipped (existing), %zu failed", report.done(),
-              what, report.skipped(), report.failed());
+  // --joints also skips objects without a hinge or slide joint (their line says so).
+  const char* skipped = options.joints ? "existing, or no joint" : "existing";
+  std::printf("generate-grasps: %zu %s done, %zu skipped (%s), %zu failed", report.done(), what,
+              report.skipped(), skipped, report.failed());
   if (!report.index.empty()) std::printf("; wrote %s", report.index.string().c_str());
   std::printf("\n");
   return report.failed() > 0 ? 1 : 0;
@@ -64,7 +66,8 @@ void AddGenerateGrasps(CLI::App& app, Action& action) {
       ->take_all()
       ->expected(1, -1);
   sub->add_option("--robot", flags->options.robot,
-                  "Grasp-library robot folder; droid = the franka_droid gripper (default droid)");
+                  "Robot whose gripper grasps, and the grasp-library folder: droid (franka_droid's "
+                  "gripper, the default), xarm7, or a robot on $MLSPACES_ROBOT_PATH");
   sub->add_flag("--joints", flags->options.joints,
                 "Joint grasps of each hinge/slide joint instead of pickup grasps");
   sub->add_option("--max-grasps", flags->max_grasps, "Grasps kept per object or joint (1000)")

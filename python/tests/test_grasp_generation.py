@@ -63,6 +63,23 @@ def test_generate_grasps_writes_files_and_reports(library) -> None:
     assert np.array_equal(t8.astype(np.float16), t)
 
 
+def test_another_robots_gripper(library) -> None:
+    # The xArm7's own gripper (its robot.yaml and MJCF): files under box/xarm7, grasps that
+    # differ from franka_droid's for the same seed.
+    x = gg.generate_grasps(library, "box", robot="xarm7", max_grasps=3, seed=1, threads=1,
+                           progress=False)
+    assert x.objects[0]["status"] == "done", x.objects[0]["reason"]
+    assert x.objects[0]["output"] == str(library / "box" / "xarm7" / "grasps.npz")
+    d = gg.generate_grasps(library, "box", max_grasps=3, seed=1, threads=1, progress=False)
+    tx = np.load(library / "box" / "xarm7" / "grasps.npz")["transforms"]
+    td = np.load(library / "box" / "droid" / "grasps.npz")["transforms"]
+    assert tx.shape == td.shape == (3, 4, 4) and d.objects[0]["status"] == "done"
+    assert not np.array_equal(tx, td)
+    index = json.loads((library / "grasps_index.json").read_text())
+    assert index["grasp_paths"] == {"droid": {"box": "box/droid/grasps.npz"},
+                                    "xarm7": {"box": "box/xarm7/grasps.npz"}}
+
+
 def test_errors(library) -> None:
     with pytest.raises(MlspacesError, match="nope"):
         gg.generate_grasps(library, ["nope"], progress=False)
@@ -70,7 +87,7 @@ def test_errors(library) -> None:
         gg.generate_grasps(library, dtype="f4", progress=False)
     with pytest.raises(UsageError, match="max_grasps"):
         gg.generate_grasps(library, max_grasps=0, progress=False)
-    with pytest.raises(UsageError, match="robot"):
+    with pytest.raises(UsageError, match=r"no robot 'ur5'.*xarm7"):
         gg.generate_grasps(library, robot="ur5", progress=False)
     with pytest.raises(TypeError):
         gg.generate_grasps(library, max_grasps=2.5, progress=False)

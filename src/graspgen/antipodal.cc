@@ -7,6 +7,7 @@
 
 #include "mlspaces/core/error.h"
 #include "mlspaces/core/parallel.h"
+#include "mlspaces/robots/robot_spec.h"
 
 namespace mlspaces::graspgen {
 namespace {
@@ -18,40 +19,10 @@ Vec3 Apply(const Mat4& t, const Vec3& p) {
 }
 Vec3 Column(const Mat4& t, int c) { return {t(0, c), t(1, c), t(2, c)}; }
 
-// A box from its centre and half sizes in the gripper base frame of franka_droid.xml, shifted
-// to the TCP frame (grasp_site at z = 0.14), with an optional turn about x.
-OrientedBox BaseBox(double y, double z, Vec3 half, double angle_x = 0) {
-  const double c = std::cos(angle_x), s = std::sin(angle_x);
-  return {{0, y, z - 0.14}, {1, 0, 0, 0, c, -s, 0, s, c}, half};
-}
-
 }  // namespace
 
 GripperProxy FrankaDroidGripperProxy() {
-  // assets/robots/franka_droid/franka_droid.xml, body gripper/base and below, driver angle 0.
-  GripperProxy g;
-  g.name = "franka_droid";
-  g.boxes.push_back(BaseBox(0, 0.0065, {0.0375, 0.0375, 0.0065}));  // coupling (cylinder)
-  g.boxes.push_back(BaseBox(0, 0.0465, {0.03, 0.045, 0.0335}));     // housing
-  // Driver capsules (radius 0.006) from (0, +-0.0306, 0.08) to (0, +-0.051863, 0.13029).
-  const double dy = 0.021263, dz = 0.0502898, len = std::hypot(dy, dz);
-  const double tilt = std::atan2(dy, dz);  // from +z toward +y
-  for (double side : {1.0, -1.0}) {
-    g.boxes.push_back(BaseBox(side * (0.0306 + dy / 2), 0.08 + dz / 2,
-                              {0.006, 0.006, len / 2 + 0.006}, -side * tilt));
-    const double fy = side * (0.0306 + dy), fz = 0.08 + dz;  // follower origin
-    g.boxes.push_back(BaseBox(fy + side * 0.0023, fz + 0.0054, {0.011, 0.003, 0.02}));  // pad1
-    g.boxes.push_back(
-        BaseBox(fy - side * 0.005362, fz + 0.0054, {0.011, 0.004, 0.0175}));  // pad2 (contact)
-  }
-  const double pad_y = 0.0306 + dy - 0.005362;  // contact pad centre, |y|
-  g.finger_offset = pad_y;
-  const double pad_z = 0.08 + dz + 0.0054 - 0.14;  // contact pad centre, TCP frame
-  constexpr int kLevels = 20;
-  for (int k = 0; k < kLevels; ++k) {
-    g.ray_levels.push_back(pad_z - 0.0175 + 0.035 * k / (kLevels - 1));
-  }
-  return g;
+  return GripperProxyOf(robots::LoadRobotSpec("franka_droid"));
 }
 
 std::vector<double> Standoffs(const CandidateParams& p) {

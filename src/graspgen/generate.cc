@@ -18,6 +18,7 @@
 #include "mlspaces/graspgen/ordering.h"
 #include "mlspaces/library/asset_index.h"
 #include "mlspaces/library/grasp_index.h"
+#include "mlspaces/robots/robot_spec.h"
 
 namespace mlspaces::graspgen {
 namespace fs = std::filesystem;
@@ -155,7 +156,7 @@ class Runner {
       : options_(options), on_object_(on_object) {
     out_ = options.output_dir.empty() ? options.library_dir : options.output_dir;
     robot_ = robots::LoadRobotSpec(RobotForGraspLibrary(options.robot));
-    gripper_ = FrankaDroidGripperProxy();
+    gripper_ = GripperProxyOf(robot_);
     params_ = options.candidates;
     params_.threads = options.threads;
     sim_ = options.sim;
@@ -422,8 +423,14 @@ size_t GenerateReport::failed() const {
 
 std::string RobotForGraspLibrary(const std::string& robot) {
   if (robot == "droid" || robot == "franka_droid") return "franka_droid";
-  throw UsageError("no grasp-generation gripper for robot '" + robot +
-                   "' (known: droid, the franka_droid gripper)");
+  const std::vector<std::string> known = robots::BundledRobots();
+  if (std::find(known.begin(), known.end(), robot) != known.end()) return robot;
+  std::string names = "droid (franka_droid)";
+  for (const std::string& name : known) {
+    if (name != "franka_droid") names += ", " + name;
+  }
+  throw UsageError("no robot '" + robot + "' for grasp generation (known: " + names +
+                   "; $MLSPACES_ROBOT_PATH adds your own)");
 }
 
 GenerateReport GenerateGrasps(const GenerateOptions& options,

@@ -11,6 +11,7 @@
 #include <numbers>
 
 #include "grasp_sim_internal.h"
+#include "gripper_proxy.h"
 #include "mlspaces/core/error.h"
 #include "mlspaces/core/parallel.h"
 #include "mlspaces/core/se3.h"
@@ -53,10 +54,6 @@ std::string Deg(double rad) {
   char buf[32];
   std::snprintf(buf, sizeof buf, "%.1f deg", rad * 180 / std::numbers::pi);
   return buf;
-}
-
-bool IsCollisionGeom(const mjModel* m, int g) {
-  return m->geom_contype[g] != 0 || m->geom_conaffinity[g] != 0;
 }
 
 }  // namespace
@@ -263,17 +260,7 @@ GraspScene::GraspScene(const std::filesystem::path& asset_file, const robots::Ro
   const Mat4 world_to_tcp = InverseRigid(tcp);
   for (int g = 0; g < m->ngeom; ++g) {
     if (s.body_root[m->geom_bodyid[g]] != hand_body || !IsCollisionGeom(m, g)) continue;
-    const Mat4 t = world_to_tcp * sim::GeomMat4(data.get(), g);
-    const mjtNum* aabb = m->geom_aabb + 6 * g;
-    OrientedBox b;
-    const Rot3 r = Rotation(t);
-    for (int row = 0; row < 3; ++row) {
-      b.center[row] = t(row, 3);
-      for (int k = 0; k < 3; ++k) b.center[row] += r[3 * row + k] * aabb[k];
-      b.half[row] = aabb[3 + row];
-    }
-    b.rot = r;
-    s.proxy.boxes.push_back(b);
+    s.proxy.boxes.push_back(GeomBox(m, data.get(), g, world_to_tcp));
   }
   s.proxy.name = robot.name;
   if (s.object < 0) throw Error("the asset has no body", s.source);

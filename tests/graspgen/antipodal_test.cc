@@ -6,13 +6,16 @@
 #include <cmath>
 #include <cstring>
 #include <numbers>
+#include <string>
 
 #include <gtest/gtest.h>
 
 #include "graspgen/assets.h"
 #include "mlspaces/core/error.h"
 #include "mlspaces/core/rng.h"
+#include "mlspaces/robots/robot_spec.h"
 #include "mlspaces/sim/mjcf_composer.h"
+#include "test_util.h"
 
 namespace mlspaces::graspgen {
 namespace {
@@ -109,6 +112,86 @@ TEST(GraspgenAntipodalTest, GripperProxyMatchesFrankaDroidXml) {
     matched += found;
   }
   EXPECT_EQ(matched, static_cast<int>(g.boxes.size()));
+}
+
+// Any robot's open gripper from its robot.yaml and MJCF: a box per collision geom below the
+// gripper body, the closing rays at the pads' centres, whose inner faces are as far apart as
+// the robot's open fingers (robot.yaml finger_range, which inspect-robot measures by closing
+// the gripper in simulation), at 20 levels within the pads' length.
+TEST(GraspgenAntipodalTest, GripperProxyOfEachRobotOpensAsWideAsItsFingers) {
+  for (const char* name : {"franka_droid", "xarm7"}) {
+    SCOPED_TRACE(name);
+    const robots::RobotSpec robot = robots::LoadRobotSpec(name);
+    const GripperProxy g = GripperProxyOf(robot);
+    EXPECT_EQ(g.name, name);
+
+    const sim::ModelPtr m = sim::ComposeAndCompile(robot.xml);
+    const sim::DataPtr d(mj_makeData(m.get()));
+    mj_kinematics(m.get(), d.get());
+    const int root = mj_name2id(m.get(), mjOBJ_BODY, robot.gripper_body.c_str());
+    const int site = mj_name2id(m.get(), mjOBJ_SITE, robot.tcp_site.c_str());
+    ASSERT_GE(root, 0);
+    ASSERT_GE(site, 0);
+    size_t colliding = 0;
+    for (int geom = 0; geom < m->ngeom; ++geom) {
+      int b = m->geom_bodyid[geom];
+      while (b > 0 && b != root) b = m->body_parentid[b];
+      colliding += b == root && (m->geom_contype[geom] != 0 || m->geom_conaffinity[geom] != 0);
+    }
+    EXPECT_EQ(g.boxes.size(), colliding);
+
+    // Each pad's centre and half thickness across the closing direction (the site's y), and
+    // its half length along the approach (the site's z).
+    double gap = 0, offset = 0, lo = -1e9, hi = 1e9;
+    for (const std::string& pad_name : robot.finger_pads) {
+      const int pad = mj_name2id(m.get(), mjOBJ_GEOM, pad_name.c_str());
+      ASSERT_EQ(m->geom_type[pad], mjGEOM_BOX) << pad_name;
+      double centre[3] = {0, 0, 0}, reach[3] = {0, 0, 0};
+      for (int i = 0; i < 3; ++i) {  // site axis i
+        for (int k = 0; k < 3; ++k) {
+          centre[i] += d->site_xmat[9 * site + 3 * k + i] *
+                       (d->geom_xpos[3 * pad + k] - d->site_xpos[3 * site + k]);
+          double along = 0;  // site axis i . geom axis k
+          for (int r = 0; r < 3; ++r) {
+            along += d->site_xmat[9 * site + 3 * r + i] * d->geom_xmat[9 * pad + 3 * r + k];
+          }
+          reach[i] += std::abs(along) * m->geom_size[3 * pad + k];
+        }
+      }
+      gap += std::abs(centre[1]) - reach[1];
+      offset += std::abs(centre[1]);
+      lo = std::max(lo, centre[2] - reach[2]);
+      hi = std::min(hi, centre[2] + reach[2]);
+    }
+    EXPECT_NEAR(gap, robot.finger_range[1], 0.002);
+    EXPECT_NEAR(g.finger_offset, offset / 2, 1e-9);
+    ASSERT_EQ(g.ray_levels.size(), 20u);
+    EXPECT_NEAR(g.ray_levels.front(), lo, 1e-9);
+    EXPECT_NEAR(g.ray_levels.back(), hi, 1e-9);
+  }
+}
+
+TEST(GraspgenAntipodalTest, GripperProxyOfABadRobotNamesTheField) {
+  const robots::RobotSpec xarm7 = robots::LoadRobotSpec("xarm7");
+  robots::RobotSpec same_side = xarm7;
+  same_side.finger_pads[1] = same_side.finger_pads[0];
+  mlspaces::testing::ExpectError([&] { GripperProxyOf(same_side); },
+                                 {"robot.yaml", "gripper.finger_pads", "do not face each other"});
+  robots::RobotSpec no_site = xarm7;
+  no_site.tcp_site = "gripper/nope";
+  mlspaces::testing::ExpectError([&] { GripperProxyOf(no_site); },
+                                 {"robot.yaml", "tcp_site", "no site 'gripper/nope'"});
+  robots::RobotSpec outside = xarm7;
+  const sim::ModelPtr m = sim::ComposeAndCompile(xarm7.xml);
+  for (int geom = 0; geom < m->ngeom; ++geom) {  // any geom of the arm, not the gripper
+    const char* gname = mj_id2name(m.get(), mjOBJ_GEOM, geom);
+    if (gname != nullptr && std::string(gname).rfind("gripper/", 0) != 0) {
+      outside.finger_pads[0] = gname;
+      break;
+    }
+  }
+  mlspaces::testing::ExpectError([&] { GripperProxyOf(outside); },
+                                 {"gripper.finger_pads", "is not below gripper/base"});
 }
 
 TEST(GraspgenAntipodalTest, BoxCandidatesStraddleTheBoxOnOppositeFaces) {

@@ -225,6 +225,12 @@ TEST(GraspgenGenerateTest, BadOptionsAndUnknownUid) {
   o.uids = {};
   o.robot = "ur5";
   EXPECT_THROW(GenerateGrasps(o), UsageError);
+  try {
+    RobotForGraspLibrary("ur5");
+  } catch (const UsageError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("no robot 'ur5'"));
+    EXPECT_THAT(e.what(), HasSubstr("droid (franka_droid), xarm7"));
+  }
   o.robot = "droid";
   o.library_dir = tmp / "missing";
   mlspaces::testing::ExpectError([&] { GenerateGrasps(o); }, {"missing", "not found"});
@@ -293,6 +299,45 @@ TEST(GraspgenGenerateTest, CommandLine) {
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_THAT(r.err, HasSubstr("nope"));
   EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+}
+
+// Grasps for another robot's gripper: --robot xarm7 tests the xArm7's own gripper and writes
+// the xarm7 folder; the xArm7 then picks the tutorial's block with them (and only them).
+TEST(GraspgenGenerateTest, Xarm7GraspsDriveXarm7Episodes) {
+  TempDir tmp;
+  const fs::path examples(MLSPACES_EXAMPLES_DIR);
+  EXPECT_EQ(RobotForGraspLibrary("droid"), "franka_droid");
+  EXPECT_EQ(RobotForGraspLibrary("xarm7"), "xarm7");
+  const fs::path grasps = tmp / "xarm7_grasps";
+  auto r = RunCli({"generate-grasps", (examples / "custom_assets" / "asset_library").string(),
+                   "--robot", "xarm7", "--max-grasps", "20", "-j", "1", "--seed", "1", "-q",
+                   "--output", grasps.string()});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const fs::path file = grasps / "red_block" / "xarm7" / "grasps.npz";
+  ASSERT_TRUE(fs::exists(file));
+  EXPECT_EQ(NpzReader(file).Read("transforms").shape, (std::vector<size_t>{20, 4, 4}));
+  EXPECT_EQ(GraspIndex::Load(grasps / "grasps_index.json").grasp_paths.at("xarm7").at("red_block"),
+            "red_block/xarm7/grasps.npz");
+
+  // The tutorial with the xArm7 and only the new library (its paths made absolute).
+  std::string config = Slurp(examples / "custom_assets" / "datagen.yaml");
+  const auto replace = [&](const std::string& from, const std::string& to) {
+    ASSERT_NE(config.find(from), std::string::npos) << from;
+    config.replace(config.find(from), from.size(), to);
+  };
+  const fs::path tutorial = examples / "custom_assets";
+  replace("{name: custom_grasps, path: asset_library, asset_library: custom_assets}",
+          "{name: xarm7_grasps, path: " + grasps.string() + ", asset_library: custom_assets}");
+  replace("path: asset_library}", "path: " + (tutorial / "asset_library").string() + "}");
+  replace("[scene.xml]", "[" + (tutorial / "scene.xml").string() + "]");
+  const fs::path yaml = tmp / "datagen.yaml";
+  WriteText(yaml, config);
+  r = RunCli({"datagen", yaml.string(), "-q", "--seed", "2", "--episodes", "3", "--output",
+              (tmp / "run").string(), "--set", "robot_config.name=xarm7", "--set",
+              "task_config.enable_rendering=false"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("100.0% of episodes (3/3)"));
+  EXPECT_THAT(Slurp(tmp / "run" / "journal.jsonl"), HasSubstr("\"num_grasps\":20,"));  // ours
 }
 
 }  // namespace

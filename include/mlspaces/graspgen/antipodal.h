@@ -18,6 +18,10 @@
 #include "mlspaces/core/transform.h"
 #include "mlspaces/graspgen/mesh.h"
 
+namespace mlspaces::robots {
+struct RobotSpec;
+}  // namespace mlspaces::robots
+
 namespace mlspaces::graspgen {
 
 /// The open gripper as boxes in the TCP frame, and its closing rays.
@@ -31,9 +35,16 @@ struct MLSPACES_API GripperProxy {
   std::vector<double> ray_levels;
 };
 
-/// The open gripper of assets/robots/franka_droid (Robotiq 2F-85-like): housing, coupling,
-/// driver links, pads and pad backs at driver angle 0, from franka_droid.xml; 20 ray levels
-/// spanning the contact pad's length.
+/// The open gripper of `robot`, read from its MJCF at qpos0 (the fingers open): a box per
+/// collision geom below the gripper body (the geom's local bounding box), in the TCP site
+/// frame; closing rays from the two finger pads' centres (finger_offset: their mean |y|), at
+/// 20 levels over the pads' common extent along the TCP z. @throws Error naming the robot
+/// description and its field (gripper.body, tcp_site, gripper.finger_pads) when one is
+/// missing, the gripper has no collision geom, or the pads do not face each other across y.
+MLSPACES_API GripperProxy GripperProxyOf(const robots::RobotSpec& robot);
+
+/// GripperProxyOf(assets/robots/franka_droid), the Robotiq 2F-85-like gripper: coupling,
+/// housing, driver links, pads and pad backs at driver angle 0.
 MLSPACES_API GripperProxy FrankaDroidGripperProxy();
 
 /// The candidate space (defaults: the MolmoSpaces generator's, spec section 2.4.2).

@@ -27,7 +27,8 @@ struct MLSPACES_API GenerateOptions {
   /// The grasp library written to; empty: library_dir (the tutorial's layout).
   std::filesystem::path output_dir;
   std::vector<std::string> uids;  ///< empty: every object of the library
-  /// Grasp-library robot name (the folder under `<uid>/`); "droid" is franka_droid's gripper.
+  /// Grasp-library robot name (the folder under `<uid>/`) and the robot whose gripper is
+  /// tested (RobotForGraspLibrary): "droid" is franka_droid's, "xarm7" the xArm7's.
   std::string robot = "droid";
   /// false: pickup grasps of each object; true: joint grasps of each hinge and slide joint
   /// (objects without one are skipped with that reason).
@@ -78,8 +79,8 @@ struct MLSPACES_API GenerateReport {
   size_t failed() const;
 };
 
-/// The robot description a grasp-library robot name stands for ("droid" -> franka_droid).
-/// @throws UsageError for a name without a grasp-generation gripper.
+/// The robot a grasp-library robot folder name stands for: "droid" -> franka_droid, else a
+/// robot of that name on robots::RobotSearchPath(). @throws UsageError for an unknown name.
 MLSPACES_API std::string RobotForGraspLibrary(const std::string& robot);
 
 /// Runs the job. Per-object problems (bad mesh, no collision geometry, nothing accepted) are

@@ -55,6 +55,9 @@ def generate_grasps(
 ) -> GraspGenerationReport:
     """Generates grasps for the objects of ``library_dir`` (all, or ``uids``).
 
+    ``robot`` is the robot whose gripper grasps and the grasp-library folder (``<uid>/<robot>/``):
+    ``"droid"`` (franka_droid's gripper), ``"xarm7"``, or a robot on ``$MLSPACES_ROBOT_PATH``.
+
     ``min_quality`` is the antipodal quality a candidate needs (the cosine between each contact
     normal and the closing line; 0.005 is the original's, 0.9 keeps near-perpendicular contacts).
 

@@ -1,0 +1,107 @@
+// The open gripper of any robot (include/mlspaces/graspgen/antipodal.h, GripperProxyOf).
+#include "gripper_proxy.h"
+
+#include <cmath>
+#include <string>
+
+#include "mlspaces/core/error.h"
+#include "mlspaces/graspgen/antipodal.h"
+#include "mlspaces/robots/robot_spec.h"
+#include "mlspaces/sim/mj_pose.h"
+#include "mlspaces/sim/mjcf_composer.h"
+#include "mlspaces/sim/mujoco_handlers.h"
+
+namespace mlspaces::graspgen {
+
+bool IsCollisionGeom(const mjModel* m, int g) {
+  return m->geom_contype[g] != 0 || m->geom_conaffinity[g] != 0;
+}
+
+OrientedBox GeomBox(const mjModel* m, const mjData* d, int g, const Mat4& world_to_frame) {
+  const Mat4 t = world_to_frame * sim::GeomMat4(d, g);
+  const mjtNum* aabb = m->geom_aabb + 6 * g;  // centre and half sizes in the geom frame
+  OrientedBox b;
+  const Rot3 r = Rotation(t);
+  for (int row = 0; row < 3; ++row) {
+    b.center[row] = t(row, 3);
+    for (int k = 0; k < 3; ++k) b.center[row] += r[3 * row + k] * aabb[k];
+    b.half[row] = aabb[3 + row];
+  }
+  b.rot = r;
+  return b;
+}
+
+GripperProxy GripperProxyOf(const robots::RobotSpec& robot) {
+  const std::string file =
+      robot.description_file.empty() ? robot.xml.string() : robot.description_file.string();
+  const sim::ModelPtr model = sim::ComposeAndCompile(robot.xml);
+  const mjModel* m = model.get();
+  const auto id = [&](mjtObj type, const std::string& name, const std::string& field) {
+    const int i = mj_name2id(m, type, name.c_str());
+    if (i < 0) {
+      throw Error(
+          "no " + std::string(mju_type2Str(type)) + " '" + name + "' in " + robot.xml.string(),
+          file, field);
+    }
+    return i;
+  };
+  const int root = id(mjOBJ_BODY, robot.gripper_body, "gripper.body");
+  const int site = id(mjOBJ_SITE, robot.tcp_site, "tcp_site");
+  const sim::DataPtr data = sim::MakeData(m);
+  mj_kinematics(m, data.get());  // qpos0: the fingers open (as GraspScene's hand)
+  const Mat4 world_to_tcp = InverseRigid(sim::SiteMat4(data.get(), site));
+  const auto below_root = [&](int body) {
+    for (; body > 0; body = m->body_parentid[body]) {
+      if (body == root) return true;
+    }
+    return false;
+  };
+
+  GripperProxy g;
+  g.name = robot.name;
+  for (int geom = 0; geom < m->ngeom; ++geom) {
+    if (below_root(m->geom_bodyid[geom]) && IsCollisionGeom(m, geom)) {
+      g.boxes.push_back(GeomBox(m, data.get(), geom, world_to_tcp));
+    }
+  }
+  if (g.boxes.empty()) {
+    throw Error("the gripper body '" + robot.gripper_body + "' has no collision geom below it",
+                file, "gripper.body");
+  }
+  // The closing rays: from each pad's centre across y, over the pads' extent along z.
+  OrientedBox pads[2];
+  for (int side = 0; side < 2; ++side) {
+    const int pad = id(mjOBJ_GEOM, robot.finger_pads[side], "gripper.finger_pads");
+    if (!below_root(m->geom_bodyid[pad])) {
+      throw Error("finger pad '" + robot.finger_pads[side] + "' is not below " + robot.gripper_body,
+                  file, "gripper.finger_pads");
+    }
+    pads[side] = GeomBox(m, data.get(), pad, world_to_tcp);
+  }
+  if (!(pads[0].center[1] * pads[1].center[1] < 0)) {
+    throw Error("the finger pads '" + robot.finger_pads[0] + "' and '" + robot.finger_pads[1] +
+                    "' do not face each other across the TCP's y axis (y " +
+                    std::to_string(pads[0].center[1]) + " and " +
+                    std::to_string(pads[1].center[1]) + ")",
+                file, "gripper.finger_pads");
+  }
+  g.finger_offset = 0.5 * (std::abs(pads[0].center[1]) + std::abs(pads[1].center[1]));
+  double lo = 0, hi = 0;  // the pads' common extent along the TCP z
+  for (int side = 0; side < 2; ++side) {
+    double reach = 0;
+    for (int k = 0; k < 3; ++k) reach += std::abs(pads[side].rot[6 + k]) * pads[side].half[k];
+    const double a = pads[side].center[2] - reach, b = pads[side].center[2] + reach;
+    lo = side == 0 ? a : std::max(lo, a);
+    hi = side == 0 ? b : std::min(hi, b);
+  }
+  if (!(hi > lo)) {
+    throw Error("the finger pads '" + robot.finger_pads[0] + "' and '" + robot.finger_pads[1] +
+                    "' do not overlap along the TCP's z axis",
+                file, "gripper.finger_pads");
+  }
+  constexpr int kLevels = 20;
+  for (int k = 0; k < kLevels; ++k) g.ray_levels.push_back(lo + (hi - lo) * k / (kLevels - 1));
+  return g;
+}
+
+}  // namespace mlspaces::graspgen

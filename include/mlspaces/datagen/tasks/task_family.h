@@ -17,6 +17,7 @@
 #include <memory>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include "mlspaces/core/json.h"
@@ -121,6 +122,21 @@ struct MLSPACES_API TaskFamily {
   std::unique_ptr<TaskEpisode> (*make_episode)(const Env& env, const ExperimentConfig& config,
                                                Task task, std::string_view sampler) = nullptr;
 };
+
+/// TaskFamily::make_planner for a planner built as PickPlanner is (env, robot, the policy
+/// config, policy_dt in seconds).
+template <class Planner>
+std::unique_ptr<PickPlanner> MakeFamilyPlanner(const Env& env, const robots::RobotView& robot,
+                                               const ExperimentConfig& config) {
+  return std::make_unique<Planner>(env, robot, config.policy_config, config.policy_dt_ms / 1000.0);
+}
+
+/// TaskFamily::make_episode for an episode constructed from (env, config, task, sampler).
+template <class Episode>
+std::unique_ptr<TaskEpisode> MakeFamilyEpisode(const Env& env, const ExperimentConfig& config,
+                                               Task task, std::string_view sampler) {
+  return std::make_unique<Episode>(env, config, std::move(task), sampler);
+}
 
 /// The family of `type`. Every TaskType has one.
 MLSPACES_API const TaskFamily& TaskFamilyOf(TaskType type);

@@ -126,21 +126,12 @@ class OpenCloseEpisode final : public TaskEpisode {
   OpenCloseVerdict verdict_;  // Judge's last
 };
 
-std::unique_ptr<PickPlanner> MakePlanner(const Env& env, const robots::RobotView& robot,
-                                         const ExperimentConfig& config) {
-  return std::make_unique<OpenClosePlanner>(env, robot, config.policy_config,
-                                            config.policy_dt_ms / 1000.0);
-}
-
-std::unique_ptr<TaskEpisode> MakeEpisode(const Env& env, const ExperimentConfig& config, Task task,
-                                         std::string_view sampler) {
-  return std::make_unique<OpenCloseEpisode>(env, config, std::move(task), sampler);
-}
-
 }  // namespace
 
 const TaskFamily& detail::OpenCloseFamily() {
-  static const TaskFamily kFamily{"open_close", IsOpenCloseTask, MakePlanner, MakeEpisode};
+  static const TaskFamily kFamily{"open_close", IsOpenCloseTask,
+                                  MakeFamilyPlanner<OpenClosePlanner>,
+                                  MakeFamilyEpisode<OpenCloseEpisode>};
   return kFamily;
 }
 

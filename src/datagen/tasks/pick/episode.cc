@@ -12,7 +12,8 @@ namespace {
 
 class PickEpisode final : public TaskEpisode {
  public:
-  PickEpisode(const Env& env, const ExperimentConfig& config, Task task)
+  PickEpisode(const Env& env, const ExperimentConfig& config, Task task,
+              std::string_view /*sampler*/)
       : TaskEpisode(env, config, std::move(task)), goal_(ToMat4(task_.pickup_obj_goal_pose)) {}
 
   PlanFailure Plan(PickPlanner& planner, const mjData* d, std::vector<Mat4> grasps) const override {
@@ -47,21 +48,11 @@ class PickEpisode final : public TaskEpisode {
 
 bool HasType(TaskType type) { return type == TaskType::kPick; }
 
-std::unique_ptr<PickPlanner> MakePlanner(const Env& env, const robots::RobotView& robot,
-                                         const ExperimentConfig& config) {
-  return std::make_unique<PickPlanner>(env, robot, config.policy_config,
-                                       config.policy_dt_ms / 1000.0);
-}
-
-std::unique_ptr<TaskEpisode> MakeEpisode(const Env& env, const ExperimentConfig& config, Task task,
-                                         std::string_view /*sampler*/) {
-  return std::make_unique<PickEpisode>(env, config, std::move(task));
-}
-
 }  // namespace
 
 const TaskFamily& detail::PickFamily() {
-  static const TaskFamily kFamily{"pick", HasType, MakePlanner, MakeEpisode};
+  static const TaskFamily kFamily{"pick", HasType, MakeFamilyPlanner<PickPlanner>,
+                                  MakeFamilyEpisode<PickEpisode>};
   return kFamily;
 }
 

@@ -105,21 +105,12 @@ class PickAndPlaceEpisode final : public TaskEpisode {
   PlaceVerdict verdict_;  // Judge's last
 };
 
-std::unique_ptr<PickPlanner> MakePlanner(const Env& env, const robots::RobotView& robot,
-                                         const ExperimentConfig& config) {
-  return std::make_unique<PickAndPlacePlanner>(env, robot, config.policy_config,
-                                               config.policy_dt_ms / 1000.0);
-}
-
-std::unique_ptr<TaskEpisode> MakeEpisode(const Env& env, const ExperimentConfig& config, Task task,
-                                         std::string_view sampler) {
-  return std::make_unique<PickAndPlaceEpisode>(env, config, std::move(task), sampler);
-}
-
 }  // namespace
 
 const TaskFamily& detail::PickAndPlaceFamily() {
-  static const TaskFamily kFamily{"pick_and_place", IsPickAndPlaceTask, MakePlanner, MakeEpisode};
+  static const TaskFamily kFamily{"pick_and_place", IsPickAndPlaceTask,
+                                  MakeFamilyPlanner<PickAndPlacePlanner>,
+                                  MakeFamilyEpisode<PickAndPlaceEpisode>};
   return kFamily;
 }
 

@@ -7,6 +7,7 @@
 #include "mlspaces/core/strings.h"
 #include "mlspaces/core/yaml_archive.h"
 #include "mlspaces/datagen/config.h"
+#include "mlspaces/datagen/tasks/task_family.h"
 
 namespace mlspaces::datagen {
 namespace fs = std::filesystem;
@@ -144,31 +145,20 @@ void Validate(const ExperimentConfig& c, const fs::path& origin) {
             "must be a fraction of the joint range in [0, 1], got " + std::to_string(v));
   }
   {
-    const bool articulated = c.task_type == TaskType::kOpen || c.task_type == TaskType::kClose;
-    const bool open_sampler = Lower(s.task_sampler_class) == "opentasksampler";
-    k.Check(!articulated || Lower(s.task_sampler_class) != "block_pickup",
-            sp + "task_sampler_class",
-            "task_type " + std::string(EnumName(c.task_type)) +
-                " needs a sampler that chooses a joint (OpenTaskSampler), not block_pickup");
-    k.Check(articulated || !open_sampler, sp + "task_sampler_class",
-            "OpenTaskSampler samples open / close tasks; task_type is " +
-                std::string(EnumName(c.task_type)));
+    // The task type's family says which samplers may draw it (tasks/task_family.h); another
+    // family's own sampler is refused.
+    const TaskFamily& family = TaskFamilyOf(c.task_type);
+    const std::string why = family.sampler_refusal(c.task_type, s.task_sampler_class);
+    k.Check(why.empty(), sp + "task_sampler_class", why);
+    for (const TaskFamily* other : TaskFamilies()) {
+      k.Check(other == &family || !other->owns_sampler(s.task_sampler_class),
+              sp + "task_sampler_class",
+              s.task_sampler_class + " samples " + std::string(other->name) +
+                  " tasks; task_type is " + std::string(EnumName(c.task_type)));
+    }
   }
   {
-    // pick_and_place* (docs/tasks.md): the sampler of the family, sane bands and limits.
-    const std::string cls = Lower(s.task_sampler_class);
-    const bool place = c.task_type == TaskType::kPickAndPlace ||
-                       c.task_type == TaskType::kPickAndPlaceNextTo ||
-                       c.task_type == TaskType::kPickAndPlaceColor;
-    const bool place_sampler = cls.starts_with("pickandplace") && cls.ends_with("tasksampler");
-    k.Check(!place || place_sampler, sp + "task_sampler_class",
-            "task_type " + std::string(EnumName(c.task_type)) +
-                " needs a sampler that chooses a place target (PickAndPlaceTaskSampler, "
-                "PickAndPlaceNextToTaskSampler, PickAndPlaceColorTaskSampler), not " +
-                s.task_sampler_class);
-    k.Check(place || !place_sampler, sp + "task_sampler_class",
-            s.task_sampler_class + " samples pick-and-place tasks; task_type is " +
-                std::string(EnumName(c.task_type)));
+    // pick_and_place* (docs/tasks.md): sane bands and limits.
     k.Positive(s.num_place_receptacles, sp + "num_place_receptacles");
     k.NonNegative(s.episodes_per_receptacle, sp + "episodes_per_receptacle");
     k.Positive(s.max_place_receptacle_sampling_attempts,

@@ -35,11 +35,15 @@ void TaskEpisode::AddRolloutInfo(Json& /*extra*/, int64_t /*step*/) const {}
 void TaskEpisode::AddToObsScene(const Registry& /*registry*/, const std::string& /*pickup*/,
                                 Json& /*obs_scene*/) const {}
 
-const TaskFamily& TaskFamilyOf(TaskType type) {
+std::span<const TaskFamily* const> TaskFamilies() {
   // Adding a family: its folder under tasks/, its TaskType values, and a line here.
   static const std::array<const TaskFamily*, 3> kFamilies = {
       &detail::PickFamily(), &detail::OpenCloseFamily(), &detail::PickAndPlaceFamily()};
-  for (const TaskFamily* family : kFamilies) {
+  return kFamilies;
+}
+
+const TaskFamily& TaskFamilyOf(TaskType type) {
+  for (const TaskFamily* family : TaskFamilies()) {
     if (family->has_type(type)) return *family;
   }
   // Not EnumName: a value cast from a bad integer has no name.

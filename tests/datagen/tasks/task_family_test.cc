@@ -37,7 +37,14 @@ TEST(TaskFamilyTest, EveryTaskTypeHasItsFamily) {
     EXPECT_TRUE(family.has_type(type));
     ASSERT_NE(family.make_planner, nullptr);
     ASSERT_NE(family.make_episode, nullptr);
+    ASSERT_NE(family.sampler_refusal, nullptr);
+    ASSERT_NE(family.owns_sampler, nullptr);
+    // The type belongs to no other family.
+    for (const TaskFamily* other : TaskFamilies()) {
+      EXPECT_EQ(other->has_type(type), other == &family) << other->name;
+    }
   }
+  EXPECT_EQ(TaskFamilies().size(), 3u);
   testing::ExpectError([] { TaskFamilyOf(static_cast<TaskType>(99)); },
                        {"task_type 99", "no task family"});
 }
@@ -50,6 +57,44 @@ TEST(TaskFamilyTest, ReferralIsTheCategoryElseTheBodyName) {
   empty_category.json = Json{{"category", ""}};
   EXPECT_EQ(Referral("red_block", &empty_category), "red block");
   EXPECT_EQ(Referral("red_block", nullptr), "red block");
+}
+
+// Which samplers may draw which task types, as the families say: a family's own sampler with
+// another family's type, or a sampler that cannot choose what the family needs, is one error
+// naming the field; any other pairing passes.
+TEST(TaskFamilyTest, ConfigsPairTaskTypesWithTheirFamiliesSamplers) {
+  struct Case {
+    TaskType type;
+    std::string sampler, error;  // error "": valid
+  };
+  for (const Case& c : {
+           Case{TaskType::kPick, "block_pickup", ""},
+           Case{TaskType::kPick, "my_sampler", ""},
+           Case{TaskType::kOpen, "OpenTaskSampler", ""},
+           Case{TaskType::kClose, "opentasksampler", ""},
+           Case{TaskType::kOpen, "my_sampler", ""},
+           Case{TaskType::kPickAndPlaceColor, "PickAndPlaceColorTaskSampler", ""},
+           Case{TaskType::kPick, "OpenTaskSampler", "OpenTaskSampler samples open_close tasks"},
+           Case{TaskType::kPick, "PickAndPlaceTaskSampler",
+                "PickAndPlaceTaskSampler samples pick_and_place tasks; task_type is pick"},
+           Case{TaskType::kOpen, "block_pickup", "needs a sampler that chooses a joint"},
+           Case{TaskType::kClose, "PickAndPlaceTaskSampler", "samples pick_and_place tasks"},
+           Case{TaskType::kPickAndPlace, "block_pickup", "needs a sampler that chooses a place"},
+           Case{TaskType::kPickAndPlaceNextTo, "OpenTaskSampler",
+                "a place target (PickAndPlaceTaskSampler, PickAndPlaceNextToTaskSampler, "
+                "PickAndPlaceColorTaskSampler), not OpenTaskSampler"},
+       }) {
+    SCOPED_TRACE(std::string(EnumName(c.type)) + " " + c.sampler);
+    ExperimentConfig config = TutorialConfig();
+    config.task_type = c.type;
+    config.task_sampler_config.task_sampler_class = c.sampler;
+    if (c.error.empty()) {
+      EXPECT_NO_THROW(Validate(config, "c.yaml"));
+    } else {
+      testing::ExpectError([&] { Validate(config, "c.yaml"); },
+                           {"c.yaml", "task_sampler_config.task_sampler_class", c.error});
+    }
+  }
 }
 
 // A pick sampler asked for a task type whose family needs more than a pick task: a joint

@@ -15,6 +15,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <memory>
+#include <span>
 #include <string>
 #include <string_view>
 #include <utility>
@@ -121,6 +122,12 @@ struct MLSPACES_API TaskFamily {
   /// joint of the env.
   std::unique_ptr<TaskEpisode> (*make_episode)(const Env& env, const ExperimentConfig& config,
                                                Task task, std::string_view sampler) = nullptr;
+  /// Why the config's `sampler_class` (task_sampler_config.task_sampler_class, any case)
+  /// cannot sample task type `type` of the family, or "" when it may.
+  std::string (*sampler_refusal)(TaskType type, std::string_view sampler_class) = nullptr;
+  /// True for the sampler classes (any case) that sample only this family's task types
+  /// (config validation refuses them with another family's type).
+  bool (*owns_sampler)(std::string_view sampler_class) = nullptr;
 };
 
 /// TaskFamily::make_planner for a planner built as PickPlanner is (env, robot, the policy
@@ -140,6 +147,9 @@ std::unique_ptr<TaskEpisode> MakeFamilyEpisode(const Env& env, const ExperimentC
 
 /// The family of `type`. Every TaskType has one.
 MLSPACES_API const TaskFamily& TaskFamilyOf(TaskType type);
+
+/// Every family, in TaskFamilyOf's order.
+MLSPACES_API std::span<const TaskFamily* const> TaskFamilies();
 
 /// The referral expression of a body: its asset's category (`annotation`, may be null), else
 /// the body name with underscores as spaces.

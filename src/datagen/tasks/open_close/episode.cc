@@ -9,6 +9,7 @@
 #include <mujoco/mujoco.h>
 
 #include "mlspaces/core/error.h"
+#include "mlspaces/core/strings.h"
 #include "mlspaces/datagen/tasks/open_close/planner.h"
 #include "mlspaces/datagen/tasks/open_close/sampler.h"
 #include "mlspaces/datagen/tasks/open_close/success.h"
@@ -126,12 +127,25 @@ class OpenCloseEpisode final : public TaskEpisode {
   OpenCloseVerdict verdict_;  // Judge's last
 };
 
+bool OwnsSampler(std::string_view sampler_class) {
+  return Lower(sampler_class) == "opentasksampler";
+}
+
+std::string SamplerRefusal(TaskType type, std::string_view sampler_class) {
+  if (Lower(sampler_class) != "block_pickup") return {};  // OpenTaskSampler, or a user's own
+  return "task_type " + std::string(EnumName(type)) +
+         " needs a sampler that chooses a joint (OpenTaskSampler), not block_pickup";
+}
+
 }  // namespace
 
 const TaskFamily& detail::OpenCloseFamily() {
-  static const TaskFamily kFamily{"open_close", IsOpenCloseTask,
+  static const TaskFamily kFamily{"open_close",
+                                  IsOpenCloseTask,
                                   MakeFamilyPlanner<OpenClosePlanner>,
-                                  MakeFamilyEpisode<OpenCloseEpisode>};
+                                  MakeFamilyEpisode<OpenCloseEpisode>,
+                                  SamplerRefusal,
+                                  OwnsSampler};
   return kFamily;
 }
 

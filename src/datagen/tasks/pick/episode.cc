@@ -48,11 +48,16 @@ class PickEpisode final : public TaskEpisode {
 
 bool HasType(TaskType type) { return type == TaskType::kPick; }
 
+// Any sampler may draw pick tasks; the other families' own samplers are refused by theirs.
+std::string SamplerRefusal(TaskType /*type*/, std::string_view /*sampler_class*/) { return {}; }
+bool OwnsSampler(std::string_view /*sampler_class*/) { return false; }
+
 }  // namespace
 
 const TaskFamily& detail::PickFamily() {
-  static const TaskFamily kFamily{"pick", HasType, MakeFamilyPlanner<PickPlanner>,
-                                  MakeFamilyEpisode<PickEpisode>};
+  static const TaskFamily kFamily{
+      "pick",         HasType,    MakeFamilyPlanner<PickPlanner>, MakeFamilyEpisode<PickEpisode>,
+      SamplerRefusal, OwnsSampler};
   return kFamily;
 }
 

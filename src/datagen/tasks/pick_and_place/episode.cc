@@ -6,6 +6,7 @@
 #include <utility>
 
 #include "mlspaces/core/error.h"
+#include "mlspaces/core/strings.h"
 #include "mlspaces/datagen/tasks/pick_and_place/planner.h"
 #include "mlspaces/datagen/tasks/pick_and_place/sampler.h"
 #include "mlspaces/datagen/tasks/pick_and_place/success.h"
@@ -105,12 +106,28 @@ class PickAndPlaceEpisode final : public TaskEpisode {
   PlaceVerdict verdict_;  // Judge's last
 };
 
+bool OwnsSampler(std::string_view sampler_class) {
+  const std::string cls = Lower(sampler_class);
+  return cls.starts_with("pickandplace") && cls.ends_with("tasksampler");
+}
+
+std::string SamplerRefusal(TaskType type, std::string_view sampler_class) {
+  if (OwnsSampler(sampler_class)) return {};
+  return "task_type " + std::string(EnumName(type)) +
+         " needs a sampler that chooses a place target (PickAndPlaceTaskSampler, "
+         "PickAndPlaceNextToTaskSampler, PickAndPlaceColorTaskSampler), not " +
+         std::string(sampler_class);
+}
+
 }  // namespace
 
 const TaskFamily& detail::PickAndPlaceFamily() {
-  static const TaskFamily kFamily{"pick_and_place", IsPickAndPlaceTask,
+  static const TaskFamily kFamily{"pick_and_place",
+                                  IsPickAndPlaceTask,
                                   MakeFamilyPlanner<PickAndPlacePlanner>,
-                                  MakeFamilyEpisode<PickAndPlaceEpisode>};
+                                  MakeFamilyEpisode<PickAndPlaceEpisode>,
+                                  SamplerRefusal,
+                                  OwnsSampler};
   return kFamily;
 }
 

@@ -18,16 +18,10 @@ bool IsCollisionGeom(const mjModel* m, int g) {
 }
 
 OrientedBox GeomBox(const mjModel* m, const mjData* d, int g, const Mat4& world_to_frame) {
-  const Mat4 t = world_to_frame * sim::GeomMat4(d, g);
-  const mjtNum* aabb = m->geom_aabb + 6 * g;  // centre and half sizes in the geom frame
   OrientedBox b;
-  const Rot3 r = Rotation(t);
-  for (int row = 0; row < 3; ++row) {
-    b.center[row] = t(row, 3);
-    for (int k = 0; k < 3; ++k) b.center[row] += r[3 * row + k] * aabb[k];
-    b.half[row] = aabb[3 + row];
-  }
-  b.rot = r;
+  const Mat4 t = world_to_frame * sim::GeomBoxFrame(m, d, g, &b.half);
+  b.center = Translation(t);
+  b.rot = Rotation(t);
   return b;
 }
 

@@ -29,4 +29,15 @@ Mat4 GeomMat4(const mjData* d, int geom) {
   return FrameToMat4(d->geom_xpos + 3 * geom, d->geom_xmat + 9 * geom);
 }
 
+Mat4 GeomBoxFrame(const mjModel* m, const mjData* d, int geom, Vec3* half) {
+  const mjtNum* aabb = m->geom_aabb + 6 * geom;  // centre, then half sizes, in the geom frame
+  const mjtNum* r = d->geom_xmat + 9 * geom;
+  Mat4 t = GeomMat4(d, geom);
+  for (int k = 0; k < 3; ++k) {
+    for (int i = 0; i < 3; ++i) t(k, 3) += r[3 * k + i] * aabb[i];
+  }
+  for (int i = 0; i < 3; ++i) (*half)[i] = aabb[3 + i];
+  return t;
+}
+
 }  // namespace mlspaces::sim

@@ -1,6 +1,8 @@
 // MuJoCo's pose arrays <-> Pose / Mat4 (src/sim/mj_pose.cc) and InSubtree.
 #include "mlspaces/sim/mj_pose.h"
 
+#include <algorithm>
+
 #include <gtest/gtest.h>
 
 #include "mlspaces/sim/mujoco_handlers.h"
@@ -47,6 +49,42 @@ TEST(MjPoseTest, BodySiteAndGeomPosesMatchMujoco) {
   EXPECT_EQ(geom(0, 3), d->geom_xpos[3 * g]);
   EXPECT_EQ(geom(2, 1), d->geom_xmat[9 * g + 7]);
   EXPECT_EQ(geom(3, 3), 1.0);
+}
+
+// A tetrahedron's bounding box is not centred on the mesh frame (MuJoCo puts that at the
+// mesh's centroid, along its principal axes): the box frame holds every vertex and touches
+// each of its six faces.
+TEST(MjPoseTest, GeomBoxFrameHoldsTheGeomTightly) {
+  ModelPtr m = LoadModelFromMemory(R"(<mujoco>
+  <asset><mesh name="tet" vertex="0 0 0  0.3 0 0  0 0.2 0  0 0 0.1"/></asset>
+  <worldbody><body pos="0.5 -0.2 0.7" euler="20 -35 60">
+    <geom name="t" type="mesh" mesh="tet" pos="0.01 0.02 0.03" euler="5 10 15"/>
+  </body></worldbody></mujoco>)");
+  DataPtr d = MakeData(m.get());
+  mj_kinematics(m.get(), d.get());
+  const int g = mj_name2id(m.get(), mjOBJ_GEOM, "t");
+  Vec3 half;
+  const Mat4 box = GeomBoxFrame(m.get(), d.get(), g, &half);
+  const Mat4 inv = InverseRigid(box);
+  const Mat4 geom = GeomMat4(d.get(), g);
+  const int mesh = m->geom_dataid[g];
+  Vec3 lo{1, 1, 1}, hi{-1, -1, -1};
+  for (int v = 0; v < m->mesh_vertnum[mesh]; ++v) {
+    const float* p = m->mesh_vert + 3 * (m->mesh_vertadr[mesh] + v);  // geom frame
+    Vec3 world{}, in_box{};
+    for (int r = 0; r < 3; ++r)
+      world[r] = geom(r, 3) + geom(r, 0) * p[0] + geom(r, 1) * p[1] + geom(r, 2) * p[2];
+    for (int r = 0; r < 3; ++r)
+      in_box[r] = inv(r, 3) + inv(r, 0) * world[0] + inv(r, 1) * world[1] + inv(r, 2) * world[2];
+    for (int k = 0; k < 3; ++k) {
+      lo[k] = std::min(lo[k], in_box[k]);
+      hi[k] = std::max(hi[k], in_box[k]);
+    }
+  }
+  for (int k = 0; k < 3; ++k) {
+    EXPECT_NEAR(lo[k], -half[k], 1e-6) << k;
+    EXPECT_NEAR(hi[k], half[k], 1e-6) << k;
+  }
 }
 
 TEST(MjPoseTest, FreeJointRoundTripIsExact) {

@@ -23,5 +23,9 @@ MLSPACES_API Pose BodyPose(const mjData* d, int body);
 /// World matrix of a site / geom after a forward pass (xpos, xmat).
 MLSPACES_API Mat4 SiteMat4(const mjData* d, int site);
 MLSPACES_API Mat4 GeomMat4(const mjData* d, int geom);
+/// The frame of geom `geom`'s bounding box (MuJoCo's geom_aabb: the geom's axes, moved to the
+/// box centre) in world coordinates after a forward pass; `half` (not null) gets the box's half
+/// sizes along those axes.
+MLSPACES_API Mat4 GeomBoxFrame(const mjModel* m, const mjData* d, int geom, Vec3* half);
 
 }  // namespace mlspaces::sim

@@ -60,17 +60,10 @@ bool Overlap(const Box& p, const Box& q) {
 
 // A geom's bounding box (MuJoCo's geom_aabb, in the geom frame) in world coordinates.
 Box GeomBox(const mjModel* m, const mjData* d, int g) {
-  const mjtNum* c = m->geom_aabb + 6 * g;
-  const mjtNum* r = d->geom_xmat + 9 * g;
   Box b;
-  for (int i = 0; i < 3; ++i) {
-    b.axes[i] = {r[i], r[3 + i], r[6 + i]};  // column i of the row-major rotation
-    b.half[i] = c[3 + i];
-  }
-  b.centre = {d->geom_xpos[3 * g], d->geom_xpos[3 * g + 1], d->geom_xpos[3 * g + 2]};
-  for (int i = 0; i < 3; ++i) {
-    for (int k = 0; k < 3; ++k) b.centre[k] += b.axes[i][k] * c[i];
-  }
+  const Mat4 t = sim::GeomBoxFrame(m, d, g, &b.half);
+  for (int i = 0; i < 3; ++i) b.axes[i] = {t(0, i), t(1, i), t(2, i)};
+  b.centre = {t(0, 3), t(1, 3), t(2, 3)};
   return b;
 }
 

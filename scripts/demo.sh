@@ -90,6 +90,13 @@ mkdir -p generated && cp -r asset_library scene.xml scene_metadata.json datagen.
 "$ML" datagen generated/datagen.yaml --output generated/run --seed 0 --episodes 2 -q \
   --set task_config.enable_rendering=false
 "$ML" validate-dataset generated/run
+# The xArm7's own gripper (read off its robot.yaml and MJCF): its grasps go to red_block/xarm7/,
+# and the xArm7 picks with only those (the grasp library "<name>/<robot>").
+"$ML" generate-grasps generated/asset_library --uid red_block --robot xarm7 --max-grasps 50 -q
+"$ML" datagen generated/datagen.yaml --output generated/xarm7_run --seed 0 --episodes 2 -q \
+  --set robot_config.name=xarm7 --set 'policy_config.grasp_libraries=[custom_grasps/xarm7]' \
+  --set task_config.enable_rendering=false
+"$ML" validate-dataset generated/xarm7_run
 "$ML" generate-grasps "$ROOT/examples/objects" --joints --max-grasps 10 -o cabinet_grasps
 "$PY" -c "import numpy as np, glob; [print(f, np.load(f)['transforms'].shape) for f in sorted(glob.glob('cabinet_grasps/*/droid/*.npz'))]"
 # Open and close the example cabinet's drawer or door with its joint grasps (docs/tasks.md):

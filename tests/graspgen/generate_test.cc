@@ -301,6 +301,33 @@ TEST(GraspgenGenerateTest, CommandLine) {
   EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
 }
 
+// A user's robot on $MLSPACES_ROBOT_PATH (the xArm7's files under another name) gets grasps
+// by its name, the same as the xArm7's for the same seed: the gripper is all that counts.
+TEST(GraspgenGenerateTest, AUsersRobotGetsGraspsByName) {
+  TempDir tmp;
+  fs::path lib = WriteLibrary(tmp.path());
+  const fs::path mine = tmp / "robots" / "my_arm";
+  fs::create_directories(mine);
+  const fs::path xarm7 = fs::path(MLSPACES_SOURCE_DIR) / "assets" / "robots" / "xarm7";
+  fs::copy_file(xarm7 / "xarm7.xml", mine / "xarm7.xml");
+  std::string yaml = Slurp(xarm7 / "robot.yaml");
+  yaml.replace(yaml.find("name: xarm7"), 11, "name: my_arm");
+  WriteText(mine / "robot.yaml", yaml);
+  ::setenv("MLSPACES_ROBOT_PATH", (tmp / "robots").c_str(), 1);
+  GenerateOptions o = Small(lib);
+  o.uids = {"box"};
+  o.robot = "my_arm";
+  const GenerateReport mine_report = GenerateGrasps(o);
+  o.robot = "xarm7";
+  const GenerateReport xarm7_report = GenerateGrasps(o);
+  ::unsetenv("MLSPACES_ROBOT_PATH");
+  ASSERT_EQ(mine_report.objects.at(0).status, ObjectReport::Status::kDone)
+      << mine_report.objects.at(0).reason;
+  EXPECT_EQ(mine_report.objects.at(0).output, lib / "box" / "my_arm" / "grasps.npz");
+  EXPECT_EQ(Slurp(mine_report.objects.at(0).output), Slurp(xarm7_report.objects.at(0).output));
+  EXPECT_THROW(RobotForGraspLibrary("my_arm"), UsageError);  // off the path again
+}
+
 // Grasps for another robot's gripper: --robot xarm7 tests the xArm7's own gripper and writes
 // the xarm7 folder; the xArm7 then picks the tutorial's block with them (and only them).
 TEST(GraspgenGenerateTest, Xarm7GraspsDriveXarm7Episodes) {

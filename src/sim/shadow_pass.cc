@@ -12,6 +12,18 @@ namespace mlspaces::sim {
 
 using namespace detail;  // NOLINT(google-build-using-namespace): this file's own helpers
 
+// A program's uniform locations for the per-geom state.
+struct ShadowPass::GeomUniforms {
+  GLint rgba, emission, specular, shininess, s, t, r;
+};
+
+struct ShadowPass::BuiltProgram {
+  GLuint id = 0;
+  // SetLights' uniforms, the maps' matrices, the per-geom state.
+  GLint lpos, lspotdir, lspot, latt, lamb, ldif, lspec, lslot, global, eye_to_map;
+  GeomUniforms geom;
+};
+
 ShadowPass::ShadowPass(GlProcLoader load, const mjModel* m)
     : gl_(std::make_unique<Gl>()),
       // The maps' shapes: coarser than MuJoCo's (their vertices are most of a map's cost), an
@@ -54,9 +66,9 @@ bool ShadowPass::LeftOut(const ViewVolume& volume, const mjvGeom& g) {
   return out;
 }
 
-unsigned int ShadowPass::Program(int nlight, int nmap, int texmode) {
+const ShadowPass::BuiltProgram& ShadowPass::Program(int nlight, int nmap, int texmode) {
   const int key = (nlight * (kMaxShadowLights + 1) + nmap) * 4 + texmode;
-  if (auto it = programs_.find(key); it != programs_.end()) return it->second;
+  if (auto it = programs_.find(key); it != programs_.end()) return *it->second;
   Gl& gl = *gl_;
   const std::string defines = "#version 120\n#define NLIGHT " + std::to_string(nlight) +
                               "\n#define NMAP " + std::to_string(nmap) + "\n#define TEXMODE " +
@@ -105,8 +117,30 @@ unsigned int ShadowPass::Program(int nlight, int nmap, int texmode) {
     gl.DeleteProgram(program);
     fail("link", log);
   }
-  programs_[key] = program;
-  return program;
+  auto built = std::make_unique<BuiltProgram>();
+  built->id = program;
+  auto loc = [&](const char* name) { return gl.GetUniformLocation(program, name); };
+  BuiltProgram& b = *built;
+  b.lpos = loc("u_lpos");
+  b.lspotdir = loc("u_lspotdir");
+  b.lspot = loc("u_lspot");
+  b.latt = loc("u_latt");
+  b.lamb = loc("u_lamb");
+  b.ldif = loc("u_ldif");
+  b.lspec = loc("u_lspec");
+  b.lslot = loc("u_lslot");
+  b.global = loc("u_global");
+  b.eye_to_map = loc("u_eye_to_map");
+  b.geom = {loc("u_rgba"),    loc("u_emission"), loc("u_specular"), loc("u_shininess"),
+            loc("u_plane_s"), loc("u_plane_t"),  loc("u_plane_r")};
+  // The samplers' texture units never change (uniforms are the program's state).
+  gl.UseProgram(program);
+  gl.Uniform1i(loc("u_tex2d"), kUnit2d);
+  gl.Uniform1i(loc("u_texcube"), kUnitCube);
+  const char* map_names[kMaxShadowLights] = {"u_map0", "u_map1", "u_map2", "u_map3"};
+  for (int k = 0; k < kMaxShadowLights; ++k) gl.Uniform1i(loc(map_names[k]), kUnitMap0 + k);
+  gl.UseProgram(0);
+  return *(programs_[key] = std::move(built));
 }
 
 ShadowPass::~ShadowPass() {
@@ -116,7 +150,7 @@ ShadowPass::~ShadowPass() {
     if (map_fbo_[k]) gl.DeleteFramebuffers(1, &map_fbo_[k]);
     if (map_tex_[k]) gl.DeleteTextures(1, &map_tex_[k]);
   }
-  for (const auto& [key, program] : programs_) gl.DeleteProgram(program);
+  for (const auto& [key, program] : programs_) gl.DeleteProgram(program->id);
 }
 
 bool ShadowPass::HasShadows(const mjvScene& scn, const mjrContext& con) {
@@ -322,11 +356,6 @@ void ShadowPass::DrawMaps(const mjvScene& scn, const mjrContext& con,
   ++map_renders_;
 }
 
-// A program's uniform locations for the per-geom state.
-struct ShadowPass::GeomUniforms {
-  GLint rgba, emission, specular, shininess, s, t, r;
-};
-
 struct ShadowPass::Programs {
   Programs(ShadowPass* owner, const mjvScene& scene, const float* modelview,
            std::vector<int> maps = {}, const float* map_matrices = nullptr)
@@ -347,35 +376,26 @@ struct ShadowPass::Programs {
   std::vector<int> shadow_lights;  // in map order
   const float* eye_to_map;         // kMaxShadowLights matrices (column-major), with maps
   int nlight = 0;
-  std::array<GLuint, 4> program{};
-  std::array<GeomUniforms, 4> uniforms{};
+  std::array<const BuiltProgram*, 4> program{};  // set up for this pass
   int current = -1;
 };
 
 const ShadowPass::GeomUniforms& ShadowPass::Programs::Use(int texmode) {
   Gl& gl = *pass.gl_;
-  if (texmode == current) return uniforms[texmode];
+  if (texmode == current) return program[texmode]->geom;
   current = texmode;
-  if (program[texmode] != 0) {
-    gl.UseProgram(program[texmode]);
-    return uniforms[texmode];
+  if (program[texmode] != nullptr) {
+    gl.UseProgram(program[texmode]->id);
+    return program[texmode]->geom;
   }
-  const GLuint p = pass.Program(nlight, static_cast<int>(shadow_lights.size()), texmode);
-  program[texmode] = p;
-  gl.UseProgram(p);
+  const BuiltProgram& p = pass.Program(nlight, static_cast<int>(shadow_lights.size()), texmode);
+  program[texmode] = &p;
+  gl.UseProgram(p.id);
   pass.SetLights(p, scn, view, shadow_lights);
   if (!shadow_lights.empty()) {
-    gl.UniformMatrix4fv(gl.GetUniformLocation(p, "u_eye_to_map"), kMaxShadowLights, GL_FALSE,
-                        eye_to_map);
-    const char* map_names[kMaxShadowLights] = {"u_map0", "u_map1", "u_map2", "u_map3"};
-    for (int k = 0; k < kMaxShadowLights; ++k) {
-      gl.Uniform1i(gl.GetUniformLocation(p, map_names[k]), kUnitMap0 + k);
-    }
+    gl.UniformMatrix4fv(p.eye_to_map, kMaxShadowLights, GL_FALSE, eye_to_map);
   }
-  auto loc = [&](const char* name) { return gl.GetUniformLocation(p, name); };
-  uniforms[texmode] = {loc("u_rgba"),    loc("u_emission"), loc("u_specular"), loc("u_shininess"),
-                       loc("u_plane_s"), loc("u_plane_t"),  loc("u_plane_r")};
-  return uniforms[texmode];
+  return p.geom;
 }
 
 namespace {
@@ -467,10 +487,9 @@ void DrawBlended(const ShadowPass::Gl& gl, const mjvScene& scn, const mjrContext
 
 }  // namespace
 
-void ShadowPass::SetLights(unsigned int program, const mjvScene& scn, const float* view,
+void ShadowPass::SetLights(const BuiltProgram& program, const mjvScene& scn, const float* view,
                            const std::vector<int>& shadow_lights) {
   Gl& gl = *gl_;
-  auto loc = [&](const char* name) { return gl.GetUniformLocation(program, name); };
   // Lights in eye coordinates, as mjr_render's adjustLight sets them under `view`.
   int nlight = 0;
   float lpos[kMaxLights][4] = {}, lspotdir[kMaxLights][3] = {}, lspot[kMaxLights][3] = {},
@@ -511,20 +530,18 @@ void ShadowPass::SetLights(unsigned int program, const mjvScene& scn, const floa
       if (shadow_lights[k] == i) lslot[n] = static_cast<int>(k);
     }
   }
-  gl.Uniform4fv(loc("u_lpos"), nlight, &lpos[0][0]);
-  gl.Uniform3fv(loc("u_lspotdir"), nlight, &lspotdir[0][0]);
-  gl.Uniform3fv(loc("u_lspot"), nlight, &lspot[0][0]);
-  gl.Uniform3fv(loc("u_latt"), nlight, &latt[0][0]);
-  gl.Uniform3fv(loc("u_lamb"), nlight, &lamb[0][0]);
-  gl.Uniform3fv(loc("u_ldif"), nlight, &ldif[0][0]);
-  gl.Uniform3fv(loc("u_lspec"), nlight, &lspec[0][0]);
-  gl.Uniform1iv(loc("u_lslot"), nlight, lslot);
+  gl.Uniform4fv(program.lpos, nlight, &lpos[0][0]);
+  gl.Uniform3fv(program.lspotdir, nlight, &lspotdir[0][0]);
+  gl.Uniform3fv(program.lspot, nlight, &lspot[0][0]);
+  gl.Uniform3fv(program.latt, nlight, &latt[0][0]);
+  gl.Uniform3fv(program.lamb, nlight, &lamb[0][0]);
+  gl.Uniform3fv(program.ldif, nlight, &ldif[0][0]);
+  gl.Uniform3fv(program.lspec, nlight, &lspec[0][0]);
+  gl.Uniform1iv(program.lslot, nlight, lslot);
   // MuJoCo 3.5 adds a global ambient only to a scene without lights.
   const float global = scn.nlight ? 0.0f : 0.3f;
   const float global3[3] = {global, global, global};
-  gl.Uniform3fv(loc("u_global"), 1, global3);
-  gl.Uniform1i(loc("u_tex2d"), kUnit2d);
-  gl.Uniform1i(loc("u_texcube"), kUnitCube);
+  gl.Uniform3fv(program.global, 1, global3);
 }
 
 void ShadowPass::DrawSkybox(const mjvScene& scn, const mjrContext& con) {

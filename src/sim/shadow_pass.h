@@ -63,13 +63,16 @@ class ShadowPass {
   /// a program's per-geom uniform locations: shadow_pass.cc's own.
   struct Programs;
   struct GeomUniforms;
+  /// A built program and its uniform locations (looked up once, at link time).
+  struct BuiltProgram;
 
  private:
   // Whether `g` is wholly outside `volume` (counted in left_out_).
   bool LeftOut(const std::array<std::array<float, 4>, 6>& volume, const mjvGeom& g);
   // The shader program for nlight lights of which nmap cast shadows, for geoms of texture
-  // mode `texmode` (GeomTexture::mode), built on first use.
-  unsigned int Program(int nlight, int nmap, int texmode);
+  // mode `texmode` (GeomTexture::mode), built on first use (its samplers bound to their
+  // texture units then); valid while the pass lives.
+  const BuiltProgram& Program(int nlight, int nmap, int texmode);
 
   // mjr_render's skybox and haze behind what the pass drew (none without a skybox texture).
   void DrawSkybox(const mjvScene& scn, const mjrContext& con);
@@ -80,8 +83,9 @@ class ShadowPass {
   void DrawReflection(const mjvScene& scn, const mjrContext& con, int reflective,
                       const float* cam_project, const float* cam_view,
                       const std::vector<int>& transparent);
-  // The light uniforms of `program` under the modelview `view`; shadow_lights get map slots.
-  void SetLights(unsigned int program, const mjvScene& scn, const float* view,
+  // The light uniforms of `program` (current) under the modelview `view`; shadow_lights get
+  // map slots.
+  void SetLights(const BuiltProgram& program, const mjvScene& scn, const float* view,
                  const std::vector<int>& shadow_lights);
   void DrawMaps(const mjvScene& scn, const mjrContext& con, const std::vector<int>& lights);
   std::unique_ptr<Gl> gl_;
@@ -89,7 +93,7 @@ class ShadowPass {
   unsigned int caster_buffer_ = 0;
   std::vector<float> mesh_radius_;  // per mesh: the largest distance of a vertex from its frame
   std::vector<float> casters_;      // the maps' casters in world coordinates (x y z per vertex)
-  std::map<int, unsigned int> programs_;
+  std::map<int, std::unique_ptr<BuiltProgram>> programs_;
   std::array<unsigned int, 4> map_tex_{};
   std::array<unsigned int, 4> map_fbo_{};
   int map_size_ = 0;

@@ -80,6 +80,21 @@ GripperProxy GripperProxyOf(const robots::RobotSpec& robot) {
                 file, "gripper.finger_pads");
   }
   g.finger_offset = 0.5 * (std::abs(pads[0].center[1]) + std::abs(pads[1].center[1]));
+  // The hand must be open at qpos0 (the simulation starts it there too): the pads' inner
+  // faces as far apart as robot.yaml says the fingers open, within a fifth.
+  double gap = 2 * g.finger_offset;
+  for (const OrientedBox& pad : pads) {
+    for (int k = 0; k < 3; ++k) gap -= std::abs(pad.rot[3 + k]) * pad.half[k];
+  }
+  const double open = robot.finger_range[1];
+  if (gap < 0.8 * open) {
+    throw Error("the gripper is not open at the MJCF's qpos0: its pads' inner faces are " +
+                    std::to_string(static_cast<int>(std::lround(gap * 1000))) +
+                    " mm apart, gripper.finger_range opens them " +
+                    std::to_string(static_cast<int>(std::lround(open * 1000))) +
+                    " mm (grasp generation takes the hand at qpos0 as open)",
+                file, "gripper.finger_range");
+  }
   double lo = 0, hi = 0;  // the pads' common extent along the TCP z
   for (int side = 0; side < 2; ++side) {
     double reach = 0;

@@ -177,6 +177,13 @@ TEST(GraspgenAntipodalTest, GripperProxyOfABadRobotNamesTheField) {
   same_side.finger_pads[1] = same_side.finger_pads[0];
   mlspaces::testing::ExpectError([&] { GripperProxyOf(same_side); },
                                  {"robot.yaml", "gripper.finger_pads", "do not face each other"});
+  robots::RobotSpec closed = xarm7;
+  closed.finger_range[1] = 0.2;  // as if qpos0 were a hand closed to under a fifth of that
+  mlspaces::testing::ExpectError([&] { GripperProxyOf(closed); },
+                                 {"robot.yaml", "gripper.finger_range",
+                                  "not open at the MJCF's "
+                                  "qpos0: its pads' inner faces are 85 mm apart",
+                                  "opens them 200 mm"});
   robots::RobotSpec no_site = xarm7;
   no_site.tcp_site = "gripper/nope";
   mlspaces::testing::ExpectError([&] { GripperProxyOf(no_site); },

@@ -145,7 +145,8 @@ std::unique_ptr<TaskEpisode> MakeFamilyEpisode(const Env& env, const ExperimentC
   return std::make_unique<Episode>(env, config, std::move(task), sampler);
 }
 
-/// The family of `type`. Every TaskType has one.
+/// The family of `type`. Every TaskType has one; @throws Error naming task_type for a value
+/// outside the enum.
 MLSPACES_API const TaskFamily& TaskFamilyOf(TaskType type);
 
 /// Every family, in TaskFamilyOf's order.

@@ -43,7 +43,10 @@ TEST(ParallelTest, LowestFailedIndexWinsAndNewItemsStop) {
       // Items start in index order, so 7 started before 9 and fails too.
       EXPECT_STREQ(e.what(), "item 7");
     }
-    EXPECT_LT(ran.load(), 10000u);
+    // One thread: nothing starts after the failure (the stop flag every worker checks before
+    // it takes an item). With several, the others may finish every item while the failing
+    // thread is descheduled (a 2-core machine running 4 threads): no count is certain there.
+    if (threads == 1) EXPECT_EQ(ran.load(), 8u);
   }
 }
 

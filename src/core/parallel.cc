@@ -127,8 +127,13 @@ void RunOrdered(size_t n, int threads, size_t window, const std::function<void(s
     for (size_t i = 0; i < n; ++i) {
       {
         std::unique_lock<std::mutex> lock(pool.mu_);
-        pool.cv_.wait(lock, [&] { return produced[i] || pool.stopped_; });
-        if (!produced[i]) break;  // a failure: stop at the first missing item
+        // After a failure, an item that a worker already took still finishes (produced or
+        // failed): wait for it, so every item before the lowest failed one is consumed. Stop
+        // at the first item that failed or that no worker will take.
+        pool.cv_.wait(lock, [&] {
+          return produced[i] || pool.errors_[i] || (pool.stopped_ && i >= pool.next_);
+        });
+        if (!produced[i]) break;
         consumed = i + 1;
         pool.cv_.notify_all();
       }

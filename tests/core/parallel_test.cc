@@ -3,9 +3,11 @@
 #include "mlspaces/core/parallel.h"
 
 #include <atomic>
+#include <chrono>
 #include <mutex>
 #include <stdexcept>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include <gmock/gmock.h>
@@ -103,6 +105,30 @@ TEST(ParallelTest, OrderedWindowBoundsWorkAhead) {
       [&](size_t i, size_t&&) { consumed = i + 1; });
   // A worker may take item i only while i < consumed + window.
   EXPECT_LE(max_ahead.load(), 5u);  // consume(i) may still run while i + 5 starts
+}
+
+// Item 8 is still being produced when item 10 fails: it finishes and is consumed, as is 9;
+// the run stops at 10. (Item 8 waits for 10's failure and then a while, so that a consumer
+// that gave up on items in flight at the failure would stop at 8: CI once saw that.)
+TEST(ParallelTest, OrderedConsumesItemsInFlightWhenALaterOneFails) {
+  std::atomic<bool> ten_failed{false};
+  std::vector<size_t> consumed;
+  EXPECT_THROW(ParallelForOrdered<size_t>(
+                   100, 3, 4,
+                   [&](size_t i) -> size_t {
+                     if (i == 8) {
+                       while (!ten_failed) std::this_thread::yield();
+                       std::this_thread::sleep_for(std::chrono::milliseconds(50));
+                     }
+                     if (i == 10) {
+                       ten_failed = true;
+                       throw std::runtime_error("produce 10");
+                     }
+                     return i;
+                   },
+                   [&](size_t i, size_t&&) { consumed.push_back(i); }),
+               std::runtime_error);
+  EXPECT_EQ(consumed, (std::vector<size_t>{0, 1, 2, 3, 4, 5, 6, 7, 8, 9}));
 }
 
 TEST(ParallelTest, OrderedStopsAtTheFirstFailure) {

@@ -258,8 +258,7 @@ GraspScene::GraspScene(const std::filesystem::path& asset_file, const robots::Ro
   const Mat4 tcp = sim::SiteMat4(data.get(), s.site);
   s.mocap_to_tcp = InverseRigid(BodyMat4(data.get(), hand_body)) * tcp;
   const Mat4 world_to_tcp = InverseRigid(tcp);
-  for (int g = 0; g < m->ngeom; ++g) {
-    if (s.body_root[m->geom_bodyid[g]] != hand_body || !IsCollisionGeom(m, g)) continue;
+  for (int g : CollisionGeoms(m, hand_body)) {
     s.proxy.boxes.push_back(GeomBox(m, data.get(), g, world_to_tcp));
   }
   s.proxy.name = robot.name;

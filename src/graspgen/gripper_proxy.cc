@@ -6,16 +6,13 @@
 
 #include "mlspaces/core/error.h"
 #include "mlspaces/graspgen/antipodal.h"
+#include "mlspaces/graspgen/mesh.h"
 #include "mlspaces/robots/robot_spec.h"
 #include "mlspaces/sim/mj_pose.h"
 #include "mlspaces/sim/mjcf_composer.h"
 #include "mlspaces/sim/mujoco_handlers.h"
 
 namespace mlspaces::graspgen {
-
-bool IsCollisionGeom(const mjModel* m, int g) {
-  return m->geom_contype[g] != 0 || m->geom_conaffinity[g] != 0;
-}
 
 OrientedBox GeomBox(const mjModel* m, const mjData* d, int g, const Mat4& world_to_frame) {
   OrientedBox b;
@@ -44,19 +41,11 @@ GripperProxy GripperProxyOf(const robots::RobotSpec& robot) {
   const sim::DataPtr data = sim::MakeData(m);
   mj_kinematics(m, data.get());  // qpos0: the fingers open (as GraspScene's hand)
   const Mat4 world_to_tcp = InverseRigid(sim::SiteMat4(data.get(), site));
-  const auto below_root = [&](int body) {
-    for (; body > 0; body = m->body_parentid[body]) {
-      if (body == root) return true;
-    }
-    return false;
-  };
 
   GripperProxy g;
   g.name = robot.name;
-  for (int geom = 0; geom < m->ngeom; ++geom) {
-    if (below_root(m->geom_bodyid[geom]) && IsCollisionGeom(m, geom)) {
-      g.boxes.push_back(GeomBox(m, data.get(), geom, world_to_tcp));
-    }
+  for (int geom : CollisionGeoms(m, root)) {
+    g.boxes.push_back(GeomBox(m, data.get(), geom, world_to_tcp));
   }
   if (g.boxes.empty()) {
     throw Error("the gripper body '" + robot.gripper_body + "' has no collision geom below it",
@@ -66,7 +55,7 @@ GripperProxy GripperProxyOf(const robots::RobotSpec& robot) {
   OrientedBox pads[2];
   for (int side = 0; side < 2; ++side) {
     const int pad = id(mjOBJ_GEOM, robot.finger_pads[side], "gripper.finger_pads");
-    if (!below_root(m->geom_bodyid[pad])) {
+    if (!sim::InSubtree(m, m->geom_bodyid[pad], root)) {
       throw Error("finger pad '" + robot.finger_pads[side] + "' is not below " + robot.gripper_body,
                   file, "gripper.finger_pads");
     }

@@ -9,9 +9,6 @@
 
 namespace mlspaces::graspgen {
 
-/// True when geom `g` collides (contype or conaffinity non-zero).
-bool IsCollisionGeom(const mjModel* m, int g);
-
 /// Geom `g`'s local bounding box (geom_aabb) as an oriented box in the frame whose inverse
 /// pose is `world_to_frame`, at the positions in `d` (after mj_kinematics).
 OrientedBox GeomBox(const mjModel* m, const mjData* d, int g, const Mat4& world_to_frame);

@@ -9,6 +9,7 @@
 #include "mlspaces/core/error.h"
 #include "mlspaces/core/rng.h"
 #include "mlspaces/sim/mjcf_composer.h"
+#include "mlspaces/sim/mujoco_handlers.h"
 
 namespace mlspaces::graspgen {
 namespace {
@@ -135,9 +136,7 @@ std::vector<int> CollisionGeoms(const mjModel* m, int body) {
   std::vector<int> out;
   for (int g = 0; g < m->ngeom; ++g) {
     if (m->geom_contype[g] == 0 && m->geom_conaffinity[g] == 0) continue;
-    int b = m->geom_bodyid[g];
-    while (b != body && b != 0) b = m->body_parentid[b];
-    if (b == body) out.push_back(g);
+    if (sim::InSubtree(m, m->geom_bodyid[g], body)) out.push_back(g);
   }
   return out;
 }

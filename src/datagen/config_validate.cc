@@ -4,7 +4,6 @@
 #include <set>
 
 #include "mlspaces/core/error.h"
-#include "mlspaces/core/strings.h"
 #include "mlspaces/core/yaml_archive.h"
 #include "mlspaces/datagen/config.h"
 #include "mlspaces/datagen/tasks/task_family.h"

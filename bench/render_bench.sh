@@ -14,7 +14,7 @@
 #   RUNS="default no_cameras" bench/render_bench.sh   (some of the datagen runs: default,
 #                                          multipass, unfitted, full, no_cameras)
 # GL: osmesa (default) or egl (the EGL device platform: a GPU where one is installed).
-# On llvmpipe each worker renders with one rasteriser thread (LP_NUM_THREADS=1, as datagen sets
+# On llvmpipe each worker rasterises on its own thread (LP_NUM_THREADS=0, as datagen sets
 # it with one worker per core), so figures are per core.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -34,7 +34,7 @@ trap 'rm -rf "$TMP"' EXIT
 
 if [[ -z ${SKIP_CURVE:-} ]]; then
   echo "== render settings: speed and SSIM against full quality ($GL, $EPISODES episodes)"
-  LP_NUM_THREADS=${LP_NUM_THREADS:-1} stdbuf -oL "$BENCH" --gl "$GL" --episodes "$EPISODES"
+  LP_NUM_THREADS=${LP_NUM_THREADS:-0} stdbuf -oL "$BENCH" --gl "$GL" --episodes "$EPISODES"
 fi
 
 [[ -z ${SKIP_DATAGEN:-} ]] || exit 0

@@ -367,10 +367,13 @@ int WorkerMain(int fd, pid_t parent, const ExperimentConfig& config, const Regis
   if (::getppid() != parent) ::_exit(3);
   ::signal(SIGPIPE, SIG_IGN);
   // Mesa's software rasteriser starts one thread per core in every process; with several
-  // workers that oversubscribes the cores. Share them out unless the user chose.
+  // workers that oversubscribes the cores. Share them out unless the user chose. A worker with
+  // one core rasterises on its own thread (0): a rasteriser thread beside it costs 1-5% in
+  // hand-overs (bench/render_bench.sh). The frames are the same bytes either way.
   if (std::getenv("LP_NUM_THREADS") == nullptr) {
     const long cores = std::max(1L, ::sysconf(_SC_NPROCESSORS_ONLN));
-    ::setenv("LP_NUM_THREADS", std::to_string(std::max(1L, cores / workers)).c_str(), 1);
+    const long share = cores / workers;
+    ::setenv("LP_NUM_THREADS", std::to_string(share > 1 ? share : 0).c_str(), 1);
   }
   sim::SetRenderWorker(worker);  // EGL devices are taken in turn by the workers
   int code = 0;

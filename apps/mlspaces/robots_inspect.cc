@@ -1,6 +1,7 @@
 // mlspaces inspect-robot NAME|PATH [--json] [--settle-time S] [--grid-x MIN MAX] ...: checks a
 // robot description and measures the robot in simulation (robots::InspectRobot). Exit 0: no
-// problem; 1: problems found (one line each); 2: bad usage or no such robot.
+// problem; 1: problems found (one line each); 2: bad usage or no such robot. With graspgen built,
+// a last line says whether generate-grasps can use the robot (not a problem when it cannot).
 #include <array>
 #include <cstdio>
 #include <memory>
@@ -11,6 +12,9 @@
 #include "mlspaces/core/error.h"
 #include "mlspaces/core/json.h"
 #include "mlspaces/robots/inspect.h"
+#ifdef MLSPACES_HAVE_GRASPGEN
+#include "mlspaces/graspgen/generate.h"
+#endif
 
 namespace mlspaces::cli {
 namespace {
@@ -41,11 +45,16 @@ int Run(const InspectRobotFlags& flags) {
     // No such robot (a misspelled name, a path without a robot.yaml): a usage error.
     throw UsageError(e.message(), e.path(), e.field(), e.uid());
   }
-  if (flags.json) {
-    std::printf("%s\n", DumpJsonIndent4(robots::ToJson(report)).c_str());
-  } else {
-    std::printf("%s", robots::FormatRobotReport(report).c_str());
+  Json json = robots::ToJson(report);
+  std::string text = robots::FormatRobotReport(report);
+#ifdef MLSPACES_HAVE_GRASPGEN
+  if (report.loaded) {
+    const graspgen::GraspReadiness grasps = graspgen::CheckGraspGeneration(report.file.string());
+    json["grasp_generation"] = graspgen::ToJson(grasps);
+    text += graspgen::FormatGraspReadiness(grasps, report.name);
   }
+#endif
+  std::printf("%s", flags.json ? (DumpJsonIndent4(json) + "\n").c_str() : text.c_str());
   return report.problems.empty() ? 0 : 1;
 }
 

@@ -11,6 +11,9 @@
 #include "bindings.h"
 #include "convert.h"
 #include "mlspaces/robots/inspect.h"
+#ifdef MLSPACES_HAVE_GRASPGEN
+#include "mlspaces/graspgen/generate.h"
+#endif
 
 namespace mlspaces::python {
 
@@ -29,12 +32,19 @@ void BindRobotsInspect(nb::module_& m) {
         o.grid_z = grid_z;
         o.grid_step = grid_step;
         o.reachability = reachability;
-        robots::RobotReport report;
+        Json json;
         {
           nb::gil_scoped_release no_gil;
-          report = robots::InspectRobot(name_or_path.string(), o);
+          const robots::RobotReport report = robots::InspectRobot(name_or_path.string(), o);
+          json = robots::ToJson(report);
+#ifdef MLSPACES_HAVE_GRASPGEN
+          if (report.loaded) {
+            json["grasp_generation"] =
+                graspgen::ToJson(graspgen::CheckGraspGeneration(report.file.string()));
+          }
+#endif
         }
-        return JsonToPython(robots::ToJson(report));
+        return JsonToPython(json);
       },
       nb::arg("name_or_path"), nb::kw_only(), nb::arg("settle_time") = 1.0,
       nb::arg("finger_tolerance") = 0.002, nb::arg("tcp_tolerance_deg") = 10.0,
@@ -43,7 +53,8 @@ void BindRobotsInspect(nb::module_& m) {
       nb::arg("grid_z") = std::array<double, 2>{0.05, 0.6}, nb::arg("grid_step") = 0.1,
       nb::arg("reachability") = true,
       "The engine of mlspaces.robots.inspect_robot (python/mlspaces/robots/_inspect.py, which "
-      "checks the arguments): InspectRobot's report as a dict (ToJson)");
+      "checks the arguments): InspectRobot's report as a dict (ToJson), with grasp_generation "
+      "(graspgen::CheckGraspGeneration) when the description loads");
 }
 
 }  // namespace mlspaces::python

@@ -52,3 +52,20 @@ def test_errors(tmp_path) -> None:
         mlspaces.robots.inspect_robot("franka_droid", grid_x=(0.8, 0.3))
     with pytest.raises(MlspacesTypeError, match="reachability"):
         mlspaces.robots.inspect_robot("franka_droid", reachability="yes")
+
+
+def test_grasp_generation_readiness(tmp_path) -> None:
+    report = mlspaces.robots.inspect_robot("xarm7", reachability=False)
+    ready = report["grasp_generation"]
+    assert ready["ready"] is True and ready["on_search_path"] is True
+    assert ready["gripper_boxes"] > 0 and 0.02 < ready["finger_offset"] < 0.08
+    assert "problem" not in ready
+    # A hand that opens far less at qpos0 than finger_range says: not ready, and why.
+    robot = tmp_path / "robot"
+    shutil.copytree(FRANKA, robot)
+    yaml = (robot / "robot.yaml").read_text()
+    (robot / "robot.yaml").write_text(yaml.replace("[0.0, 0.085]", "[0.0, 0.2]"))
+    not_ready = mlspaces.robots.inspect_robot(robot, reachability=False)["grasp_generation"]
+    assert not_ready["ready"] is False and not_ready["on_search_path"] is False
+    assert f"{robot / 'robot.yaml'}" in not_ready["problem"]
+    assert "gripper.finger_range" in not_ready["problem"]

@@ -2,10 +2,15 @@
 #include "gripper_proxy.h"
 
 #include <cmath>
+#include <cstdio>
+#include <filesystem>
 #include <string>
+#include <string_view>
+#include <system_error>
 
 #include "mlspaces/core/error.h"
 #include "mlspaces/graspgen/antipodal.h"
+#include "mlspaces/graspgen/generate.h"
 #include "mlspaces/graspgen/mesh.h"
 #include "mlspaces/robots/robot_spec.h"
 #include "mlspaces/sim/mj_pose.h"
@@ -100,6 +105,65 @@ GripperProxy GripperProxyOf(const robots::RobotSpec& robot) {
   constexpr int kLevels = 20;
   for (int k = 0; k < kLevels; ++k) g.ray_levels.push_back(lo + (hi - lo) * k / (kLevels - 1));
   return g;
+}
+
+GraspReadiness CheckGraspGeneration(const robots::RobotSpec& robot) {
+  GraspReadiness r;
+  try {
+    r.gripper = GripperProxyOf(robot);
+    r.ready = true;
+  } catch (const Error& e) {
+    r.problem = e.what();
+  }
+  try {
+    std::error_code ec;
+    r.on_search_path =
+        std::filesystem::equivalent(robots::FindRobot(robot.name), robot.description_file, ec);
+  } catch (const Error&) {
+    r.on_search_path = false;  // a robot.yaml given by path, its name found nowhere
+  }
+  return r;
+}
+
+GraspReadiness CheckGraspGeneration(std::string_view name_or_path) {
+  robots::RobotSpec robot;
+  try {
+    robot = robots::LoadRobotSpec(name_or_path);
+  } catch (const Error& e) {
+    GraspReadiness r;
+    r.problem = e.what();
+    return r;
+  }
+  return CheckGraspGeneration(robot);
+}
+
+Json ToJson(const GraspReadiness& r) {
+  Json j{{"ready", r.ready}};
+  if (!r.ready) {
+    j["problem"] = r.problem;
+  } else {
+    j["gripper_boxes"] = r.gripper.boxes.size();
+    j["finger_offset"] = r.gripper.finger_offset;
+    j["ray_levels"] = Json::array({r.gripper.ray_levels.front(), r.gripper.ray_levels.back()});
+  }
+  j["on_search_path"] = r.on_search_path;
+  return j;
+}
+
+std::string FormatGraspReadiness(const GraspReadiness& r, const std::string& robot_name) {
+  if (!r.ready) return "grasp generation: not possible: " + r.problem + "\n";
+  char what[160];
+  std::snprintf(what, sizeof what,
+                "%zu gripper boxes, closing rays %.4f m either side of the TCP over z [%.4f, "
+                "%.4f] m",
+                r.gripper.boxes.size(), r.gripper.finger_offset, r.gripper.ray_levels.front(),
+                r.gripper.ray_levels.back());
+  std::string line = "grasp generation: ready (" + std::string(what) +
+                     "): mlspaces generate-grasps --robot " + robot_name;
+  if (!r.on_search_path) {
+    line += " (once its folder's parent is on $MLSPACES_ROBOT_PATH)";
+  }
+  return line + "\n";
 }
 
 }  // namespace mlspaces::graspgen

@@ -5,14 +5,18 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <filesystem>
 #include <numbers>
 #include <string>
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include "graspgen/assets.h"
 #include "mlspaces/core/error.h"
+#include "mlspaces/core/json.h"
 #include "mlspaces/core/rng.h"
+#include "mlspaces/graspgen/generate.h"
 #include "mlspaces/robots/robot_spec.h"
 #include "mlspaces/sim/mjcf_composer.h"
 #include "test_util.h"
@@ -199,6 +203,68 @@ TEST(GraspgenAntipodalTest, GripperProxyOfABadRobotNamesTheField) {
   }
   mlspaces::testing::ExpectError([&] { GripperProxyOf(outside); },
                                  {"gripper.finger_pads", "is not below gripper/base"});
+}
+
+// inspect-robot's last line: CheckGraspGeneration catches GripperProxyOf's error, and the CLI
+// prints it (a robot that cannot give grasps is not one of its problems).
+TEST(GraspgenAntipodalTest, InspectRobotSaysWhetherGraspsCanBeGenerated) {
+  using ::testing::HasSubstr;
+  const robots::RobotSpec xarm7 = robots::LoadRobotSpec("xarm7");
+  const GraspReadiness ready = CheckGraspGeneration(xarm7);
+  ASSERT_TRUE(ready.ready) << ready.problem;
+  EXPECT_TRUE(ready.on_search_path);
+  EXPECT_EQ(ready.gripper.boxes.size(), GripperProxyOf(xarm7).boxes.size());
+  const Json j = ToJson(ready);
+  EXPECT_EQ(j["ready"], true);
+  EXPECT_EQ(j["gripper_boxes"], ready.gripper.boxes.size());
+  EXPECT_DOUBLE_EQ(j["finger_offset"].get<double>(), ready.gripper.finger_offset);
+  EXPECT_FALSE(j.contains("problem"));
+  const std::string line = FormatGraspReadiness(ready, "xarm7");
+  EXPECT_THAT(line, ::testing::StartsWith("grasp generation: ready ("));
+  EXPECT_THAT(line, ::testing::EndsWith("): mlspaces generate-grasps --robot xarm7\n"));
+
+  robots::RobotSpec closed = xarm7;
+  closed.finger_range[1] = 0.2;
+  const GraspReadiness not_ready = CheckGraspGeneration(closed);
+  EXPECT_FALSE(not_ready.ready);
+  EXPECT_THAT(not_ready.problem, HasSubstr("gripper.finger_range"));
+  EXPECT_EQ(FormatGraspReadiness(not_ready, "xarm7"),
+            "grasp generation: not possible: " + not_ready.problem + "\n");
+  EXPECT_EQ(ToJson(not_ready)["problem"], not_ready.problem);
+
+  // The CLI, on copies of franka_droid given by path: off the search path it says how to put
+  // the robot there; with the hand's open gap wrong it says why not, as JSON too.
+  namespace fs = std::filesystem;
+  mlspaces::testing::TempDir tmp;
+  const fs::path bundled = fs::path(MLSPACES_SOURCE_DIR) / "assets/robots/franka_droid";
+  const fs::path copy = tmp.path() / "mine/franka_droid";
+  fs::create_directories(copy.parent_path());
+  fs::copy(bundled, copy, fs::copy_options::recursive);
+  mlspaces::testing::CliResult cli =
+      mlspaces::testing::RunCli({"inspect-robot", copy.string(), "--no-ik"});
+  EXPECT_EQ(cli.exit_code, 0) << cli.err;
+  EXPECT_THAT(cli.out, HasSubstr("\nproblems: none\ngrasp generation: ready ("));
+  EXPECT_THAT(cli.out, HasSubstr("--robot franka_droid (once its folder's parent is on "
+                                 "$MLSPACES_ROBOT_PATH)\n"));
+  cli = mlspaces::testing::RunCli(
+      {"inspect-robot", copy.string(), "--no-ik"},
+      "env " + mlspaces::testing::ShellQuote("MLSPACES_ROBOT_PATH=" + copy.parent_path().string()) +
+          " ");
+  EXPECT_EQ(cli.exit_code, 0) << cli.err;
+  EXPECT_THAT(cli.out, HasSubstr("--robot franka_droid\n")) << cli.out;
+
+  std::string yaml = mlspaces::testing::Slurp(copy / "robot.yaml");
+  const std::string range = "finger_range: [0.0, 0.085]";
+  ASSERT_NE(yaml.find(range), std::string::npos);
+  yaml.replace(yaml.find(range), range.size(), "finger_range: [0.0, 0.2]");
+  mlspaces::testing::WriteText(copy / "robot.yaml", yaml);
+  cli = mlspaces::testing::RunCli({"inspect-robot", copy.string(), "--no-ik", "--json"});
+  EXPECT_EQ(cli.exit_code, 1) << cli.err;  // the gripper travel check: finger_range is wrong
+  const Json report = ParseJson(cli.out, "stdout");
+  EXPECT_EQ(report["grasp_generation"]["ready"], false);
+  EXPECT_THAT(report["grasp_generation"]["problem"].get<std::string>(),
+              ::testing::AllOf(HasSubstr((copy / "robot.yaml").string()),
+                               HasSubstr("gripper.finger_range"), HasSubstr("not open")));
 }
 
 TEST(GraspgenAntipodalTest, BoxCandidatesStraddleTheBoxOnOppositeFaces) {

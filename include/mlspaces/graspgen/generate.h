@@ -13,8 +13,11 @@
 #include <functional>
 #include <map>
 #include <string>
+#include <string_view>
 #include <vector>
 
+#include "mlspaces/core/json.h"
+#include "mlspaces/graspgen/antipodal.h"
 #include "mlspaces/graspgen/grasp_sim.h"
 
 namespace mlspaces::graspgen {
@@ -82,6 +85,31 @@ struct MLSPACES_API GenerateReport {
 /// The robot a grasp-library robot folder name stands for: "droid" -> franka_droid, else a
 /// robot of that name on robots::RobotSearchPath(). @throws UsageError for an unknown name.
 MLSPACES_API std::string RobotForGraspLibrary(const std::string& robot);
+
+/// Whether `generate-grasps --robot` can use a robot (`mlspaces inspect-robot`'s last section).
+struct MLSPACES_API GraspReadiness {
+  bool ready = false;
+  /// Why not: GripperProxyOf's one line (the robot.yaml, the field, the problem); "" if ready.
+  std::string problem;
+  GripperProxy gripper;  ///< the open hand, when ready
+  /// The robot is on robots::RobotSearchPath() under its name, so `--robot NAME` finds it.
+  bool on_search_path = false;
+};
+
+/// GripperProxyOf(`robot`) with its error caught: a robot whose hand gives no gripper proxy
+/// is `problem`, not a throw (the robot may still serve datagen with grasps made elsewhere).
+MLSPACES_API GraspReadiness CheckGraspGeneration(const robots::RobotSpec& robot);
+/// The same for robots::LoadRobotSpec(name_or_path), whose error is `problem` too.
+MLSPACES_API GraspReadiness CheckGraspGeneration(std::string_view name_or_path);
+
+/// The readiness as JSON: {"ready", "problem"?, "gripper_boxes", "finger_offset",
+/// "ray_levels": [z0, z1], "on_search_path"}.
+MLSPACES_API Json ToJson(const GraspReadiness& readiness);
+
+/// One line: "grasp generation: ready (...): mlspaces generate-grasps --robot NAME ..." or
+/// "grasp generation: not possible: <problem>"; ends with a newline.
+MLSPACES_API std::string FormatGraspReadiness(const GraspReadiness& readiness,
+                                              const std::string& robot_name);
 
 /// Runs the job. Per-object problems (bad mesh, no collision geometry, nothing accepted) are
 /// reported in the ObjectReport and the run goes on; `on_object` (optional) is called after

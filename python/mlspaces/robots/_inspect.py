@@ -33,7 +33,9 @@ def inspect_robot(name_or_path: str | os.PathLike[str], *, settle_time: float = 
     ``problems`` is all there is), ``chain``, ``actuators``, ``dof``, ``home``, ``tcp``,
     ``gripper_travel`` (gaps measured after `settle_time` seconds open, then closed, gravity
     compensation on) and ``reachability`` (IK from home over the `grid_x` x `grid_y` x `grid_z`
-    grid, `grid_step` apart, TCP pointing down; ``reachability=False`` skips it).
+    grid, `grid_step` apart, TCP pointing down; ``reachability=False`` skips it) and
+    ``grasp_generation`` (whether :func:`mlspaces.grasp_generation.generate_grasps` can use it:
+    ``ready``, and ``problem`` when not, naming the robot.yaml and its field).
     `name_or_path` is resolved as :func:`find_robot` does (and raises as it does); a bad option
     raises :class:`~mlspaces.errors.UsageError` or
     :class:`~mlspaces.errors.MlspacesTypeError`."""

@@ -9,6 +9,7 @@
 #include "mlspaces/core/error.h"
 #include "mlspaces/core/se3.h"
 #include "mlspaces/sim/mj_pose.h"
+#include "mlspaces/sim/mujoco_handlers.h"
 
 namespace mlspaces::datagen {
 namespace {
@@ -46,9 +47,7 @@ std::vector<std::string> GripperProbeGeoms(const mjModel* sim, const GraspProbeO
   mj_kinematics(sim, d.get());
   const Mat4 tcp_inv = InverseRigid(sim::SiteMat4(d.get(), site));
   std::vector<std::string> geoms;
-  for (int g = 0; g < sim->ngeom; ++g) {
-    if (!sim::InSubtree(sim, sim->geom_bodyid[g], root)) continue;
-    if (sim->geom_contype[g] == 0 && sim->geom_conaffinity[g] == 0) continue;  // visual only
+  for (int g : sim::CollisionGeoms(sim, root)) {  // visual geoms left out
     Mat4 rel = tcp_inv * sim::GeomMat4(d.get(), g);
     const mjtNum* size = sim->geom_size + 3 * g;
     std::string type, size_attr;

@@ -17,6 +17,7 @@
 #include "mlspaces/core/se3.h"
 #include "mlspaces/sim/mj_pose.h"
 #include "mlspaces/sim/mjcf_composer.h"
+#include "mlspaces/sim/mujoco_handlers.h"
 
 namespace mlspaces::graspgen {
 namespace {
@@ -258,7 +259,7 @@ GraspScene::GraspScene(const std::filesystem::path& asset_file, const robots::Ro
   const Mat4 tcp = sim::SiteMat4(data.get(), s.site);
   s.mocap_to_tcp = InverseRigid(BodyMat4(data.get(), hand_body)) * tcp;
   const Mat4 world_to_tcp = InverseRigid(tcp);
-  for (int g : CollisionGeoms(m, hand_body)) {
+  for (int g : sim::CollisionGeoms(m, hand_body)) {
     s.proxy.boxes.push_back(GeomBox(m, data.get(), g, world_to_tcp));
   }
   s.proxy.name = robot.name;

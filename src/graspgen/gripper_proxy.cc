@@ -49,7 +49,7 @@ GripperProxy GripperProxyOf(const robots::RobotSpec& robot) {
 
   GripperProxy g;
   g.name = robot.name;
-  for (int geom : CollisionGeoms(m, root)) {
+  for (int geom : sim::CollisionGeoms(m, root)) {
     g.boxes.push_back(GeomBox(m, data.get(), geom, world_to_tcp));
   }
   if (g.boxes.empty()) {

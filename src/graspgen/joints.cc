@@ -8,6 +8,7 @@
 
 #include "mlspaces/core/error.h"
 #include "mlspaces/sim/mjcf_composer.h"
+#include "mlspaces/sim/mujoco_handlers.h"
 
 namespace mlspaces::graspgen {
 namespace {
@@ -40,7 +41,7 @@ std::vector<JointTarget> FindJointTargets(const std::filesystem::path& asset_fil
     if (m->body_parentid[b] == 0) root = b;
   }
   if (root < 0) throw Error("the asset has no body", source);
-  const std::vector<int> object_geoms = CollisionGeoms(m, root);
+  const std::vector<int> object_geoms = sim::CollisionGeoms(m, root);
 
   std::vector<JointTarget> out;
   for (int j = 0; j < m->njnt; ++j) {
@@ -64,7 +65,7 @@ std::vector<JointTarget> FindJointTargets(const std::filesystem::path& asset_fil
     if (t.limited) t.range = {m->jnt_range[2 * j], m->jnt_range[2 * j + 1]};
 
     // Handle: the collision geoms of the subtree at the greatest depth below the joint body.
-    const std::vector<int> subtree = CollisionGeoms(m, body);
+    const std::vector<int> subtree = sim::CollisionGeoms(m, body);
     int max_depth = -1;
     for (int g : subtree) max_depth = std::max(max_depth, DepthBelow(m, m->geom_bodyid[g], body));
     std::vector<int> handle;

@@ -132,15 +132,6 @@ TriMesh ValidatedMesh(TriMesh mesh, const std::string& source) {
   return mesh;
 }
 
-std::vector<int> CollisionGeoms(const mjModel* m, int body) {
-  std::vector<int> out;
-  for (int g = 0; g < m->ngeom; ++g) {
-    if (m->geom_contype[g] == 0 && m->geom_conaffinity[g] == 0) continue;
-    if (sim::InSubtree(m, m->geom_bodyid[g], body)) out.push_back(g);
-  }
-  return out;
-}
-
 TriMesh GeomsMesh(const mjModel* m, const std::vector<int>& geoms, int body,
                   const std::string& source) {
   if (body < 0 || body >= m->nbody) throw Error("no body " + std::to_string(body), source);
@@ -206,7 +197,7 @@ TriMesh GeomsMesh(const mjModel* m, const std::vector<int>& geoms, int body,
 
 TriMesh CollisionMesh(const mjModel* m, int body, const std::string& source) {
   if (body < 0 || body >= m->nbody) throw Error("no body " + std::to_string(body), source);
-  const std::vector<int> geoms = CollisionGeoms(m, body);
+  const std::vector<int> geoms = sim::CollisionGeoms(m, body);
   if (geoms.empty()) {
     const char* name = mj_id2name(m, mjOBJ_BODY, body);
     throw Error("body " + std::string(name ? name : "#" + std::to_string(body)) +

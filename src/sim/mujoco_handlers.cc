@@ -81,4 +81,13 @@ bool InSubtree(const mjModel* m, int body, int root) {
   return body == root;
 }
 
+std::vector<int> CollisionGeoms(const mjModel* m, int root) {
+  std::vector<int> out;
+  for (int g = 0; g < m->ngeom; ++g) {
+    if (m->geom_contype[g] == 0 && m->geom_conaffinity[g] == 0) continue;
+    if (InSubtree(m, m->geom_bodyid[g], root)) out.push_back(g);
+  }
+  return out;
+}
+
 }  // namespace mlspaces::sim

@@ -1,7 +1,9 @@
-// MuJoCo's pose arrays <-> Pose / Mat4 (src/sim/mj_pose.cc) and InSubtree.
+// MuJoCo's pose arrays <-> Pose / Mat4 (src/sim/mj_pose.cc), InSubtree and CollisionGeoms.
 #include "mlspaces/sim/mj_pose.h"
 
 #include <algorithm>
+#include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -111,6 +113,29 @@ TEST(MjPoseTest, InSubtree) {
   EXPECT_TRUE(InSubtree(m.get(), b, 0));  // the world holds every body
   EXPECT_FALSE(InSubtree(m.get(), a, b));
   EXPECT_FALSE(InSubtree(m.get(), c, a));
+}
+
+TEST(MjPoseTest, CollisionGeomsOfASubtreeLeaveOutVisualGeoms) {
+  ModelPtr m = LoadModelFromMemory(R"(<mujoco><worldbody>
+    <body name="a">
+      <geom name="a_col" size=".1"/>
+      <geom name="a_vis" size=".1" contype="0" conaffinity="0"/>
+      <body name="b">
+        <geom name="b_type" size=".1" conaffinity="0"/>
+        <geom name="b_aff" size=".1" contype="0" conaffinity="2"/>
+      </body>
+    </body>
+    <body name="c"><geom name="c_col" size=".1"/></body>
+  </worldbody></mujoco>)");
+  auto ids = [&](const std::vector<std::string>& names) {
+    std::vector<int> out;
+    for (const std::string& n : names) out.push_back(mj_name2id(m.get(), mjOBJ_GEOM, n.c_str()));
+    return out;
+  };
+  const auto body = [&](const char* name) { return mj_name2id(m.get(), mjOBJ_BODY, name); };
+  EXPECT_EQ(CollisionGeoms(m.get(), body("a")), ids({"a_col", "b_type", "b_aff"}));
+  EXPECT_EQ(CollisionGeoms(m.get(), body("b")), ids({"b_type", "b_aff"}));
+  EXPECT_EQ(CollisionGeoms(m.get(), 0), ids({"a_col", "b_type", "b_aff", "c_col"}));
 }
 
 }  // namespace

@@ -45,9 +45,6 @@ MLSPACES_API TriMesh ValidatedMesh(TriMesh mesh, const std::string& source);
 /// unsupported geom type (plane, height field, SDF) or a mesh ValidatedMesh rejects.
 MLSPACES_API TriMesh CollisionMesh(const mjModel* model, int body, const std::string& source);
 
-/// Ids of the collision geoms (contype or conaffinity non-zero) of body `body` and below.
-MLSPACES_API std::vector<int> CollisionGeoms(const mjModel* model, int body);
-
 /// The geoms `geoms` (ids, in that order) as one mesh in body `frame`'s frame at qpos0.
 /// @throws Error (`source`) for an empty list, an unsupported type or a rejected mesh.
 MLSPACES_API TriMesh GeomsMesh(const mjModel* model, const std::vector<int>& geoms, int frame,

@@ -70,4 +70,8 @@ MLSPACES_API std::string MjName(const mjModel* m, mjtObj type, int id);
 /// True when `body` is `root` or lies below it (the world body 0 holds every body).
 MLSPACES_API bool InSubtree(const mjModel* m, int body, int root);
 
+/// Ids of the collision geoms (contype or conaffinity non-zero) of body `root` and below, in
+/// id order.
+MLSPACES_API std::vector<int> CollisionGeoms(const mjModel* m, int root);
+
 }  // namespace mlspaces::sim

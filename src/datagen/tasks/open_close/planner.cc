@@ -151,11 +151,7 @@ PlanFailure OpenClosePlanner::ResetJoint(const mjData* d, int joint_id, const Ta
   // The collision geoms of the joint body's subtree (the door or drawer with its handle).
   const mjModel* m = env_->model();
   const int joint_body = m->jnt_bodyid[joint_id];
-  joint_geoms_.clear();
-  for (int g = 0; g < m->ngeom; ++g) {
-    if (m->geom_contype[g] == 0 && m->geom_conaffinity[g] == 0) continue;
-    if (sim::InSubtree(m, m->geom_bodyid[g], joint_body)) joint_geoms_.push_back(g);
-  }
+  joint_geoms_ = sim::CollisionGeoms(m, joint_body);
   return Reset(d, env_->model()->jnt_bodyid[joint_id], std::move(grasps));
 }
 

@@ -35,13 +35,8 @@ constexpr double kMaxBack = 0.15;
 // True when a collision geom of the robot (the subtree of `robot_root`) is within `margin`
 // of one of the joint body's subtree (`joint_body`).
 bool RobotNear(const mjModel* m, const mjData* d, int robot_root, int joint_body, double margin) {
-  std::vector<int> robot, target;
-  for (int g = 0; g < m->ngeom; ++g) {
-    if (m->geom_contype[g] == 0 && m->geom_conaffinity[g] == 0) continue;
-    if (sim::InSubtree(m, m->geom_bodyid[g], robot_root)) robot.push_back(g);
-    if (sim::InSubtree(m, m->geom_bodyid[g], joint_body)) target.push_back(g);
-  }
-  for (int a : robot) {
+  const std::vector<int> target = sim::CollisionGeoms(m, joint_body);
+  for (int a : sim::CollisionGeoms(m, robot_root)) {
     for (int b : target) {
       if (mj_geomDistance(m, d, a, b, margin, nullptr) < margin) return true;
     }

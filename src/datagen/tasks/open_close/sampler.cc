@@ -59,6 +59,7 @@ bool DrawHandBack(Env& env, int robot_root, int joint_body) {
   ik.SyncState(d);
   const std::vector<int>& adr = env.arm_qpos_adr();
   std::vector<double> q;
+  q.reserve(adr.size());
   for (int a : adr) q.push_back(d->qpos[a]);
   const Mat4 tcp = ik.Forward(q);
   const Pose base = env.GetRobotBasePose();

@@ -33,6 +33,7 @@ std::vector<double> Standoffs(const CandidateParams& p) {
       1,
       static_cast<int>(std::floor((p.standoff_max - p.standoff_min) / p.standoff_density + 1e-9)));
   std::vector<double> out;
+  out.reserve(static_cast<size_t>(n));
   for (int i = 0; i < n; ++i) {
     out.push_back(n == 1 ? p.standoff_min
                          : p.standoff_min + (p.standoff_max - p.standoff_min) * i / (n - 1));
@@ -199,7 +200,7 @@ CandidateSet GenerateCandidates(const MeshBvh& bvh, const GripperProxy& g,
         out.stats.visible += r.stats.visible;
         out.stats.collision_free += r.stats.collision_free;
         out.stats.kept += r.stats.kept;
-        for (auto& k : r.kept) out.candidates.push_back(std::move(k));
+        out.candidates.insert(out.candidates.end(), r.kept.begin(), r.kept.end());
       });
   return out;
 }

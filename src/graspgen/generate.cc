@@ -83,6 +83,7 @@ std::string NoCandidateReason(const TriMesh& mesh, const CandidateStats& stats, 
 // "lost during shake 61%, slipped 30%" from the failure counts, largest first.
 std::string FailureSummary(const std::map<std::string, size_t>& failures, size_t tested) {
   std::vector<std::pair<size_t, std::string>> sorted;
+  sorted.reserve(failures.size());
   for (const auto& [reason, count] : failures) sorted.emplace_back(count, reason);
   std::sort(sorted.begin(), sorted.end(), [](const auto& a, const auto& b) {
     return a.first > b.first || (a.first == b.first && a.second < b.second);

@@ -438,8 +438,10 @@ SimRun TestCandidates(const GraspScene& scene, const std::vector<GraspCandidate>
   const int threads = ParallelThreads(params.threads, order.size());
   // One mjData per thread, handed out from a stack (any free one: every test resets it).
   std::vector<sim::DataPtr> pool;
+  pool.reserve(static_cast<size_t>(threads));
   for (int t = 0; t < threads; ++t) pool.push_back(sim::MakeData(scene.model()));
   std::vector<mjData*> free_data;
+  free_data.reserve(pool.size());
   for (auto& d : pool) free_data.push_back(d.get());
   std::mutex mutex;
   // Candidates are tested in order on the worker threads, a few ahead of the calling thread,

@@ -21,6 +21,7 @@
 #include "mlspaces/core/error.h"
 #ifdef MLSPACES_LEROBOT_HELPER
 #include "mlspaces/core/progress.h"
+#include "mlspaces/core/strings.h"
 #include "mlspaces/datagen/lerobot/export.h"
 #endif
 
@@ -32,7 +33,7 @@ namespace {
 std::filesystem::path Helper() {
   std::error_code ec;
   const std::filesystem::path self = std::filesystem::read_symlink("/proc/self/exe", ec);
-  const std::filesystem::path helper = self.parent_path() / "mlspaces-lerobot";
+  std::filesystem::path helper = self.parent_path() / "mlspaces-lerobot";
   if (ec || ::access(helper.c_str(), X_OK) != 0) {
     throw Error(
         "this mlspaces was built without Arrow C++ (no mlspaces-lerobot beside it); "
@@ -45,6 +46,7 @@ std::filesystem::path Helper() {
 std::vector<char*> Argv(const std::filesystem::path& helper, std::vector<std::string>& args) {
   args.insert(args.begin(), helper.string());
   std::vector<char*> argv;
+  argv.reserve(args.size() + 1);
   for (std::string& a : args) argv.push_back(a.data());
   argv.push_back(nullptr);
   return argv;
@@ -178,13 +180,22 @@ void AddExportLeRobot(CLI::App& app, Action& action) {
 #ifdef MLSPACES_LEROBOT_HELPER
 int main(int argc, char** argv) {
   using namespace mlspaces;
-  CLI::App app{"mlspaces-lerobot: the export-lerobot command of mlspaces (run it as mlspaces)"};
-  app.formatter(cli::MakeHelpFormatter());
-  app.require_subcommand(1);
-  cli::Action action;
-  cli::AddExportLeRobot(app, action);
-  cli::AddImportLeRobot(app, action);
-  cli::AddValidateLeRobot(app, action);
-  return cli::ParseAndRun(app, action, argc, argv);
+  // ParseAndRun reports every error itself; this catches what escapes the set-up, as
+  // mlspaces' main does.
+  try {
+    CLI::App app{"mlspaces-lerobot: the export-lerobot command of mlspaces (run it as mlspaces)"};
+    app.formatter(cli::MakeHelpFormatter());
+    app.require_subcommand(1);
+    cli::Action action;
+    cli::AddExportLeRobot(app, action);
+    cli::AddImportLeRobot(app, action);
+    cli::AddValidateLeRobot(app, action);
+    return cli::ParseAndRun(app, action, argc, argv);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "mlspaces: internal error: %s\n", Printable(e.what()).c_str());
+  } catch (...) {
+    std::fprintf(stderr, "mlspaces: internal error: unknown exception\n");
+  }
+  return 1;
 }
 #endif

@@ -118,8 +118,8 @@ void BindDatagen(nb::module_& m) {
   m.def(
       "run_datagen",
       [](const std::string& text, const std::string& origin, const std::filesystem::path& base_dir,
-         nb::object sampler, bool resume, const std::string& shard, int workers, bool progress,
-         const std::string& log_level, const std::string& gl) {
+         const nb::object& sampler, bool resume, const std::string& shard, int workers,
+         bool progress, const std::string& log_level, const std::string& gl) {
         const dg::ConfigRegistry configs = dg::ConfigRegistry::WithBuiltins();
         dg::ExperimentConfig config = dg::ParseConfigText(text, origin, base_dir, configs);
         dg::Validate(config, origin);
@@ -128,9 +128,8 @@ void BindDatagen(nb::module_& m) {
         dg::TaskSamplerRegistry samplers =
             sampler.is_none() ? dg::TaskSamplerRegistry::WithBuiltins() : dg::TaskSamplerRegistry{};
         if (!sampler.is_none()) {
-          nb::object keep = sampler;
           samplers.Register(config.task_sampler_config.task_sampler_class,
-                            [keep](const dg::ExperimentConfig& c, uint64_t seed) {
+                            [keep = sampler](const dg::ExperimentConfig& c, uint64_t seed) {
                               nb::gil_scoped_acquire gil;
                               return std::make_unique<PythonTaskSampler>(c, seed, keep);
                             });

@@ -40,7 +40,7 @@ nb::object PoseVector(const Pose& pose) {
 class PyEvalEnv {
  public:
   PyEvalEnv(const std::string& text, const std::string& origin,
-            const std::filesystem::path& base_dir, nb::object sampler, bool render,
+            const std::filesystem::path& base_dir, const nb::object& sampler, bool render,
             const std::string& gl) {
     const dg::ConfigRegistry configs = dg::ConfigRegistry::WithBuiltins();
     dg::ExperimentConfig config = dg::ParseConfigText(text, origin, base_dir, configs);

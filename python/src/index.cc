@@ -45,6 +45,7 @@ int RunIndexCommand(const std::string& command, const std::string& prog,
   std::vector<std::string> words = {"mlspaces", prog};
   words.insert(words.end(), args.begin(), args.end());
   std::vector<char*> argv;
+  argv.reserve(words.size() + 1);
   for (std::string& w : words) argv.push_back(w.data());
   argv.push_back(nullptr);
   const int code = cli::ParseAndRun(app, action, static_cast<int>(words.size()), argv.data());

@@ -295,7 +295,7 @@ void BindLibrary(nb::module_& m) {
           nb::arg("getrandbits"))
       .def_static(
           "_random_sample",
-          [](size_t n, size_t k, nb::object getrandbits) {
+          [](size_t n, size_t k, const nb::object& getrandbits) {
             return PythonRandomSample(n, k, getrandbits);
           },
           nb::arg("n"), nb::arg("k"), nb::arg("getrandbits"))

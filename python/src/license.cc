@@ -64,7 +64,7 @@ void BindLicense(nb::module_& m) {
   // MLSPACES_LICENSE_POLICY, else "all". Raises for a bad name.
   m.def(
       "resolve_license_policy",
-      [](nb::object given) {
+      [](const nb::object& given) {
         std::optional<LicensePolicy> policy;
         if (!given.is_none()) {
           policy = ParseLicensePolicy(nb::cast<std::string>(given), "license_policy");

@@ -68,7 +68,8 @@ std::string EngineSamplerOf(nb::handle sampler) {
 
 }  // namespace
 
-PythonTaskSampler::PythonTaskSampler(dg::ExperimentConfig config, uint64_t seed, nb::object sampler)
+PythonTaskSampler::PythonTaskSampler(const dg::ExperimentConfig& config, uint64_t seed,
+                                     nb::object sampler)
     : TaskSampler(config, seed),
       sampler_(std::move(sampler)),
       engine_(
@@ -104,7 +105,9 @@ void PythonTaskSampler::PrepareEnv(dg::Env& env) {
   nb::object py_model =
       mujoco.attr("MjModel").attr("_from_model_ptr")(reinterpret_cast<uintptr_t>(copy));
   nb::object py_data = mujoco.attr("MjData")(py_model);
-  auto* data = reinterpret_cast<mjData*>(nb::cast<uintptr_t>(py_data.attr("_address")));
+  // The mujoco module hands out its MjData's address as an integer.
+  auto* data = reinterpret_cast<mjData*>(  // NOLINT(performance-no-int-to-ptr)
+      nb::cast<uintptr_t>(py_data.attr("_address")));
   env.ShareModelAndData(std::shared_ptr<const mjModel>(copy, PyOwner{py_model.inc_ref().ptr()}),
                         std::shared_ptr<mjData>(data, PyOwner{py_data.inc_ref().ptr()}));
   env_ = sampler_.attr("_attach_env")(

@@ -24,7 +24,7 @@ namespace mlspaces::python {
 /// is what the engine simulates. The Python sampler's `env` is a CPUMujocoEnv over them.
 class PythonTaskSampler : public datagen::TaskSampler {
  public:
-  PythonTaskSampler(datagen::ExperimentConfig config, uint64_t seed, nb::object sampler);
+  PythonTaskSampler(const datagen::ExperimentConfig& config, uint64_t seed, nb::object sampler);
   ~PythonTaskSampler() override;
 
   void PrepareEnv(datagen::Env& env) override;

@@ -118,7 +118,7 @@ void BindRender(nb::module_& m) {
       "render_scene",
       [](const std::string& text, const std::string& origin, const std::filesystem::path& base_dir,
          int64_t house, int64_t episode, std::optional<uint64_t> seed, int overviews, int width,
-         int height, const std::string& gl, nb::object sampler) {
+         int height, const std::string& gl, const nb::object& sampler) {
         const sim::PictureOptions o = Options(width, height, gl);
         const dg::ConfigRegistry configs = dg::ConfigRegistry::WithBuiltins();
         dg::ExperimentConfig config = dg::ParseConfigText(text, origin, base_dir, configs);

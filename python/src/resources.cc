@@ -26,7 +26,7 @@ void BindResources(nb::module_& m) {
   // MLSPACES_ASSETS_DIR, else the default); origin is "given", "environment" or "default".
   m.def(
       "resolve_assets_dir",
-      [](std::optional<std::filesystem::path> given) {
+      [](const std::optional<std::filesystem::path>& given) {
         const AssetsDirChoice choice = ResolveAssetsDir(given);
         const char* origin = choice.origin == AssetsDirOrigin::kGiven         ? "given"
                              : choice.origin == AssetsDirOrigin::kEnvironment ? "environment"

@@ -68,7 +68,7 @@ void BindSearch(nb::module_& m) {
            nb::arg("dim") = 768)
       .def(
           "add",
-          [](ClipStoreWriter& w, std::string_view uid, Floats img, Floats text) {
+          [](ClipStoreWriter& w, std::string_view uid, const Floats& img, const Floats& text) {
             w.Add(uid, Span(img), Span(text));
           },
           nb::arg("uid"), nb::arg("img"), nb::arg("text"))
@@ -94,7 +94,7 @@ void BindSearch(nb::module_& m) {
       .def("check", &ClipStore::Check)
       .def(
           "search",
-          [](const ClipStore& s, Floats q, size_t top_k, float threshold, bool approximate,
+          [](const ClipStore& s, const Floats& q, size_t top_k, float threshold, bool approximate,
              int threads) {
             std::vector<ObjectSearchHit> hits;
             {
@@ -113,8 +113,9 @@ void BindSearch(nb::module_& m) {
   nb::class_<PySearch>(m, "ObjectSearch", "CLIP and word search over a Registry's libraries.")
       .def(
           "__init__",
-          [](PySearch* self, nb::object registry, std::optional<std::filesystem::path> assets_dir,
-             std::optional<std::filesystem::path> clip_store) {
+          [](PySearch* self, const nb::object& registry,
+             const std::optional<std::filesystem::path>& assets_dir,
+             const std::optional<std::filesystem::path>& clip_store) {
             const Registry& r = nb::cast<const Registry&>(registry);
             new (self)
                 PySearch{registry, std::make_unique<ObjectSearch>(r, assets_dir, clip_store)};
@@ -127,8 +128,8 @@ void BindSearch(nb::module_& m) {
                    [](const PySearch& s) { return s.search->skipped_without_features(); })
       .def(
           "query",
-          [](const PySearch& s, Floats q, size_t top_k, float threshold, bool approximate,
-             int threads, std::optional<std::string> policy) {
+          [](const PySearch& s, const Floats& q, size_t top_k, float threshold, bool approximate,
+             int threads, const std::optional<std::string>& policy) {
             const LicensePolicy p = Policy(policy);
             return Hits(
                 s.search->Query(Span(q), Options(top_k, threshold, approximate, threads), p));
@@ -147,7 +148,7 @@ void BindSearch(nb::module_& m) {
       .def(
           "text_search",
           [](const PySearch& s, std::string_view words, size_t top_k,
-             std::optional<std::string> policy) {
+             const std::optional<std::string>& policy) {
             return Hits(s.search->TextSearch(words, top_k, Policy(policy)));
           },
           nb::arg("words"), nb::arg("top_k") = 50, nb::arg("license_policy") = nb::none());

@@ -23,10 +23,10 @@ ProgressStyle Enabled(bool enabled) {
 
 }  // namespace
 
-ProgressBar::ProgressBar(std::string label, size_t total, bool enabled)
-    : ProgressBar(std::move(label), total, Enabled(enabled)) {}
+ProgressBar::ProgressBar(const std::string& label, size_t total, bool enabled)
+    : ProgressBar(label, total, Enabled(enabled)) {}
 
-ProgressBar::ProgressBar(std::string label, size_t total, ProgressStyle style)
+ProgressBar::ProgressBar(const std::string& label, size_t total, ProgressStyle style)
     : label_(Printable(label)),
       total_(total),
       style_(std::move(style)),
@@ -52,9 +52,9 @@ ProgressBar::~ProgressBar() {
   if (start_line_.joinable()) start_line_.join();
 }
 
-void ProgressBar::Start(size_t done, std::string note) {
+void ProgressBar::Start(size_t done, const std::string& note) {
   if (bar_) {
-    Update(done, std::move(note));
+    Update(done, note);
     return;
   }
   if (!lines_) return;
@@ -69,7 +69,7 @@ void ProgressBar::Start(size_t done, std::string note) {
   });
 }
 
-void ProgressBar::Update(size_t done, std::string note) {
+void ProgressBar::Update(size_t done, const std::string& note) {
   if (!bar_ && !lines_) return;
   std::lock_guard<std::mutex> lock(mu_);
   done_ = done;

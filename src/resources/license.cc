@@ -682,6 +682,7 @@ std::string ValidateIdentifier(const std::vector<std::string>& archives, std::st
     return out;
   }
   std::vector<std::string> ids;
+  ids.reserve(archives.size());
   for (const std::string& a : archives) ids.push_back(ArchiveIdentifier(a, source));
   std::sort(ids.begin(), ids.end());
   std::string some;

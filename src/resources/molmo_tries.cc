@@ -367,6 +367,7 @@ std::vector<SceneObjectRef> FindSceneObjectRefs(const fs::path& scene_xml,
     }
   }
   std::vector<SceneObjectRef> out;
+  out.reserve(found.size());
   for (const auto& [source, path] : found) out.push_back({source, path});
   return out;
 }

@@ -344,7 +344,7 @@ std::filesystem::path FindRobot(std::string_view name_or_path,
     return path;
   }
   for (const fs::path& dir : RobotSearchPath()) {
-    const fs::path file = dir / given / kRobotYaml;
+    fs::path file = dir / given / kRobotYaml;
     if (!given.empty() && fs::is_regular_file(file, ec)) return file;
   }
   const std::string hint = DidYouMean(given, BundledRobots());

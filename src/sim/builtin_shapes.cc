@@ -77,8 +77,9 @@ void HalfSphere(Builder& b, int sign, int slices, int stacks) {
 
 // sphere(): the unit sphere.
 void Sphere(Builder& b, int slices, int stacks) {
+  const int half = stacks / 2;  // render_context.c's integer stacks/2
   for (int sign = -1; sign <= 1; sign += 2) {
-    const float el1 = (0.5 * mjPI * sign * (stacks / 2 - 1)) / static_cast<float>(stacks / 2);
+    const float el1 = (0.5 * mjPI * sign * (half - 1)) / static_cast<float>(half);
     for (int j = 0; j < slices; j++) {
       const float az1 = (2.0f * mjPI * (j + 0.0f)) / static_cast<float>(slices);
       const float az2 = (2.0f * mjPI * (j + 1.0f)) / static_cast<float>(slices);
@@ -92,9 +93,9 @@ void Sphere(Builder& b, int slices, int stacks) {
     }
   }
   for (int sign = -1; sign <= 1; sign += 2) {
-    for (int i = 0; i < stacks / 2 - 1; i++) {
-      const float el1 = (0.5 * mjPI * sign * (i + 0)) / static_cast<float>(stacks / 2);
-      const float el2 = (0.5 * mjPI * sign * (i + 1)) / static_cast<float>(stacks / 2);
+    for (int i = 0; i < half - 1; i++) {
+      const float el1 = (0.5 * mjPI * sign * (i + 0)) / static_cast<float>(half);
+      const float el2 = (0.5 * mjPI * sign * (i + 1)) / static_cast<float>(half);
       for (int j = 0; j < slices; j++) {
         const float az1 = (2.0f * mjPI * (j + 0)) / static_cast<float>(slices);
         const float az2 = (2.0f * mjPI * (j + 1)) / static_cast<float>(slices);

@@ -98,7 +98,9 @@ namespace mlspaces::sim {
   X(Viewport)
 
 struct ShadowPass::Gl {
-#define MLSPACES_DECLARE(name) decltype(&::gl##name) name = nullptr;
+// `name` is a member name, which parentheses would break.
+#define MLSPACES_DECLARE(name) \
+  decltype(&::gl##name) name = nullptr;  // NOLINT(bugprone-macro-parentheses)
   /// glClipControl (ARB_clip_control), null without it: MuJoCo reverses depth with it.
   decltype(&::glClipControl) ClipControl = nullptr;
   MLSPACES_SHADOW_PASS_GL(MLSPACES_DECLARE)

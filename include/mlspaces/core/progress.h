@@ -40,19 +40,19 @@ class MLSPACES_API ProgressBar {
  public:
   /// `label` is printed before the bar; nothing is drawn when stderr is not a TTY
   /// (or when `enabled` is false).
-  ProgressBar(std::string label, size_t total, bool enabled = true);
-  ProgressBar(std::string label, size_t total, ProgressStyle style);
+  ProgressBar(const std::string& label, size_t total, bool enabled = true);
+  ProgressBar(const std::string& label, size_t total, ProgressStyle style);
   ~ProgressBar();
   ProgressBar(const ProgressBar&) = delete;
   ProgressBar& operator=(const ProgressBar&) = delete;
 
   /// Shows that work began, with `note` ("starting"): a bar draws at once; lines print it
   /// after `start_line_after_s` unless a line or Finish came first. Call once, before Update.
-  void Start(size_t done, std::string note);
+  void Start(size_t done, const std::string& note);
   /// Sets the number of finished items; redraws the bar at most ~10 times a second (lines:
   /// see ProgressStyle). A non-empty `note` (e.g. "success 96%, 4,100/h, ETA 2m") replaces the
   /// default "(N/s)" rate. Control characters in label and note are escaped (Printable).
-  void Update(size_t done, std::string note = {});
+  void Update(size_t done, const std::string& note = {});
   /// Draws the final state and ends the line (idempotent); lines: prints the final state
   /// unless the last line showed it. The destructor calls it, except for lines while an
   /// exception unwinds.

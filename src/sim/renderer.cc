@@ -660,7 +660,7 @@ Renderer::Renderer(const mjModel* m, RenderOptions options) : impl_(std::make_un
     if (options.one_pass_shadows) {
       try {
         s.shadow_pass = std::make_unique<ShadowPass>(
-            backend == GlBackend::kOsMesa ? &OsMesaProc : &EglProc, mc);
+            backend == GlBackend::kOsMesa ? &OsMesaProc : &EglProc, mc, options.coarse_sides);
       } catch (const Error& e) {
         Fail(backend, std::string(e.what()) +
                           " (one_pass_shadows off, camera_config.one_pass_shadows: false in a"
@@ -821,6 +821,9 @@ long long Renderer::shadow_map_renders() const {
 }
 long long Renderer::one_pass_left_out() const {
   return impl_->shadow_pass ? impl_->shadow_pass->left_out() : 0;
+}
+long long Renderer::one_pass_coarse_draws() const {
+  return impl_->shadow_pass ? impl_->shadow_pass->coarse_draws() : 0;
 }
 mjvScene& Renderer::scene() { return impl_->scn; }
 mjvOption& Renderer::vis_option() { return impl_->opt; }

@@ -19,6 +19,10 @@
 #include <vector>
 
 namespace mlspaces::sim {
+namespace detail {
+struct CoarseSides;
+struct CoarseLevel;
+}  // namespace detail
 
 /// A GL function by name (OSMesaGetProcAddress, eglGetProcAddress); null when missing.
 using GlProcLoader = void* (*)(const char* name);
@@ -30,7 +34,8 @@ class ShadowPass {
   /// Loads the GL functions and compiles the shader, with the GL context current.
   /// @throws Error (one line) when a function is missing or the shader does not build.
   /// `m`: the model the scenes come from (its vis.quality shapes the builtin geoms).
-  ShadowPass(GlProcLoader load, const mjModel* m);
+  /// `coarse_sides`: RenderOptions::coarse_sides.
+  ShadowPass(GlProcLoader load, const mjModel* m, bool coarse_sides = false);
   /// Frees the GL objects: the context must be current (or gone, with the objects).
   ~ShadowPass();
   ShadowPass(const ShadowPass&) = delete;
@@ -57,6 +62,8 @@ class ShadowPass {
   /// How many geom draws were left out, the geom being wholly outside the view volume of
   /// the camera, its reflection or a map (what it would draw is clipped away).
   long long left_out() const { return left_out_; }
+  /// How many geom draws of the lit pass and the reflection used coarse sides.
+  long long coarse_draws() const { return coarse_draws_; }
 
   struct Gl;
   /// One pass's programs (one per texture mode, given the pass's lights on first use), and
@@ -88,9 +95,16 @@ class ShadowPass {
   void SetLights(const BuiltProgram& program, const mjvScene& scn, const float* view,
                  const std::vector<int>& shadow_lights);
   void DrawMaps(const mjvScene& scn, const mjrContext& con, const std::vector<int>& lights);
+  // The coarse sides to draw `g` with, seen from `eye` (and the positional lights of the
+  // frame); null for MuJoCo's display lists. Counted in coarse_draws_.
+  const detail::CoarseLevel* Coarse(const mjvGeom& g, const float* eye);
   std::unique_ptr<Gl> gl_;
   std::unique_ptr<BuiltinShapes> shapes_;
   unsigned int caster_buffer_ = 0;
+  // Coarse sides for the lit pass and the reflection (null: MuJoCo's lists only), and the
+  // frame's positional lights (x y z each) that choose them with the eye.
+  std::unique_ptr<detail::CoarseSides> coarse_;
+  std::vector<float> coarse_points_;
   std::vector<float> mesh_radius_;  // per mesh: the largest distance of a vertex from its frame
   std::vector<float> casters_;      // the maps' casters in world coordinates (x y z per vertex)
   std::map<int, std::unique_ptr<BuiltProgram>> programs_;
@@ -102,6 +116,7 @@ class ShadowPass {
   std::vector<float> map_key_;  // what the maps were drawn from
   long long map_renders_ = 0;
   long long left_out_ = 0;
+  long long coarse_draws_ = 0;
 };
 
 }  // namespace mlspaces::sim

@@ -332,10 +332,96 @@ bool DrawnType(int type) {
   }
 }
 
+CoarseSides MakeCoarseSides(const ShadowPass::Gl& gl, const mjModel* m) {
+  CoarseSides coarse;
+  coarse.numquads = m->vis.quality.numquads;
+  coarse.numstacks = m->vis.quality.numstacks;
+  std::vector<float> vertices;
+  for (int pieces = 1; pieces < m->vis.quality.numstacks; pieces *= 2) {
+    // numstacks gives the disks their rings (numstacks / 2); the spheres are not used.
+    BuiltinShapes s =
+        MakeBuiltinShapes(m->vis.quality.numslices, std::max(2, pieces), pieces, pieces);
+    const int first = static_cast<int>(vertices.size() / 6);
+    CoarseLevel level;
+    level.pieces = pieces;
+    level.cylinder = {first + s.ranges[kShapeCylinder].first, s.ranges[kShapeCylinder].count};
+    level.cylinder_open = {first + s.ranges[kShapeCylinderOpen].first,
+                           s.ranges[kShapeCylinderOpen].count};
+    level.box = {first + s.ranges[kShapeBox].first, s.ranges[kShapeBox].count};
+    vertices.insert(vertices.end(), s.vertices.begin(), s.vertices.end());
+    coarse.levels.push_back(level);
+  }
+  gl.GenBuffers(1, &coarse.buffer);
+  gl.BindBuffer(GL_ARRAY_BUFFER, coarse.buffer);
+  gl.BufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(vertices.size() * sizeof(float)),
+                vertices.data(), GL_STATIC_DRAW);
+  gl.BindBuffer(GL_ARRAY_BUFFER, 0);
+  for (CoarseLevel& level : coarse.levels) level.buffer = coarse.buffer;
+  return coarse;
+}
+
+const CoarseLevel* CoarseLevelFor(const CoarseSides& coarse, const mjvGeom& g, const float* eye,
+                                  const float* points, int npoint) {
+  float side = 0;  // the longest straight piece the shape has, uncut
+  int mujoco_pieces = 0;
+  switch (g.type) {
+    case mjGEOM_CYLINDER:  // side and disks (a ring is a side's stack at half the count)
+      side = 2 * std::max(g.size[2], g.size[0]);
+      mujoco_pieces = coarse.numstacks;
+      break;
+    case mjGEOM_CAPSULE:  // side only: the caps are MuJoCo's
+      side = 2 * g.size[2];
+      mujoco_pieces = coarse.numstacks;
+      break;
+    case mjGEOM_BOX:
+      side = 2 * std::max(g.size[0], std::max(g.size[1], g.size[2]));
+      mujoco_pieces = coarse.numquads;
+      break;
+    default:
+      return nullptr;
+  }
+  const float radius = BoundingRadius(g);
+  auto nearest = [&](const float* p) {
+    const float d =
+        std::sqrt((p[0] - g.pos[0]) * (p[0] - g.pos[0]) + (p[1] - g.pos[1]) * (p[1] - g.pos[1]) +
+                  (p[2] - g.pos[2]) * (p[2] - g.pos[2]));
+    return d - radius;
+  };
+  float distance = nearest(eye);
+  for (int i = 0; i < npoint; ++i) distance = std::min(distance, nearest(points + 3 * i));
+  if (!(distance > 0)) return nullptr;
+  const float needed = side / (distance * kCoarsePieceAngle);
+  for (const CoarseLevel& level : coarse.levels) {
+    if (level.pieces >= mujoco_pieces) return nullptr;
+    if (static_cast<float>(level.pieces) >= needed) return &level;
+  }
+  return nullptr;
+}
+
 // renderGeom's transform and display lists, for the types DrawnType() accepts (a plane is
 // never seen from behind here: Unsupported() leaves those scenes to mjr_render).
-void DrawGeom(const ShadowPass::Gl& gl, const mjvGeom& g, const mjrContext& con) {
-  auto draw = [&](BuiltinShape which) { gl.CallList(con.baseBuiltin + which); };
+void DrawGeom(const ShadowPass::Gl& gl, const mjvGeom& g, const mjrContext& con,
+              const CoarseLevel* coarse) {
+  auto draw = [&](BuiltinShape which) {
+    if (coarse != nullptr &&
+        (which == kShapeCylinder || which == kShapeCylinderOpen || which == kShapeBox)) {
+      const BuiltinShapes::Range r = which == kShapeBox        ? coarse->box
+                                     : which == kShapeCylinder ? coarse->cylinder
+                                                               : coarse->cylinder_open;
+      gl.BindBuffer(GL_ARRAY_BUFFER, coarse->buffer);
+      gl.EnableClientState(GL_VERTEX_ARRAY);
+      gl.EnableClientState(GL_NORMAL_ARRAY);
+      gl.VertexPointer(3, GL_FLOAT, 6 * sizeof(float), nullptr);
+      gl.NormalPointer(GL_FLOAT, 6 * sizeof(float),
+                       reinterpret_cast<const void*>(3 * sizeof(float)));  // NOLINT
+      gl.DrawArrays(GL_TRIANGLES, r.first, r.count);
+      gl.DisableClientState(GL_NORMAL_ARRAY);
+      gl.DisableClientState(GL_VERTEX_ARRAY);
+      gl.BindBuffer(GL_ARRAY_BUFFER, 0);
+      return;
+    }
+    gl.CallList(con.baseBuiltin + which);
+  };
   const float* size = g.size;
   const float mat[16] = {g.mat[0], g.mat[3], g.mat[6], 0, g.mat[1], g.mat[4], g.mat[7], 0,
                          g.mat[2], g.mat[5], g.mat[8], 0, 0,        0,        0,        1};

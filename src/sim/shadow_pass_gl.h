@@ -158,8 +158,34 @@ bool Outside(const ViewVolume& f, const float* center, float radius);
 float Rbound(const mjvGeom& g);
 /// The geom types DrawGeom draws.
 bool DrawnType(int type);
-/// renderGeom's transform and MuJoCo's display lists. A plane is drawn as seen from the front.
-void DrawGeom(const ShadowPass::Gl& gl, const mjvGeom& g, const mjrContext& con);
+/// Builtin shapes with straight sides (cylinders, capsule sides, boxes) cut into fewer pieces
+/// than MuJoCo's, all in one GL buffer (x y z nx ny nz per vertex). Each covers the pixels
+/// MuJoCo's shape covers, with the same normals; only the per-vertex lighting along a side is
+/// sampled at fewer points, which matters where the side spans a wide angle seen from the eye
+/// or a positional light (CoarseLevelFor).
+struct CoarseLevel {
+  int pieces = 0;  ///< cylinder side stacks and box quads per side; disks get pieces / 2 rings
+  unsigned int buffer = 0;
+  BuiltinShapes::Range cylinder, cylinder_open, box;
+};
+struct CoarseSides {
+  unsigned int buffer = 0;
+  std::vector<CoarseLevel> levels;  ///< pieces 1, 2, 4, ... below MuJoCo's numstacks
+  int numquads = 0;                 ///< MuJoCo's box quads per side
+  int numstacks = 0;                ///< MuJoCo's cylinder side stacks
+};
+/// The levels for `m`'s vis.quality, uploaded into a new buffer (the caller deletes it).
+CoarseSides MakeCoarseSides(const ShadowPass::Gl& gl, const mjModel* m);
+/// The coarsest level whose pieces each span at most kCoarsePieceAngle radians seen from `eye`
+/// and from each of the `npoint` positions in `points` (positional lights), or null when
+/// MuJoCo's own shape is needed (other types, or no coarser level is fine enough).
+inline constexpr float kCoarsePieceAngle = 0.25f;
+const CoarseLevel* CoarseLevelFor(const CoarseSides& coarse, const mjvGeom& g, const float* eye,
+                                  const float* points, int npoint);
+/// renderGeom's transform and MuJoCo's display lists (a cylinder, capsule side or box from
+/// `coarse` when not null). A plane is drawn as seen from the front.
+void DrawGeom(const ShadowPass::Gl& gl, const mjvGeom& g, const mjrContext& con,
+              const CoarseLevel* coarse = nullptr);
 /// Appends the triangles of `g`'s builtin shape (sphere, ellipsoid, capsule, cylinder, box) in
 /// world coordinates, as renderGeom places them, to `out` (x y z per vertex); false, with
 /// nothing appended, for other types.

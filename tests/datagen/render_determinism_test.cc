@@ -36,6 +36,7 @@ TEST(RenderDeterminismTest, DefaultSettingsRenderFittedShadowsInOnePassWithoutMu
   EXPECT_EQ(c.multisamples, 0);
   EXPECT_TRUE(c.fit_shadows);
   EXPECT_TRUE(c.one_pass_shadows);
+  EXPECT_TRUE(c.coarse_sides);
 }
 
 class RenderDeterminismTest : public ::testing::TestWithParam<std::string> {};

@@ -102,6 +102,13 @@ struct MLSPACES_API RenderOptions {
   /// cannot draw as mjr_render would (labels, fog, point lights, ...) go through
   /// mjr_render.
   bool one_pass_shadows = false;
+  /// With one_pass_shadows: draw cylinders, capsule sides and boxes in fewer pieces along
+  /// their straight sides (down to one stack or one quad a face) where each piece still spans
+  /// at most 0.25 rad seen from the eye and from every positional light. The pieces cover
+  /// the pixels MuJoCo's cover, with the same normals; only the per-vertex lighting along a
+  /// side is sampled at fewer points. A frame of the tutorial costs about a fifth less on
+  /// llvmpipe, at mean SSIM within 0.0005 of MuJoCo's shapes (docs/sim.md).
+  bool coarse_sides = false;
 };
 
 /// A camera in the world. `xmat` is MuJoCo's camera frame (as in mjData::cam_xmat): a
@@ -179,6 +186,9 @@ class MLSPACES_API Renderer {
   /// With one_pass_shadows: how many geom draws one pass left out because the geom lay wholly
   /// outside the view volume (of the camera, its reflection or a shadow map); 0 otherwise.
   long long one_pass_left_out() const;
+  /// With one_pass_shadows and coarse_sides: how many geom draws (lit pass and reflection)
+  /// used coarse sides; 0 otherwise.
+  long long one_pass_coarse_draws() const;
   /// Frames rendered so far, and of those the ones one pass drew (one_pass_shadows); the
   /// rest went through mjr_render (frames without shadows too: one pass saves nothing there).
   long long frames() const;

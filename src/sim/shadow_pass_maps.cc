@@ -1,0 +1,176 @@
+// ShadowPass's shadow maps (shadow_pass.h): a depth render of the casters per shadow light,
+// as mjr_render's shadow-map passes draw it, once per scene state.
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <vector>
+
+#include "mlspaces/core/error.h"
+#include "shadow_pass.h"
+#include "shadow_pass_gl.h"
+
+namespace mlspaces::sim {
+
+using namespace detail;  // NOLINT(google-build-using-namespace): shadow_pass_gl.h's helpers
+
+void ShadowPass::DrawMaps(const mjvScene& scn, const mjrContext& con,
+                          const std::vector<int>& lights) {
+  Gl& gl = *gl_;
+  if (map_size_ != con.shadowSize) {
+    for (int k = 0; k < kMaxShadowLights; ++k) {
+      if (map_fbo_[k]) gl.DeleteFramebuffers(1, &map_fbo_[k]);
+      if (map_tex_[k]) gl.DeleteTextures(1, &map_tex_[k]);
+      map_fbo_[k] = map_tex_[k] = 0;
+    }
+    map_size_ = con.shadowSize;
+    map_key_.clear();
+  }
+  // The clip-space depth convention mjr_render set (ARB_clip_control when the driver has it).
+  GLint depth_mode = GL_NEGATIVE_ONE_TO_ONE;
+  gl.GetIntegerv(GL_CLIP_DEPTH_MODE, &depth_mode);
+  const bool zero_to_one = depth_mode == GL_ZERO_TO_ONE;
+
+  // What the maps depend on: the casters, the lights, the square and the depth range.
+  const mjvGLCamera cam = mjv_averageCamera(scn.camera, scn.camera + 1);
+  std::vector<float> key = {con.shadowClip, con.shadowScale, cam.frustum_near, cam.frustum_far,
+                            static_cast<float>(zero_to_one)};
+  for (int i : lights) {
+    const mjvLight& l = scn.lights[i];
+    key.insert(key.end(), {static_cast<float>(l.type), l.pos[0], l.pos[1], l.pos[2], l.dir[0],
+                           l.dir[1], l.dir[2], l.cutoff});
+  }
+  for (int j = 0; j < scn.ngeom; ++j) {
+    const mjvGeom& g = scn.geoms[j];
+    if (g.category == mjCAT_DECOR) continue;
+    key.insert(key.end(), {static_cast<float>(g.type), static_cast<float>(g.dataid)});
+    key.insert(key.end(), g.size, g.size + 3);
+    key.insert(key.end(), g.pos, g.pos + 3);
+    key.insert(key.end(), g.mat, g.mat + 9);
+  }
+  if (key == map_key_) return;
+
+  for (size_t k = 0; k < lights.size(); ++k) {
+    if (map_tex_[k]) continue;
+    gl.GenTextures(1, &map_tex_[k]);
+    gl.ActiveTexture(GL_TEXTURE0 + kUnitMap0 + static_cast<GLenum>(k));
+    gl.BindTexture(GL_TEXTURE_2D, map_tex_[k]);
+    gl.TexImage2D(GL_TEXTURE_2D, 0, GL_DEPTH24_STENCIL8, map_size_, map_size_, 0, GL_DEPTH_STENCIL,
+                  GL_UNSIGNED_INT_24_8, nullptr);
+    gl.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+    gl.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+    gl.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+    gl.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+    gl.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_COMPARE_MODE, GL_COMPARE_R_TO_TEXTURE);
+    gl.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_COMPARE_FUNC, GL_GEQUAL);
+    gl.GenFramebuffers(1, &map_fbo_[k]);
+    gl.BindFramebuffer(GL_FRAMEBUFFER, map_fbo_[k]);
+    gl.FramebufferTexture2D(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_TEXTURE_2D, map_tex_[k], 0);
+    gl.DrawBuffer(GL_NONE);
+    gl.ReadBuffer(GL_NONE);
+    if (gl.CheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE) {
+      throw Error("one-pass shadows: the shadow map framebuffer is incomplete");
+    }
+  }
+
+  // As mjr_render's shadow-map passes: depth only, flat, no culling, MuJoCo's offsets.
+  gl.UseProgram(0);
+  gl.Disable(GL_LIGHTING);
+  gl.Disable(GL_BLEND);
+  gl.ColorMask(0, 0, 0, 0);
+  const bool cull = gl.IsEnabled(GL_CULL_FACE);
+  gl.Disable(GL_CULL_FACE);
+  gl.Enable(GL_POLYGON_OFFSET_FILL);
+  gl.PolygonOffset(zero_to_one ? -1.5f : -16.0f, zero_to_one ? -4.0f : -512.0f);
+  gl.DepthMask(GL_TRUE);
+  gl.Enable(GL_DEPTH_TEST);
+  gl.DepthFunc(GL_GEQUAL);
+  for (int t = 0; t < 4; ++t) {
+    gl.ActiveTexture(GL_TEXTURE0 + t);
+    gl.Disable(GL_TEXTURE_2D);
+    gl.Disable(GL_TEXTURE_CUBE_MAP);
+  }
+  // Each map's matrices (MuJoCo's), and what its view volume holds.
+  float bias[16] = {0.5f, 0, 0, 0, 0, 0.5f, 0, 0, 0, 0, 1, 0, 0.5f, 0.5f, 0, 1};
+  if (!zero_to_one) bias[10] = bias[14] = 0.5f;
+  std::array<std::array<float, 16>, kMaxShadowLights> project{}, view_gl{};
+  std::array<ViewVolume, kMaxShadowLights> volume{};
+  for (size_t k = 0; k < lights.size(); ++k) {
+    const mjvLight& l = scn.lights[lights[k]];
+    float up[3];
+    OrthoVec(up, l.dir);
+    gl.MatrixMode(GL_PROJECTION);
+    gl.LoadIdentity();
+    if (zero_to_one) {
+      gl.Translatef(0, 0, 0.5f);
+      gl.Scalef(1, 1, -0.5f);
+    } else {
+      gl.Scalef(1, 1, -1);
+    }
+    if (l.type == mjLIGHT_DIRECTIONAL) {
+      gl.Ortho(-con.shadowClip, con.shadowClip, -con.shadowClip, con.shadowClip, cam.frustum_near,
+               cam.frustum_far);
+    } else {
+      const double fovy = std::min<double>(2 * l.cutoff * con.shadowScale, 160);
+      const double h =
+          std::tan(static_cast<double>(static_cast<float>(fovy)) / 360.0 * mjPI) * cam.frustum_near;
+      gl.Frustum(-h, h, -h, h, cam.frustum_near, cam.frustum_far);
+    }
+    gl.GetFloatv(GL_PROJECTION_MATRIX, project[k].data());
+    gl.MatrixMode(GL_MODELVIEW);
+    gl.LoadIdentity();
+    const std::array<float, 16> view = LookAtMatrix(l.pos, l.dir, up);
+    gl.MultMatrixf(view.data());
+    gl.GetFloatv(GL_MODELVIEW_MATRIX, view_gl[k].data());
+    const std::array<float, 16> clip = Mul(project[k].data(), view_gl[k].data());
+    map_matrix_[k] = Mul(bias, clip.data());
+    volume[k] = ViewVolumeOf(clip.data());
+  }
+  // The casters in world coordinates, one array for every map of this state (those in no
+  // map's view volume left out): a draw per geom costs more than its vertices on llvmpipe.
+  // Other types keep their display lists.
+  casters_.clear();
+  std::vector<int> listed;
+  for (int j = 0; j < scn.ngeom; ++j) {
+    const mjvGeom& g = scn.geoms[j];
+    if (g.type == mjGEOM_LINE || g.category == mjCAT_DECOR) continue;
+    bool seen = false;
+    for (size_t k = 0; k < lights.size() && !seen; ++k) {
+      seen = !Outside(volume[k], g.pos, DrawnRadius(g, mesh_radius_));
+    }
+    if (!seen) {
+      left_out_ += static_cast<long long>(lights.size());
+      continue;
+    }
+    if (!AppendWorldShape(*shapes_, g, &casters_)) listed.push_back(j);
+  }
+  gl.BindBuffer(GL_ARRAY_BUFFER, caster_buffer_);
+  gl.BufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(casters_.size() * sizeof(float)),
+                casters_.data(), GL_STREAM_DRAW);
+  gl.VertexPointer(3, GL_FLOAT, 0, nullptr);
+  gl.BindBuffer(GL_ARRAY_BUFFER, 0);
+  for (size_t k = 0; k < lights.size(); ++k) {
+    gl.MatrixMode(GL_PROJECTION);
+    gl.LoadMatrixf(project[k].data());
+    gl.MatrixMode(GL_MODELVIEW);
+    gl.LoadMatrixf(view_gl[k].data());
+    gl.BindFramebuffer(GL_FRAMEBUFFER, map_fbo_[k]);
+    gl.DrawBuffer(GL_NONE);
+    gl.Viewport(0, 0, map_size_, map_size_);
+    gl.Clear(GL_DEPTH_BUFFER_BIT);
+    gl.Viewport(1, 1, map_size_ - 2, map_size_ - 2);
+    gl.EnableClientState(GL_VERTEX_ARRAY);
+    gl.DrawArrays(GL_TRIANGLES, 0, static_cast<GLsizei>(casters_.size() / 3));
+    gl.DisableClientState(GL_VERTEX_ARRAY);
+    for (int j : listed) {
+      if (!LeftOut(volume[k], scn.geoms[j])) DrawGeom(gl, scn.geoms[j], con);
+    }
+  }
+  if (cull) gl.Enable(GL_CULL_FACE);
+  gl.Disable(GL_POLYGON_OFFSET_FILL);
+  gl.Enable(GL_LIGHTING);
+  gl.ColorMask(1, 1, 1, 1);
+  map_key_ = std::move(key);
+  ++map_renders_;
+}
+
+}  // namespace mlspaces::sim

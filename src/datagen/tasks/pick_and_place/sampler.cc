@@ -263,7 +263,7 @@ void PickAndPlaceTaskSampler::SampleAndPlaceRobot(Env& env, Rng& rng, TaskDraft&
     }
     const int support_root = RootOf(m, m->geom_bodyid[rest.supporting_geom]);
     const double support_top = obj_box[0][2];
-    double lo[2], hi[2];
+    double lo[2] = {0, 0}, hi[2] = {0, 0};  // set when bounded
     const bool bounded = GeomXyExtent(m, d, rest.supporting_geom, lo, hi);
     for (size_t k = 0; k < chosen.size(); ++k) {
       const std::string& r = chosen[k];

@@ -255,7 +255,11 @@ VideoWriter::VideoWriter(fs::path path, int width, int height, VideoOptions opti
   // same frames gave other bytes after other videos; tests/datagen/episode_runner_test.cc
   // CameraVideosDependOnlyOnTheEpisode). Without it the output is a function of the frames,
   // for files a few percent larger.
-  av_dict_set(&raw_opts, "x264-params", "mbtree=0", 0);
+  // A camera's video is one shot under constant lights: no scene cuts to look for, no fades
+  // for weighted prediction, and B-frames in x264's fixed pattern rather than chosen by its
+  // lookahead. On the tutorial's videos that is a quarter less encoding time for files 1%
+  // smaller at the same SSIM, at veryfast and at medium (docs/datagen.md).
+  av_dict_set(&raw_opts, "x264-params", "mbtree=0:scenecut=0:weightp=0:b-adapt=0", 0);
   int ret = avcodec_open2(c, codec, &raw_opts);
   std::unique_ptr<AVDictionary, DictDeleter> opts(raw_opts);
   if (ret < 0) {

@@ -489,14 +489,7 @@ void ShadowPass::BeginFrame(const mjrRect& viewport, const mjvScene& scn, const 
                                             : 0.5f * static_cast<float>(viewport.width) /
                                                   static_cast<float>(viewport.height) *
                                                   (cam.frustum_top - cam.frustum_bottom);
-  gl.MatrixMode(GL_PROJECTION);
-  gl.LoadIdentity();
-  if (zero_to_one) {
-    gl.Translatef(0, 0, 0.5f);
-    gl.Scalef(1, 1, -0.5f);
-  } else {
-    gl.Scalef(1, 1, -1);
-  }
+  LoadReversedDepth(gl, zero_to_one);
   if (cam.orthographic) {
     gl.Ortho(cam.frustum_center - halfwidth, cam.frustum_center + halfwidth, cam.frustum_bottom,
              cam.frustum_top, cam.frustum_near, cam.frustum_far);

@@ -163,6 +163,17 @@ void HeadPos(const mjvScene& scn, float head[3]) {
   for (int k = 0; k < 3; ++k) head[k] = static_cast<float>(h[k]);
 }
 
+void LoadReversedDepth(const ShadowPass::Gl& gl, bool zero_to_one) {
+  gl.MatrixMode(GL_PROJECTION);
+  gl.LoadIdentity();
+  if (zero_to_one) {
+    gl.Translatef(0, 0, 0.5f);
+    gl.Scalef(1, 1, -0.5f);
+  } else {
+    gl.Scalef(1, 1, -1);
+  }
+}
+
 // Column-major 4x4 product a*b.
 std::array<float, 16> Mul(const float* a, const float* b) {
   std::array<float, 16> r{};

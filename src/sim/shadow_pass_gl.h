@@ -130,6 +130,9 @@ bool Supported(const mjvLight& l);
 bool Behind(const float* head, const mjvGeom& g);
 /// The scene camera's position (mjv_cameraInModel), in float.
 void HeadPos(const mjvScene& scn, float head[3]);
+/// mjr_render's projection before its frustum: identity, then depth reversed (into [0, 1]
+/// with ARB_clip_control, `zero_to_one`, else [-1, 1]). Leaves GL_PROJECTION current.
+void LoadReversedDepth(const ShadowPass::Gl& gl, bool zero_to_one);
 /// Column-major 4x4 product a*b.
 std::array<float, 16> Mul(const float* a, const float* b);
 /// Inverse of a rigid column-major transform.

@@ -98,14 +98,7 @@ void ShadowPass::DrawMaps(const mjvScene& scn, const mjrContext& con,
     const mjvLight& l = scn.lights[lights[k]];
     float up[3];
     OrthoVec(up, l.dir);
-    gl.MatrixMode(GL_PROJECTION);
-    gl.LoadIdentity();
-    if (zero_to_one) {
-      gl.Translatef(0, 0, 0.5f);
-      gl.Scalef(1, 1, -0.5f);
-    } else {
-      gl.Scalef(1, 1, -1);
-    }
+    LoadReversedDepth(gl, zero_to_one);
     if (l.type == mjLIGHT_DIRECTIONAL) {
       gl.Ortho(-con.shadowClip, con.shadowClip, -con.shadowClip, con.shadowClip, cam.frustum_near,
                cam.frustum_far);

@@ -355,10 +355,9 @@ CoarseSides MakeCoarseSides(const ShadowPass::Gl& gl, const mjModel* m) {
     const int first = static_cast<int>(vertices.size() / 6);
     CoarseLevel level;
     level.pieces = pieces;
-    level.cylinder = {first + s.ranges[kShapeCylinder].first, s.ranges[kShapeCylinder].count};
-    level.cylinder_open = {first + s.ranges[kShapeCylinderOpen].first,
-                           s.ranges[kShapeCylinderOpen].count};
-    level.box = {first + s.ranges[kShapeBox].first, s.ranges[kShapeBox].count};
+    for (const BuiltinShape k : {kShapeCylinder, kShapeCylinderOpen, kShapeBox}) {
+      level.ranges[k] = {first + s.ranges[k].first, s.ranges[k].count};
+    }
     vertices.insert(vertices.end(), s.vertices.begin(), s.vertices.end());
     coarse.levels.push_back(level);
   }
@@ -414,11 +413,8 @@ const CoarseLevel* CoarseLevelFor(const CoarseSides& coarse, const mjvGeom& g, c
 void DrawGeom(const ShadowPass::Gl& gl, const mjvGeom& g, const mjrContext& con,
               const CoarseLevel* coarse) {
   auto draw = [&](BuiltinShape which) {
-    if (coarse != nullptr &&
-        (which == kShapeCylinder || which == kShapeCylinderOpen || which == kShapeBox)) {
-      const BuiltinShapes::Range r = which == kShapeBox        ? coarse->box
-                                     : which == kShapeCylinder ? coarse->cylinder
-                                                               : coarse->cylinder_open;
+    if (coarse != nullptr && coarse->ranges[which].count > 0) {
+      const BuiltinShapes::Range r = coarse->ranges[which];
       gl.BindBuffer(GL_ARRAY_BUFFER, coarse->buffer);
       gl.EnableClientState(GL_VERTEX_ARRAY);
       gl.EnableClientState(GL_NORMAL_ARRAY);

@@ -169,7 +169,8 @@ bool DrawnType(int type);
 struct CoarseLevel {
   int pieces = 0;  ///< cylinder side stacks and box quads per side; disks get pieces / 2 rings
   unsigned int buffer = 0;
-  BuiltinShapes::Range cylinder, cylinder_open, box;
+  /// Per builtin shape (BuiltinShape); a count of 0 keeps MuJoCo's display list.
+  std::array<BuiltinShapes::Range, kShapeCount> ranges{};
 };
 struct CoarseSides {
   unsigned int buffer = 0;

@@ -107,7 +107,8 @@ struct MLSPACES_API RenderOptions {
   /// at most 0.25 rad seen from the eye and from every positional light. The pieces cover
   /// the pixels MuJoCo's cover, with the same normals; only the per-vertex lighting along a
   /// side is sampled at fewer points. A frame of the tutorial costs about a fifth less on
-  /// llvmpipe, at mean SSIM within 0.0005 of MuJoCo's shapes (docs/sim.md).
+  /// llvmpipe, at mean SSIM against full quality within 0.0001 of MuJoCo's shapes
+  /// (docs/sim.md).
   bool coarse_sides = false;
 };
 

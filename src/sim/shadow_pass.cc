@@ -280,13 +280,12 @@ std::array<float, 16> ReflectMatrix(const float* pos, const float* mat) {
   return r;
 }
 
-// mjr_render's transparent geoms (setting mjvGeom::transparent and camdist as it does).
-std::vector<int> SortTransparent(mjvScene* scn) {
+// mjr_render's transparent geoms (setting mjvGeom::transparent and camdist as it does), seen
+// from the eye at `head` (HeadPos).
+std::vector<int> SortTransparent(mjvScene* scn, const float* head) {
   // As mjr_render: alpha under 0.995 (planes seen from behind too, which Unsupported leaves
   // to mjr_render), nearest first by the distance to the head less the bounding radius, in
   // a stable order (MuJoCo's merge sort).
-  float head[3];
-  HeadPos(*scn, head);
   std::vector<int> order;
   for (int i = 0; i < scn->ngeom; ++i) {
     mjvGeom& g = scn->geoms[i];
@@ -386,7 +385,7 @@ void ShadowPass::SetLights(const BuiltProgram& program, const mjvScene& scn, con
   gl.Uniform3fv(program.global, 1, global3);
 }
 
-void ShadowPass::DrawSkybox(const mjvScene& scn, const mjrContext& con) {
+void ShadowPass::DrawSkybox(const mjvScene& scn, const mjrContext& con, const float* head) {
   Gl& gl = *gl_;
   if (!scn.flags[mjRND_SKYBOX]) return;
   // As mjr_render after its shadows: a cylinder around the head with the first skybox
@@ -398,8 +397,6 @@ void ShadowPass::DrawSkybox(const mjvScene& scn, const mjrContext& con) {
   }
   if (!has_skybox) return;
   const int texid = con.mat_texid[mjNTEXROLE * (mjMAXMATERIAL - 1) + mjTEXROLE_RGB];
-  float head[3];
-  HeadPos(scn, head);
   const float distance = mjv_averageCamera(scn.camera, scn.camera + 1).frustum_far * 0.70f;
   gl.UseProgram(0);
   gl.Disable(GL_LIGHTING);
@@ -506,7 +503,7 @@ void ShadowPass::BeginFrame(const mjrRect& viewport, const mjvScene& scn, const 
 }
 
 void ShadowPass::DrawReflection(const mjvScene& scn, const mjrContext& con, int reflective,
-                                const float* cam_project, const float* cam_view,
+                                const float* head, const float* cam_project, const float* cam_view,
                                 const std::vector<int>& transparent) {
   Gl& gl = *gl_;
   if (reflective < 0 || !scn.flags[mjRND_REFLECTION]) return;
@@ -516,8 +513,6 @@ void ShadowPass::DrawReflection(const mjvScene& scn, const mjrContext& con, int 
     plane.type = mjGEOM_PLANE;
     for (int i = 0; i < 3; ++i) plane.pos[i] += plane.size[2] * plane.mat[3 * i + 2];
   }
-  float head[3];
-  HeadPos(scn, head);
   if (Behind(head, plane)) return;
   // The plane into the stencil buffer, then the mirrored scene where it is.
   gl.UseProgram(0);
@@ -575,7 +570,9 @@ const CoarseLevel* ShadowPass::Coarse(const mjvGeom& g, const float* eye) {
 
 void ShadowPass::Render(const mjrRect& viewport, mjvScene* scn, const mjrContext* con) {
   Gl& gl = *gl_;
-  const std::vector<int> transparent = SortTransparent(scn);
+  float head[3];  // the eye, for the whole frame
+  HeadPos(*scn, head);
+  const std::vector<int> transparent = SortTransparent(scn, head);
   // The reflective geom: mjr_render keeps the first opaque one.
   int reflective = -1;
   for (int j = 0; j < scn->ngeom && reflective < 0; ++j) {
@@ -593,7 +590,7 @@ void ShadowPass::Render(const mjrRect& viewport, mjvScene* scn, const mjrContext
   // The whole frame: clear, reflection, the maps, one lit pass, the skybox.
   float cam_project[16], cam_view[16];
   BeginFrame(viewport, *scn, *con, cam_project, cam_view);
-  DrawReflection(*scn, *con, reflective, cam_project, cam_view, transparent);
+  DrawReflection(*scn, *con, reflective, head, cam_project, cam_view, transparent);
 
   std::vector<int> lights;  // shadow-casting lights, in map order
   for (int i = 0; i < scn->nlight; ++i) {
@@ -645,8 +642,6 @@ void ShadowPass::Render(const mjrRect& viewport, mjvScene* scn, const mjrContext
     }
   }
   const ViewVolume view_volume = ViewVolumeOf(Mul(cam_project, cam_view).data());
-  float head[3];
-  HeadPos(*scn, head);
   auto draw = [&](int j) {
     const mjvGeom& g = scn->geoms[j];
     if (LeftOut(view_volume, g)) return;
@@ -689,7 +684,7 @@ void ShadowPass::Render(const mjrRect& viewport, mjvScene* scn, const mjrContext
   };
   gl.DepthMask(GL_TRUE);
   unbind();
-  DrawSkybox(*scn, *con);
+  DrawSkybox(*scn, *con, head);
   if (!transparent.empty()) {
     // As mjr_render last: the transparent geoms with every light, no shadows, blended.
     Programs blended(this, *scn, cam_view);

@@ -81,13 +81,15 @@ class ShadowPass {
   // texture units then); valid while the pass lives.
   const BuiltProgram& Program(int nlight, int nmap, int texmode);
 
-  // mjr_render's skybox and haze behind what the pass drew (none without a skybox texture).
-  void DrawSkybox(const mjvScene& scn, const mjrContext& con);
+  // mjr_render's skybox and haze behind what the pass drew (none without a skybox texture),
+  // around the eye at `head` (HeadPos).
+  void DrawSkybox(const mjvScene& scn, const mjrContext& con, const float* head);
   // mjr_render's GL state, clear and camera; the camera's matrices out.
   void BeginFrame(const mjrRect& viewport, const mjvScene& scn, const mjrContext& con,
                   float* cam_project, float* cam_view);
-  // mjr_render's reflection of the scene in the reflective geom (index, -1 for none).
-  void DrawReflection(const mjvScene& scn, const mjrContext& con, int reflective,
+  // mjr_render's reflection of the scene in the reflective geom (index, -1 for none), seen
+  // from the eye at `head` (HeadPos).
+  void DrawReflection(const mjvScene& scn, const mjrContext& con, int reflective, const float* head,
                       const float* cam_project, const float* cam_view,
                       const std::vector<int>& transparent);
   // The light uniforms of `program` (current) under the modelview `view`; shadow_lights get

@@ -1,5 +1,6 @@
 #include <algorithm>
 #include <cmath>
+#include <cstddef>
 #include <cstring>
 
 #include "shadow_pass_gl.h"
@@ -349,16 +350,18 @@ CoarseSides MakeCoarseSides(const ShadowPass::Gl& gl, const mjModel* m) {
   coarse.numstacks = m->vis.quality.numstacks;
   std::vector<float> vertices;
   for (int pieces = 1; pieces < m->vis.quality.numstacks; pieces *= 2) {
-    // numstacks gives the disks their rings (numstacks / 2); the spheres are not used.
-    BuiltinShapes s =
+    // numstacks gives the disks their rings (numstacks / 2); only the three straight-sided
+    // shapes go into the buffer.
+    const BuiltinShapes s =
         MakeBuiltinShapes(m->vis.quality.numslices, std::max(2, pieces), pieces, pieces);
-    const int first = static_cast<int>(vertices.size() / 6);
     CoarseLevel level;
     level.pieces = pieces;
     for (const BuiltinShape k : {kShapeCylinder, kShapeCylinderOpen, kShapeBox}) {
-      level.ranges[k] = {first + s.ranges[k].first, s.ranges[k].count};
+      const BuiltinShapes::Range r = s.ranges[k];
+      level.ranges[k] = {static_cast<int>(vertices.size() / 6), r.count};
+      vertices.insert(vertices.end(), s.vertices.begin() + 6 * static_cast<ptrdiff_t>(r.first),
+                      s.vertices.begin() + 6 * static_cast<ptrdiff_t>(r.first + r.count));
     }
-    vertices.insert(vertices.end(), s.vertices.begin(), s.vertices.end());
     coarse.levels.push_back(level);
   }
   gl.GenBuffers(1, &coarse.buffer);

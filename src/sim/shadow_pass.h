@@ -64,6 +64,8 @@ class ShadowPass {
   long long left_out() const { return left_out_; }
   /// How many geom draws of the lit pass and the reflection used coarse sides.
   long long coarse_draws() const { return coarse_draws_; }
+  /// How many maps were drawn with their casters' back faces culled (see DrawMaps).
+  long long culled_maps() const { return culled_maps_; }
 
   struct Gl;
   /// One pass's programs (one per texture mode, given the pass's lights on first use), and
@@ -119,6 +121,7 @@ class ShadowPass {
   long long map_renders_ = 0;
   long long left_out_ = 0;
   long long coarse_draws_ = 0;
+  long long culled_maps_ = 0;
 };
 
 }  // namespace mlspaces::sim

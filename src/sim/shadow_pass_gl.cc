@@ -280,6 +280,16 @@ float DrawnRadius(const mjvGeom& g, const std::vector<float>& mesh_radius) {
   return BoundingRadius(g);
 }
 
+bool WithinDepth(const ViewVolume& f, const float* center, float radius) {
+  if (radius < 0) return false;
+  const float r = radius * 1.01f + 1e-3f;
+  for (int k = 4; k < 6; ++k) {
+    const auto& p = f[k];
+    if (p[0] * center[0] + p[1] * center[1] + p[2] * center[2] + p[3] < r) return false;
+  }
+  return true;
+}
+
 ViewVolume ViewVolumeOf(const float* c) {
   // Gribb and Hartmann: the rows of the clip matrix, w +- x, w +- y, w +- z.
   ViewVolume f{};

@@ -155,6 +155,9 @@ ViewVolume ViewVolumeOf(const float* clip);
 /// Whether the sphere lies wholly outside one of the planes, with a margin: what it holds
 /// is then clipped away entirely, and leaving it out changes no pixel. False for radius < 0.
 bool Outside(const ViewVolume& f, const float* center, float radius);
+/// Whether the sphere lies wholly between the near and far planes of `f` (planes 4 and 5),
+/// with Outside's margin: no part of it is clipped by either. False for radius < 0.
+bool WithinDepth(const ViewVolume& f, const float* center, float radius);
 /// mjv_rbound (MuJoCo 3.5's engine_vis_init.c, not exported): the model geom's radius, else
 /// one from the size; mjr_render sorts transparent geoms by it. Unlike BoundingRadius, not a
 /// bound for every type (arrows).

@@ -72,12 +72,13 @@ void ShadowPass::DrawMaps(const mjvScene& scn, const mjrContext& con,
     }
   }
 
-  // As mjr_render's shadow-map passes: depth only, flat, no culling, MuJoCo's offsets.
+  // As mjr_render's shadow-map passes: depth only, flat, MuJoCo's offsets (no culling but
+  // of the array below).
   gl.UseProgram(0);
   gl.Disable(GL_LIGHTING);
   gl.Disable(GL_BLEND);
   gl.ColorMask(0, 0, 0, 0);
-  const bool cull = gl.IsEnabled(GL_CULL_FACE);
+  const bool cull_faces = gl.IsEnabled(GL_CULL_FACE);
   gl.Disable(GL_CULL_FACE);
   gl.Enable(GL_POLYGON_OFFSET_FILL);
   gl.PolygonOffset(zero_to_one ? -1.5f : -16.0f, zero_to_one ? -4.0f : -512.0f);
@@ -120,21 +121,34 @@ void ShadowPass::DrawMaps(const mjvScene& scn, const mjrContext& con,
   }
   // The casters in world coordinates, one array for every map of this state (those in no
   // map's view volume left out): a draw per geom costs more than its vertices on llvmpipe.
-  // Other types keep their display lists.
+  // Other types keep their display lists. The array holds closed shapes only (MuJoCo's
+  // builtins, outer faces counter-clockwise): along each ray from the light the nearest
+  // surface is a face turned to the light, so a map culls the back faces (half the fill)
+  // and keeps the same nearest depth, unless its near or far plane cuts a caster (a back
+  // face may then be all that is left of it, as for a lamp inside its shade).
   casters_.clear();
   std::vector<int> listed;
+  std::array<bool, kMaxShadowLights> cull{};
+  cull.fill(true);
   for (int j = 0; j < scn.ngeom; ++j) {
     const mjvGeom& g = scn.geoms[j];
     if (g.type == mjGEOM_LINE || g.category == mjCAT_DECOR) continue;
+    const float radius = DrawnRadius(g, mesh_radius_);
     bool seen = false;
-    for (size_t k = 0; k < lights.size() && !seen; ++k) {
-      seen = !Outside(volume[k], g.pos, DrawnRadius(g, mesh_radius_));
-    }
+    for (size_t k = 0; k < lights.size() && !seen; ++k) seen = !Outside(volume[k], g.pos, radius);
     if (!seen) {
       left_out_ += static_cast<long long>(lights.size());
       continue;
     }
-    if (!AppendWorldShape(*shapes_, g, &casters_)) listed.push_back(j);
+    if (!AppendWorldShape(*shapes_, g, &casters_)) {
+      listed.push_back(j);
+      continue;
+    }
+    for (size_t k = 0; k < lights.size(); ++k) {
+      if (!Outside(volume[k], g.pos, radius) && !WithinDepth(volume[k], g.pos, radius)) {
+        cull[k] = false;
+      }
+    }
   }
   gl.BindBuffer(GL_ARRAY_BUFFER, caster_buffer_);
   gl.BufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(casters_.size() * sizeof(float)),
@@ -151,14 +165,21 @@ void ShadowPass::DrawMaps(const mjvScene& scn, const mjrContext& con,
     gl.Viewport(0, 0, map_size_, map_size_);
     gl.Clear(GL_DEPTH_BUFFER_BIT);
     gl.Viewport(1, 1, map_size_ - 2, map_size_ - 2);
+    if (cull[k]) {
+      gl.Enable(GL_CULL_FACE);
+      gl.CullFace(GL_BACK);
+      gl.FrontFace(GL_CCW);
+      ++culled_maps_;
+    }
     gl.EnableClientState(GL_VERTEX_ARRAY);
     gl.DrawArrays(GL_TRIANGLES, 0, static_cast<GLsizei>(casters_.size() / 3));
     gl.DisableClientState(GL_VERTEX_ARRAY);
+    gl.Disable(GL_CULL_FACE);  // meshes may be open: both sides, as mjr_render
     for (int j : listed) {
       if (!LeftOut(volume[k], scn.geoms[j])) DrawGeom(gl, scn.geoms[j], con);
     }
   }
-  if (cull) gl.Enable(GL_CULL_FACE);
+  if (cull_faces) gl.Enable(GL_CULL_FACE);
   gl.Disable(GL_POLYGON_OFFSET_FILL);
   gl.Enable(GL_LIGHTING);
   gl.ColorMask(1, 1, 1, 1);

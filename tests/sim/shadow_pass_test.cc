@@ -172,6 +172,39 @@ TEST(ShadowPassTest, DrawsTheMapsOncePerStateForAllCameras) {
   // And the moved ball's shadow is where MuJoCo draws it.
   Renderer mujoco(w.m.get(), Options(false, true));
   EXPECT_LT(Compare(Shoot(mujoco, w, "high"), moved, 24).share, 0.005);
+  // Each of the two maps (sun, lamp) culled its casters' back faces, each time.
+  EXPECT_EQ(one.one_pass_culled_maps(), 4);
+}
+
+// A lamp inside its shade (an opaque ball round the light): from the lamp every face of the
+// ball is a back face, and MuJoCo's map, drawn without culling, holds the ball, so that
+// the lamp lights nothing. The map of a caster cut by its near plane keeps the back faces.
+TEST(ShadowPassTest, KeepsBackFacesWhereTheyAreAllTheLightSees) {
+  const World w(std::string(R"(
+<mujoco>
+  <worldbody>
+    <light name="lamp" pos="0 0 1" dir="0 0 -1" cutoff="60" castshadow="true"
+           diffuse="0.8 0.8 0.8"/>
+    <light name="sun" pos="0 0 3" dir="0.3 0.2 -1" directional="true" castshadow="true"
+           diffuse="0.3 0.3 0.3"/>
+    <geom name="floor" type="plane" size="3 3 0.1" rgba="0.6 0.6 0.6 1"/>
+    <geom name="shade" type="sphere" pos="0 0 1" size="0.05" rgba="0.9 0.9 0.9 1"/>
+    <geom name="box" type="box" pos="0.3 0 0.1" size="0.1 0.1 0.1" rgba="0.8 0.2 0.2 1"/>
+    <camera name="high" pos="1.2 -1.4 1.3" xyaxes="0.76 0.65 0 -0.4 0.47 0.78" fovy="50"/>
+  </worldbody>
+</mujoco>)"));
+  Renderer mujoco(w.m.get(), Options(false, true));
+  Renderer one(w.m.get(), Options(true, true));
+  const std::vector<unsigned char> want = Shoot(mujoco, w, "high");
+  const std::vector<unsigned char> got = Shoot(one, w, "high");
+  // The shade's shadow is a tenth of the picture: without it the lamp lights the floor.
+  EXPECT_GT(Compare(want, Shoot(mujoco, w, "high", false), 24).share, 0.05);
+  const Difference d = Compare(want, got, 24);
+  EXPECT_LT(d.mean, 1.0);
+  EXPECT_LT(d.share, 0.005);
+  // The sun's map culled; the lamp's did not.
+  EXPECT_EQ(one.shadow_map_renders(), 1);
+  EXPECT_EQ(one.one_pass_culled_maps(), 1);
 }
 
 TEST(ShadowPassTest, LeavesWhatItCannotDrawToMujoco) {

@@ -28,9 +28,9 @@ ShadowPass::ShadowPass(GlProcLoader load, const mjModel* m, bool coarse_sides)
     : gl_(std::make_unique<Gl>()),
       // The maps' shapes: coarser than MuJoCo's (their vertices are most of a map's cost), an
       // error under a millimetre on a 6 cm capsule, below the maps' texels.
-      shapes_(std::make_unique<BuiltinShapes>(
-          MakeBuiltinShapes(std::min(m->vis.quality.numslices, kMapSlices),
-                            std::min(m->vis.quality.numstacks, kMapStacks), 1, 1))) {
+      shapes_(std::make_unique<IndexedShapes>(
+          IndexShapes(MakeBuiltinShapes(std::min(m->vis.quality.numslices, kMapSlices),
+                                        std::min(m->vis.quality.numstacks, kMapStacks), 1, 1)))) {
   Gl& gl = *gl_;
 #define MLSPACES_LOAD(name)                                            \
   gl.name = reinterpret_cast<decltype(&::gl##name)>(load("gl" #name)); \
@@ -47,6 +47,7 @@ ShadowPass::ShadowPass(GlProcLoader load, const mjModel* m, bool coarse_sides)
   // The shaders build here once, so that a driver without GLSL 1.20 fails at construction.
   Program(1, 1, 0);
   gl.GenBuffers(1, &caster_buffer_);
+  gl.GenBuffers(1, &caster_index_buffer_);
   if (coarse_sides) coarse_ = std::make_unique<CoarseSides>(MakeCoarseSides(gl, m));
   // Meshes are drawn from mesh_vert in the geom's frame (mjr_uploadMesh).
   mesh_radius_.resize(static_cast<size_t>(m->nmesh));
@@ -147,6 +148,7 @@ const ShadowPass::BuiltProgram& ShadowPass::Program(int nlight, int nmap, int te
 ShadowPass::~ShadowPass() {
   Gl& gl = *gl_;
   if (caster_buffer_) gl.DeleteBuffers(1, &caster_buffer_);
+  if (caster_index_buffer_) gl.DeleteBuffers(1, &caster_index_buffer_);
   if (coarse_ && coarse_->buffer) gl.DeleteBuffers(1, &coarse_->buffer);
   for (int k = 0; k < kMaxShadowLights; ++k) {
     if (map_fbo_[k]) gl.DeleteFramebuffers(1, &map_fbo_[k]);

@@ -22,6 +22,7 @@ namespace mlspaces::sim {
 namespace detail {
 struct CoarseSides;
 struct CoarseLevel;
+struct IndexedShapes;
 }  // namespace detail
 
 /// A GL function by name (OSMesaGetProcAddress, eglGetProcAddress); null when missing.
@@ -103,14 +104,16 @@ class ShadowPass {
   // frame); null for MuJoCo's display lists. Counted in coarse_draws_.
   const detail::CoarseLevel* Coarse(const mjvGeom& g, const float* eye);
   std::unique_ptr<Gl> gl_;
-  std::unique_ptr<BuiltinShapes> shapes_;
+  std::unique_ptr<detail::IndexedShapes> shapes_;
   unsigned int caster_buffer_ = 0;
+  unsigned int caster_index_buffer_ = 0;
   // Coarse sides for the lit pass and the reflection (null: MuJoCo's lists only), and the
   // frame's positional lights (x y z each) that choose them with the eye.
   std::unique_ptr<detail::CoarseSides> coarse_;
   std::vector<float> coarse_points_;
   std::vector<float> mesh_radius_;  // per mesh: the largest distance of a vertex from its frame
   std::vector<float> casters_;      // the maps' casters in world coordinates (x y z per vertex)
+  std::vector<unsigned int> caster_indices_;  // their triangles
   std::map<int, std::unique_ptr<BuiltProgram>> programs_;
   std::array<unsigned int, 4> map_tex_{};
   std::array<unsigned int, 4> map_fbo_{};

@@ -2,6 +2,7 @@
 #include <cmath>
 #include <cstddef>
 #include <cstring>
+#include <map>
 
 #include "shadow_pass_gl.h"
 
@@ -494,19 +495,45 @@ void DrawGeom(const ShadowPass::Gl& gl, const mjvGeom& g, const mjrContext& con,
   gl.PopMatrix();
 }
 
-bool AppendWorldShape(const BuiltinShapes& shapes, const mjvGeom& g, std::vector<float>* out) {
+IndexedShapes IndexShapes(const BuiltinShapes& shapes) {
+  IndexedShapes out;
+  for (int k = 0; k < kShapeCount; ++k) {
+    const BuiltinShapes::Range r = shapes.ranges[k];
+    IndexedShapes::Range& o = out.ranges[k];
+    o.first_vertex = static_cast<int>(out.positions.size() / 3);
+    o.first_index = static_cast<int>(out.indices.size());
+    std::map<std::array<float, 3>, unsigned int> seen;
+    for (int v = r.first; v < r.first + r.count; ++v) {
+      std::array<float, 3> p;
+      std::copy_n(&shapes.vertices[6 * static_cast<size_t>(v)], 3, p.begin());
+      const auto [it, added] = seen.emplace(p, static_cast<unsigned int>(seen.size()));
+      if (added) out.positions.insert(out.positions.end(), p.begin(), p.end());
+      out.indices.push_back(it->second);
+    }
+    o.vertex_count = static_cast<int>(seen.size());
+    o.index_count = r.count;
+  }
+  return out;
+}
+
+bool AppendWorldShape(const IndexedShapes& shapes, const mjvGeom& g, std::vector<float>* positions,
+                      std::vector<unsigned int>* indices) {
   const float* size = g.size;
   // One shape: its unit vertices v placed at pos + mat * (scale .* v + shift).
   auto add = [&](BuiltinShape which, const float scale[3], const float shift[3]) {
-    const BuiltinShapes::Range r = shapes.ranges[which];
-    for (int v = r.first; v < r.first + r.count; ++v) {
-      const float* p = &shapes.vertices[6 * static_cast<size_t>(v)];
+    const IndexedShapes::Range r = shapes.ranges[which];
+    const auto base = static_cast<unsigned int>(positions->size() / 3);
+    for (int v = r.first_vertex; v < r.first_vertex + r.vertex_count; ++v) {
+      const float* p = &shapes.positions[3 * static_cast<size_t>(v)];
       float local[3];
       for (int i = 0; i < 3; ++i) local[i] = scale[i] * p[i] + shift[i];
       for (int i = 0; i < 3; ++i) {
-        out->push_back(g.pos[i] + g.mat[3 * i] * local[0] + g.mat[3 * i + 1] * local[1] +
-                       g.mat[3 * i + 2] * local[2]);
+        positions->push_back(g.pos[i] + g.mat[3 * i] * local[0] + g.mat[3 * i + 1] * local[1] +
+                             g.mat[3 * i + 2] * local[2]);
       }
+    }
+    for (int i = r.first_index; i < r.first_index + r.index_count; ++i) {
+      indices->push_back(base + shapes.indices[static_cast<size_t>(i)]);
     }
   };
   const float none[3] = {0, 0, 0};

@@ -26,6 +26,7 @@ namespace mlspaces::sim {
   X(DeleteBuffers)                 \
   X(DisableClientState)            \
   X(DrawArrays)                    \
+  X(DrawElements)                  \
   X(EnableClientState)             \
   X(GenBuffers)                    \
   X(NormalPointer)                 \
@@ -193,10 +194,25 @@ const CoarseLevel* CoarseLevelFor(const CoarseSides& coarse, const mjvGeom& g, c
 /// `coarse` when not null). A plane is drawn as seen from the front.
 void DrawGeom(const ShadowPass::Gl& gl, const mjvGeom& g, const mjrContext& con,
               const CoarseLevel* coarse = nullptr);
+/// Builtin shapes as positions only, each distinct position once, and triangles indexing
+/// them: a depth map needs no normals, and llvmpipe then transforms a shared vertex once.
+struct IndexedShapes {
+  struct Range {
+    int first_vertex = 0, vertex_count = 0;  ///< into positions, 3 floats per vertex
+    int first_index = 0, index_count = 0;    ///< into indices, local to the shape's vertices
+  };
+  std::vector<float> positions;
+  std::vector<unsigned int> indices;
+  std::array<Range, kShapeCount> ranges{};
+};
+/// `shapes` with their vertices merged by position: the same triangles, in the same order.
+IndexedShapes IndexShapes(const BuiltinShapes& shapes);
 /// Appends the triangles of `g`'s builtin shape (sphere, ellipsoid, capsule, cylinder, box) in
-/// world coordinates, as renderGeom places them, to `out` (x y z per vertex); false, with
-/// nothing appended, for other types.
-bool AppendWorldShape(const BuiltinShapes& shapes, const mjvGeom& g, std::vector<float>* out);
+/// world coordinates, as renderGeom places them: its vertices to `positions` (x y z each) and
+/// its triangles to `indices` (into the whole of `positions`). False, with nothing appended,
+/// for other types.
+bool AppendWorldShape(const IndexedShapes& shapes, const mjvGeom& g, std::vector<float>* positions,
+                      std::vector<unsigned int>* indices);
 
 /// settexture's choice for a geom: mode (the shader's TEXMODE: 0 none, 1 texture
 /// coordinates, 2 2D object planes, 3 cube), GL texture and object planes.

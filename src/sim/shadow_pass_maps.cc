@@ -127,6 +127,7 @@ void ShadowPass::DrawMaps(const mjvScene& scn, const mjrContext& con,
   // and keeps the same nearest depth, unless its near or far plane cuts a caster (a back
   // face may then be all that is left of it, as for a lamp inside its shade).
   casters_.clear();
+  caster_indices_.clear();
   std::vector<int> listed;
   std::array<bool, kMaxShadowLights> cull{};
   cull.fill(true);
@@ -140,7 +141,7 @@ void ShadowPass::DrawMaps(const mjvScene& scn, const mjrContext& con,
       left_out_ += static_cast<long long>(lights.size());
       continue;
     }
-    if (!AppendWorldShape(*shapes_, g, &casters_)) {
+    if (!AppendWorldShape(*shapes_, g, &casters_, &caster_indices_)) {
       listed.push_back(j);
       continue;
     }
@@ -153,6 +154,10 @@ void ShadowPass::DrawMaps(const mjvScene& scn, const mjrContext& con,
   gl.BindBuffer(GL_ARRAY_BUFFER, caster_buffer_);
   gl.BufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(casters_.size() * sizeof(float)),
                 casters_.data(), GL_STREAM_DRAW);
+  gl.BindBuffer(GL_ELEMENT_ARRAY_BUFFER, caster_index_buffer_);
+  gl.BufferData(GL_ELEMENT_ARRAY_BUFFER,
+                static_cast<GLsizeiptr>(caster_indices_.size() * sizeof(unsigned int)),
+                caster_indices_.data(), GL_STREAM_DRAW);
   gl.VertexPointer(3, GL_FLOAT, 0, nullptr);
   gl.BindBuffer(GL_ARRAY_BUFFER, 0);
   for (size_t k = 0; k < lights.size(); ++k) {
@@ -172,13 +177,15 @@ void ShadowPass::DrawMaps(const mjvScene& scn, const mjrContext& con,
       ++culled_maps_;
     }
     gl.EnableClientState(GL_VERTEX_ARRAY);
-    gl.DrawArrays(GL_TRIANGLES, 0, static_cast<GLsizei>(casters_.size() / 3));
+    gl.DrawElements(GL_TRIANGLES, static_cast<GLsizei>(caster_indices_.size()), GL_UNSIGNED_INT,
+                    nullptr);
     gl.DisableClientState(GL_VERTEX_ARRAY);
     gl.Disable(GL_CULL_FACE);  // meshes may be open: both sides, as mjr_render
     for (int j : listed) {
       if (!LeftOut(volume[k], scn.geoms[j])) DrawGeom(gl, scn.geoms[j], con);
     }
   }
+  gl.BindBuffer(GL_ELEMENT_ARRAY_BUFFER, 0);
   if (cull_faces) gl.Enable(GL_CULL_FACE);
   gl.Disable(GL_POLYGON_OFFSET_FILL);
   gl.Enable(GL_LIGHTING);

@@ -629,8 +629,11 @@ Renderer::Renderer(const mjModel* m, RenderOptions options) : impl_(std::make_un
     s.model.reset(mj_copyModel(nullptr, m));
     if (!s.model) Fail(backend, "mj_copyModel failed");
     mjModel* mc = s.model.get();
-    mc->vis.global.offwidth = std::max(mc->vis.global.offwidth, options.width);
-    mc->vis.global.offheight = std::max(mc->vis.global.offheight, options.height);
+    // The offscreen buffer of exactly the picture's size: a clear scissored to a part of the
+    // buffer (mjr_render's and the one pass's) is a drawn quad on llvmpipe, a whole one a
+    // memset, and the clears that are not scissored touch no unused rows.
+    mc->vis.global.offwidth = options.width;
+    mc->vis.global.offheight = options.height;
     if (options.shadow_size > 0) mc->vis.quality.shadowsize = options.shadow_size;
     if (options.multisamples >= 0) mc->vis.quality.offsamples = options.multisamples;
     s.znear = static_cast<float>(mc->vis.map.znear * mc->stat.extent);

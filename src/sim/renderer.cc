@@ -7,12 +7,17 @@
 #include <EGL/eglext.h>
 #include <GL/osmesa.h>
 
+#ifndef GL_PACK_INVERT_MESA
+#define GL_PACK_INVERT_MESA 0x8758
+#endif
+
 #include <algorithm>
 #include <atomic>
 #include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <map>
 #include <mutex>
 #include <optional>
@@ -529,6 +534,9 @@ struct Renderer::Impl {
   float default_clip = 0;
   // RenderOptions::one_pass_shadows; its GL objects are freed before MuJoCo's.
   std::unique_ptr<ShadowPass> shadow_pass;
+  // glPixelStorei when the driver reads rows top down (GL_MESA_pack_invert: Mesa's drivers),
+  // which saves flipping them after mjr_readPixels; null otherwise.
+  decltype(&::glPixelStorei) pack_invert = nullptr;
   long long frames = 0, one_pass_frames = 0;
   std::string one_pass_missed;  // why one pass could not draw the last frame it missed
 
@@ -660,10 +668,17 @@ Renderer::Renderer(const mjModel* m, RenderOptions options) : impl_(std::make_un
                         std::to_string(s.con.offWidth) + "x" + std::to_string(s.con.offHeight) +
                         ")");
     }
+    const GlProcLoader load = backend == GlBackend::kOsMesa ? &OsMesaProc : &EglProc;
+    const auto get_string = reinterpret_cast<decltype(&::glGetString)>(load("glGetString"));
+    const auto* extensions =
+        get_string != nullptr ? reinterpret_cast<const char*>(get_string(GL_EXTENSIONS)) : nullptr;
+    if (extensions != nullptr && std::strstr(extensions, "GL_MESA_pack_invert") != nullptr) {
+      s.pack_invert = reinterpret_cast<decltype(&::glPixelStorei)>(load("glPixelStorei"));
+    }
     if (options.one_pass_shadows) {
       try {
         s.shadow_pass = std::make_unique<ShadowPass>(
-            backend == GlBackend::kOsMesa ? &OsMesaProc : &EglProc, mc, options.coarse_sides);
+            load, mc, options.coarse_sides);
       } catch (const Error& e) {
         Fail(backend, std::string(e.what()) +
                           " (one_pass_shadows off, camera_config.one_pass_shadows: false in a"
@@ -760,8 +775,13 @@ void Renderer::Draw(unsigned char* rgb, float* depth_m) {
     }
     mjr_render(viewport, &s.scn, &s.con);
   }
+  if (s.pack_invert != nullptr) s.pack_invert(GL_PACK_INVERT_MESA, GL_TRUE);
   mjr_readPixels(rgb, depth_m, viewport, &s.con);
-  FlipRows(rgb, w, h, 3);
+  if (s.pack_invert != nullptr) {
+    s.pack_invert(GL_PACK_INVERT_MESA, GL_FALSE);
+  } else {
+    FlipRows(rgb, w, h, 3);
+  }
   if (depth_m != nullptr) {
     // Nonlinear [0,1] depth buffer -> distance along the view axis (platform.md, "Depth").
     const double n = s.znear, ratio = 1.0 - static_cast<double>(s.znear) / s.zfar;
@@ -769,7 +789,7 @@ void Renderer::Draw(unsigned char* rgb, float* depth_m) {
     for (size_t i = 0; i < count; ++i) {
       depth_m[i] = static_cast<float>(n / (1.0 - depth_m[i] * ratio));
     }
-    FlipRows(depth_m, w, h, 1);
+    if (s.pack_invert == nullptr) FlipRows(depth_m, w, h, 1);
   }
 }
 

@@ -677,8 +677,7 @@ Renderer::Renderer(const mjModel* m, RenderOptions options) : impl_(std::make_un
     }
     if (options.one_pass_shadows) {
       try {
-        s.shadow_pass = std::make_unique<ShadowPass>(
-            load, mc, options.coarse_sides);
+        s.shadow_pass = std::make_unique<ShadowPass>(load, mc, options.coarse_sides);
       } catch (const Error& e) {
         Fail(backend, std::string(e.what()) +
                           " (one_pass_shadows off, camera_config.one_pass_shadows: false in a"

@@ -847,8 +847,8 @@ long long Renderer::one_pass_left_out() const {
 long long Renderer::one_pass_coarse_draws() const {
   return impl_->shadow_pass ? impl_->shadow_pass->coarse_draws() : 0;
 }
-long long Renderer::one_pass_culled_maps() const {
-  return impl_->shadow_pass ? impl_->shadow_pass->culled_maps() : 0;
+long long Renderer::one_pass_culled_draws() const {
+  return impl_->shadow_pass ? impl_->shadow_pass->culled_draws() : 0;
 }
 mjvScene& Renderer::scene() { return impl_->scn; }
 mjvOption& Renderer::vis_option() { return impl_->opt; }

@@ -50,6 +50,8 @@ ShadowPass::ShadowPass(GlProcLoader load, const mjModel* m, bool coarse_sides)
   gl.GenBuffers(1, &caster_index_buffer_);
   if (coarse_sides) coarse_ = std::make_unique<CoarseSides>(MakeCoarseSides(gl, m));
   // Meshes are drawn from mesh_vert in the geom's frame (mjr_uploadMesh).
+  model_ = m;
+  mesh_closed_.assign(static_cast<size_t>(m->nmesh), -1);
   mesh_radius_.resize(static_cast<size_t>(m->nmesh));
   for (int i = 0; i < m->nmesh; ++i) {
     double r2 = 0;

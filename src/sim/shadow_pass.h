@@ -34,7 +34,8 @@ class ShadowPass {
  public:
   /// Loads the GL functions and compiles the shader, with the GL context current.
   /// @throws Error (one line) when a function is missing or the shader does not build.
-  /// `m`: the model the scenes come from (its vis.quality shapes the builtin geoms).
+  /// `m`: the model the scenes come from (its vis.quality shapes the builtin geoms); it must
+  /// outlive the pass (its meshes are read when first drawn into a map).
   /// `coarse_sides`: RenderOptions::coarse_sides.
   ShadowPass(GlProcLoader load, const mjModel* m, bool coarse_sides = false);
   /// Frees the GL objects: the context must be current (or gone, with the objects).
@@ -65,8 +66,9 @@ class ShadowPass {
   long long left_out() const { return left_out_; }
   /// How many geom draws of the lit pass and the reflection used coarse sides.
   long long coarse_draws() const { return coarse_draws_; }
-  /// How many maps were drawn with their casters' back faces culled (see DrawMaps).
-  long long culled_maps() const { return culled_maps_; }
+  /// How many map draws culled back faces: the array of builtin shapes (once per map) and
+  /// each closed mesh (see DrawMaps).
+  long long culled_draws() const { return culled_draws_; }
 
   struct Gl;
   /// One pass's programs (one per texture mode, given the pass's lights on first use), and
@@ -100,6 +102,8 @@ class ShadowPass {
   void SetLights(const BuiltProgram& program, const mjvScene& scn, const float* view,
                  const std::vector<int>& shadow_lights);
   void DrawMaps(const mjvScene& scn, const mjrContext& con, const std::vector<int>& lights);
+  // MeshClosed for mesh `mesh` of the model, found on first use.
+  bool ClosedMesh(int mesh);
   // The coarse sides to draw `g` with, seen from `eye` (and the positional lights of the
   // frame); null for MuJoCo's display lists. Counted in coarse_draws_.
   const detail::CoarseLevel* Coarse(const mjvGeom& g, const float* eye);
@@ -112,7 +116,9 @@ class ShadowPass {
   std::unique_ptr<detail::CoarseSides> coarse_;
   std::vector<float> coarse_points_;
   std::vector<float> mesh_radius_;  // per mesh: the largest distance of a vertex from its frame
-  std::vector<float> casters_;      // the maps' casters in world coordinates (x y z per vertex)
+  const mjModel* model_ = nullptr;
+  std::vector<signed char> mesh_closed_;  // per mesh: -1 not yet known, else MeshClosed
+  std::vector<float> casters_;  // the maps' casters in world coordinates (x y z per vertex)
   std::vector<unsigned int> caster_indices_;  // their triangles
   std::map<int, std::unique_ptr<BuiltProgram>> programs_;
   std::array<unsigned int, 4> map_tex_{};
@@ -124,7 +130,7 @@ class ShadowPass {
   long long map_renders_ = 0;
   long long left_out_ = 0;
   long long coarse_draws_ = 0;
-  long long culled_maps_ = 0;
+  long long culled_draws_ = 0;
 };
 
 }  // namespace mlspaces::sim

@@ -1,6 +1,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
+#include <cstdint>
 #include <cstring>
 #include <map>
 
@@ -493,6 +494,42 @@ void DrawGeom(const ShadowPass::Gl& gl, const mjvGeom& g, const mjrContext& con,
       break;
   }
   gl.PopMatrix();
+}
+
+bool MeshClosed(const mjModel* m, int mesh) {
+  const int* face = m->mesh_face + 3 * static_cast<size_t>(m->mesh_faceadr[mesh]);
+  const float* vert = m->mesh_vert + 3 * static_cast<size_t>(m->mesh_vertadr[mesh]);
+  const int nface = m->mesh_facenum[mesh];
+  if (nface < 4) return false;
+  // The directed edges, a key each (from << 32 | to), sorted: a repeat is an edge shared the
+  // same way round (an inconsistent orientation or more than two faces), a missing reverse a
+  // border.
+  std::vector<uint64_t> edges;
+  edges.reserve(3 * static_cast<size_t>(nface));
+  double volume = 0;  // six times the signed volume
+  for (int f = 0; f < nface; ++f) {
+    const int* v = face + 3 * static_cast<size_t>(f);
+    if (v[0] == v[1] || v[1] == v[2] || v[2] == v[0]) return false;
+    for (int e = 0; e < 3; ++e) {
+      edges.push_back(static_cast<uint64_t>(v[e]) << 32 | static_cast<uint32_t>(v[(e + 1) % 3]));
+    }
+    const float* a = vert + 3 * static_cast<size_t>(v[0]);
+    const float* b = vert + 3 * static_cast<size_t>(v[1]);
+    const float* c = vert + 3 * static_cast<size_t>(v[2]);
+    volume += static_cast<double>(a[0]) *
+                  (static_cast<double>(b[1]) * c[2] - static_cast<double>(b[2]) * c[1]) +
+              static_cast<double>(a[1]) *
+                  (static_cast<double>(b[2]) * c[0] - static_cast<double>(b[0]) * c[2]) +
+              static_cast<double>(a[2]) *
+                  (static_cast<double>(b[0]) * c[1] - static_cast<double>(b[1]) * c[0]);
+  }
+  std::sort(edges.begin(), edges.end());
+  if (std::adjacent_find(edges.begin(), edges.end()) != edges.end()) return false;
+  for (const uint64_t e : edges) {
+    const uint64_t reverse = e << 32 | e >> 32;
+    if (!std::binary_search(edges.begin(), edges.end(), reverse)) return false;
+  }
+  return volume > 0;
 }
 
 IndexedShapes IndexShapes(const BuiltinShapes& shapes) {

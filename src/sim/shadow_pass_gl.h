@@ -194,6 +194,10 @@ const CoarseLevel* CoarseLevelFor(const CoarseSides& coarse, const mjvGeom& g, c
 /// `coarse` when not null). A plane is drawn as seen from the front.
 void DrawGeom(const ShadowPass::Gl& gl, const mjvGeom& g, const mjrContext& con,
               const CoarseLevel* coarse = nullptr);
+/// Whether mesh `mesh` of `m` is closed with its faces turned outward: each directed edge of
+/// a face (by vertex index) is in no other face, its reverse in exactly one, and the volume
+/// is positive. From outside, its back faces are then always behind its front faces.
+bool MeshClosed(const mjModel* m, int mesh);
 /// Builtin shapes as positions only, each distinct position once, and triangles indexing
 /// them: a depth map needs no normals, and llvmpipe then transforms a shared vertex once.
 struct IndexedShapes {

@@ -13,6 +13,13 @@ namespace mlspaces::sim {
 
 using namespace detail;  // NOLINT(google-build-using-namespace): shadow_pass_gl.h's helpers
 
+bool ShadowPass::ClosedMesh(int mesh) {
+  if (mesh < 0 || mesh >= static_cast<int>(mesh_closed_.size())) return false;
+  signed char& closed = mesh_closed_[static_cast<size_t>(mesh)];
+  if (closed < 0) closed = MeshClosed(model_, mesh) ? 1 : 0;
+  return closed == 1;
+}
+
 void ShadowPass::DrawMaps(const mjvScene& scn, const mjrContext& con,
                           const std::vector<int>& lights) {
   Gl& gl = *gl_;
@@ -170,11 +177,11 @@ void ShadowPass::DrawMaps(const mjvScene& scn, const mjrContext& con,
     gl.Viewport(0, 0, map_size_, map_size_);
     gl.Clear(GL_DEPTH_BUFFER_BIT);
     gl.Viewport(1, 1, map_size_ - 2, map_size_ - 2);
-    if (cull[k]) {
+    if (cull[k] && !caster_indices_.empty()) {
       gl.Enable(GL_CULL_FACE);
       gl.CullFace(GL_BACK);
       gl.FrontFace(GL_CCW);
-      ++culled_maps_;
+      ++culled_draws_;
     }
     gl.EnableClientState(GL_VERTEX_ARRAY);
     gl.DrawElements(GL_TRIANGLES, static_cast<GLsizei>(caster_indices_.size()), GL_UNSIGNED_INT,
@@ -182,7 +189,20 @@ void ShadowPass::DrawMaps(const mjvScene& scn, const mjrContext& con,
     gl.DisableClientState(GL_VERTEX_ARRAY);
     gl.Disable(GL_CULL_FACE);  // meshes may be open: both sides, as mjr_render
     for (int j : listed) {
-      if (!LeftOut(volume[k], scn.geoms[j])) DrawGeom(gl, scn.geoms[j], con);
+      const mjvGeom& g = scn.geoms[j];
+      if (LeftOut(volume[k], g)) continue;
+      // A closed mesh wholly between the near and far planes: its back faces too can go.
+      const bool cull_mesh = g.type == mjGEOM_MESH && g.dataid >= 0 && g.dataid % 2 == 0 &&
+                             ClosedMesh(g.dataid / 2) &&
+                             WithinDepth(volume[k], g.pos, DrawnRadius(g, mesh_radius_));
+      if (cull_mesh) {
+        gl.Enable(GL_CULL_FACE);
+        gl.CullFace(GL_BACK);
+        gl.FrontFace(GL_CCW);
+        ++culled_draws_;
+      }
+      DrawGeom(gl, g, con);
+      if (cull_mesh) gl.Disable(GL_CULL_FACE);
     }
   }
   gl.BindBuffer(GL_ELEMENT_ARRAY_BUFFER, 0);

@@ -173,7 +173,7 @@ TEST(ShadowPassTest, DrawsTheMapsOncePerStateForAllCameras) {
   Renderer mujoco(w.m.get(), Options(false, true));
   EXPECT_LT(Compare(Shoot(mujoco, w, "high"), moved, 24).share, 0.005);
   // Each of the two maps (sun, lamp) culled its casters' back faces, each time.
-  EXPECT_EQ(one.one_pass_culled_maps(), 4);
+  EXPECT_EQ(one.one_pass_culled_draws(), 4);
 }
 
 // A lamp inside its shade (an opaque ball round the light): from the lamp every face of the
@@ -204,7 +204,43 @@ TEST(ShadowPassTest, KeepsBackFacesWhereTheyAreAllTheLightSees) {
   EXPECT_LT(d.share, 0.005);
   // The sun's map culled; the lamp's did not.
   EXPECT_EQ(one.shadow_map_renders(), 1);
-  EXPECT_EQ(one.one_pass_culled_maps(), 1);
+  EXPECT_EQ(one.one_pass_culled_draws(), 1);
+}
+
+// A closed mesh (a crate: its convex hull) and an open one (a tent roof without a floor, its
+// faces turned inward, away from the sun): the maps cull the crate's back faces, never the
+// roof's, which is all back faces from the sun and still casts its shadow, as in mjr_render.
+TEST(ShadowPassTest, CullsTheBackFacesOfClosedMeshesOnly) {
+  const World w(std::string(R"(
+<mujoco>
+  <asset>
+    <mesh name="crate" vertex="-0.1 -0.1 0  0.1 -0.1 0  0.1 0.1 0  -0.1 0.1 0
+                               -0.1 -0.1 0.2  0.1 -0.1 0.2  0.1 0.1 0.2  -0.1 0.1 0.2"/>
+    <mesh name="roof" vertex="-0.3 -0.3 0  0.3 -0.3 0  0.3 0.3 0  -0.3 0.3 0  0 0 0.1"
+          face="0 4 1  1 4 2  2 4 3  3 4 0" inertia="shell"/>
+  </asset>
+  <worldbody>
+    <light name="sun" pos="0 0 3" dir="0.3 0.2 -1" directional="true" castshadow="true"/>
+    <geom name="floor" type="plane" size="3 3 0.1" rgba="0.6 0.6 0.6 1"/>
+    <geom name="crate" type="mesh" mesh="crate" pos="0.4 0 0" rgba="0.8 0.2 0.2 1"/>
+    <geom name="roof" type="mesh" mesh="roof" pos="-0.4 0 0.5" rgba="0.2 0.2 0.8 1"/>
+    <camera name="high" pos="1.2 -1.4 1.3" xyaxes="0.76 0.65 0 -0.4 0.47 0.78" fovy="50"/>
+  </worldbody>
+</mujoco>)"));
+  // MuJoCo's square (fitted maps bring the near plane down to the casters, which then cuts
+  // the roof's bounding sphere: no culling to test).
+  Renderer mujoco(w.m.get(), Options(false, false));
+  Renderer one(w.m.get(), Options(true, false));
+  const std::vector<unsigned char> want = Shoot(mujoco, w, "high");
+  const std::vector<unsigned char> got = Shoot(one, w, "high");
+  EXPECT_GT(Compare(want, Shoot(mujoco, w, "high", false), 24).share, 0.02);
+  const Difference d = Compare(want, got, 24);
+  std::printf("meshes: one pass against MuJoCo: mean %.3f levels, %.4f of pixels > 24 apart\n",
+              d.mean, d.share);
+  EXPECT_LT(d.mean, 1.0);
+  EXPECT_LT(d.share, 0.005);
+  EXPECT_EQ(one.shadow_map_renders(), 1);
+  EXPECT_EQ(one.one_pass_culled_draws(), 1);  // the crate
 }
 
 TEST(ShadowPassTest, LeavesWhatItCannotDrawToMujoco) {

@@ -190,9 +190,10 @@ class MLSPACES_API Renderer {
   /// With one_pass_shadows and coarse_sides: how many geom draws (lit pass and reflection)
   /// used coarse sides; 0 otherwise.
   long long one_pass_coarse_draws() const;
-  /// With one_pass_shadows: how many shadow maps were drawn with the back faces (from the
-  /// light) of MuJoCo's closed shapes culled, which leaves the same nearest depth; 0 otherwise.
-  long long one_pass_culled_maps() const;
+  /// With one_pass_shadows: how many shadow-map draws culled the back faces (from the light)
+  /// of closed shapes, which leaves the same nearest depth: the builtin shapes (one draw a
+  /// map) and each closed mesh; 0 otherwise.
+  long long one_pass_culled_draws() const;
   /// Frames rendered so far, and of those the ones one pass drew (one_pass_shadows); the
   /// rest went through mjr_render (frames without shadows too: one pass saves nothing there).
   long long frames() const;

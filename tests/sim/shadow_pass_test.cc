@@ -176,6 +176,18 @@ TEST(ShadowPassTest, DrawsTheMapsOncePerStateForAllCameras) {
   EXPECT_EQ(one.one_pass_culled_draws(), 4);
 }
 
+// Camera "high" through both renderers: the shadows change more than `shadow_share` of
+// mjr_render's picture, and one pass draws it as mjr_render does.
+void ExpectMujocosShadows(Renderer& mujoco, Renderer& one, const World& w, double shadow_share) {
+  const std::vector<unsigned char> want = Shoot(mujoco, w, "high");
+  EXPECT_GT(Compare(want, Shoot(mujoco, w, "high", false), 24).share, shadow_share);
+  const Difference d = Compare(want, Shoot(one, w, "high"), 24);
+  std::printf("one pass against MuJoCo: mean %.3f levels, %.4f of pixels > 24 apart\n", d.mean,
+              d.share);
+  EXPECT_LT(d.mean, 1.0);
+  EXPECT_LT(d.share, 0.005);
+}
+
 // A lamp inside its shade (an opaque ball round the light): from the lamp every face of the
 // ball is a back face, and MuJoCo's map, drawn without culling, holds the ball, so that
 // the lamp lights nothing. The map of a caster cut by its near plane keeps the back faces.
@@ -195,13 +207,8 @@ TEST(ShadowPassTest, KeepsBackFacesWhereTheyAreAllTheLightSees) {
 </mujoco>)"));
   Renderer mujoco(w.m.get(), Options(false, true));
   Renderer one(w.m.get(), Options(true, true));
-  const std::vector<unsigned char> want = Shoot(mujoco, w, "high");
-  const std::vector<unsigned char> got = Shoot(one, w, "high");
   // The shade's shadow is a tenth of the picture: without it the lamp lights the floor.
-  EXPECT_GT(Compare(want, Shoot(mujoco, w, "high", false), 24).share, 0.05);
-  const Difference d = Compare(want, got, 24);
-  EXPECT_LT(d.mean, 1.0);
-  EXPECT_LT(d.share, 0.005);
+  ExpectMujocosShadows(mujoco, one, w, 0.05);
   // The sun's map culled; the lamp's did not.
   EXPECT_EQ(one.shadow_map_renders(), 1);
   EXPECT_EQ(one.one_pass_culled_draws(), 1);
@@ -231,14 +238,7 @@ TEST(ShadowPassTest, CullsTheBackFacesOfClosedMeshesOnly) {
   // the roof's bounding sphere: no culling to test).
   Renderer mujoco(w.m.get(), Options(false, false));
   Renderer one(w.m.get(), Options(true, false));
-  const std::vector<unsigned char> want = Shoot(mujoco, w, "high");
-  const std::vector<unsigned char> got = Shoot(one, w, "high");
-  EXPECT_GT(Compare(want, Shoot(mujoco, w, "high", false), 24).share, 0.02);
-  const Difference d = Compare(want, got, 24);
-  std::printf("meshes: one pass against MuJoCo: mean %.3f levels, %.4f of pixels > 24 apart\n",
-              d.mean, d.share);
-  EXPECT_LT(d.mean, 1.0);
-  EXPECT_LT(d.share, 0.005);
+  ExpectMujocosShadows(mujoco, one, w, 0.02);
   EXPECT_EQ(one.shadow_map_renders(), 1);
   EXPECT_EQ(one.one_pass_culled_draws(), 1);  // the crate
 }

@@ -282,9 +282,15 @@ float DrawnRadius(const mjvGeom& g, const std::vector<float>& mesh_radius) {
   return BoundingRadius(g);
 }
 
+namespace {
+// A bounding radius with the margin that covers float rounding in the view volume's planes
+// and in the GL's own transform.
+float WithMargin(float radius) { return radius * 1.01f + 1e-3f; }
+}  // namespace
+
 bool WithinDepth(const ViewVolume& f, const float* center, float radius) {
   if (radius < 0) return false;
-  const float r = radius * 1.01f + 1e-3f;
+  const float r = WithMargin(radius);
   for (int k = 4; k < 6; ++k) {
     const auto& p = f[k];
     if (p[0] * center[0] + p[1] * center[1] + p[2] * center[2] + p[3] < r) return false;
@@ -313,8 +319,7 @@ ViewVolume ViewVolumeOf(const float* c) {
 
 bool Outside(const ViewVolume& f, const float* center, float radius) {
   if (radius < 0) return false;
-  // The margin covers float rounding in the planes and in the GL's own transform.
-  const float r = radius * 1.01f + 1e-3f;
+  const float r = WithMargin(radius);
   for (const auto& p : f) {
     if (p[0] == 0 && p[1] == 0 && p[2] == 0) continue;  // a degenerate plane culls nothing
     if (p[0] * center[0] + p[1] * center[1] + p[2] * center[2] + p[3] < -r) return true;

@@ -138,6 +138,12 @@ void ShadowPass::DrawMaps(const mjvScene& scn, const mjrContext& con,
   std::vector<int> listed;
   std::array<bool, kMaxShadowLights> cull{};
   cull.fill(true);
+  auto cull_back_faces = [&] {
+    gl.Enable(GL_CULL_FACE);
+    gl.CullFace(GL_BACK);
+    gl.FrontFace(GL_CCW);
+    ++culled_draws_;
+  };
   for (int j = 0; j < scn.ngeom; ++j) {
     const mjvGeom& g = scn.geoms[j];
     if (g.type == mjGEOM_LINE || g.category == mjCAT_DECOR) continue;
@@ -177,12 +183,7 @@ void ShadowPass::DrawMaps(const mjvScene& scn, const mjrContext& con,
     gl.Viewport(0, 0, map_size_, map_size_);
     gl.Clear(GL_DEPTH_BUFFER_BIT);
     gl.Viewport(1, 1, map_size_ - 2, map_size_ - 2);
-    if (cull[k] && !caster_indices_.empty()) {
-      gl.Enable(GL_CULL_FACE);
-      gl.CullFace(GL_BACK);
-      gl.FrontFace(GL_CCW);
-      ++culled_draws_;
-    }
+    if (cull[k] && !caster_indices_.empty()) cull_back_faces();
     gl.EnableClientState(GL_VERTEX_ARRAY);
     gl.DrawElements(GL_TRIANGLES, static_cast<GLsizei>(caster_indices_.size()), GL_UNSIGNED_INT,
                     nullptr);
@@ -195,12 +196,7 @@ void ShadowPass::DrawMaps(const mjvScene& scn, const mjrContext& con,
       const bool cull_mesh = g.type == mjGEOM_MESH && g.dataid >= 0 && g.dataid % 2 == 0 &&
                              ClosedMesh(g.dataid / 2) &&
                              WithinDepth(volume[k], g.pos, DrawnRadius(g, mesh_radius_));
-      if (cull_mesh) {
-        gl.Enable(GL_CULL_FACE);
-        gl.CullFace(GL_BACK);
-        gl.FrontFace(GL_CCW);
-        ++culled_draws_;
-      }
+      if (cull_mesh) cull_back_faces();
       DrawGeom(gl, g, con);
       if (cull_mesh) gl.Disable(GL_CULL_FACE);
     }

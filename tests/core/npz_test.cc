@@ -452,6 +452,7 @@ np.savez(os.path.join(d, 'positional.npz'), np.arange(3.0), np.ones((2, 2), dtyp
   std::vector<double> i48 = Iota(48);
   auto map = [&](auto fn) {
     std::vector<double> out;
+    out.reserve(i48.size());
     for (double x : i48) out.push_back(fn(x));
     return out;
   };

@@ -25,6 +25,7 @@ TEST(RngTest, PinnedFirstValues) {
 TEST(RngTest, PinnedUniformIntAndUniform01) {
   Rng ints(0);
   std::vector<uint64_t> got;
+  got.reserve(8);
   for (int i = 0; i < 8; ++i) got.push_back(ints.UniformInt(10));
   EXPECT_THAT(got, ::testing::ElementsAre(6, 7, 1, 4, 7, 9, 4, 5));
   Rng unit(0);

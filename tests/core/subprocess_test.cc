@@ -16,8 +16,6 @@
 namespace mlspaces {
 namespace {
 
-using ::testing::ElementsAre;
-
 TEST(SubprocessTest, OutputAndExitStatus) {
   const ChildResult r = RunInChild([](int fd) {
     std::string big(200000, 'x');  // more than a pipe holds: the parent must read meanwhile
@@ -50,6 +48,7 @@ TEST(SubprocessTest, ThrowingBodyAndSignals) {
 
 TEST(SubprocessTest, LinesFromSeveralChildren) {
   std::vector<Child> children;
+  children.reserve(3);
   for (int c = 0; c < 3; ++c) {
     children.push_back(Child::Start([c](int fd) {
       for (int i = 0; i < 50; ++i) {

@@ -174,7 +174,7 @@ TEST(YamlArchiveTest, SetYamlKeyWalksDottedKeys) {
   EXPECT_EQ(o.inner.pair[1], 9);
   EXPECT_EQ(o.items[0].name, "z");
   EXPECT_EQ(*o.file, fs::path("/b/rel"));
-  auto message = [&](std::vector<std::string> parts, const char* value) {
+  auto message = [&](const std::vector<std::string>& parts, const char* value) {
     try {
       SetYamlKey(reader, o, parts, YAML::Load(value));
     } catch (const UsageError& e) {

@@ -23,7 +23,7 @@ using ::testing::HasSubstr;
 
 /// The tutorial project copied into `dir`, its block licensed `license` (by, by-nc, ...).
 fs::path TutorialWithLicense(const fs::path& dir, const std::string& license) {
-  const fs::path project = dir / "project";
+  fs::path project = dir / "project";
   fs::create_directories(dir);
   fs::copy(fs::path(MLSPACES_EXAMPLES_DIR) / "custom_assets", project, fs::copy_options::recursive);
   for (const char* name : {"red_block.json", "red_block_computed.json"}) {

@@ -60,7 +60,7 @@ std::vector<unsigned char> Solid(int w, int h, unsigned char r, unsigned char g,
 }
 
 void WriteVideo(const fs::path& path, int w, int h, int frames, VideoOptions o = {}) {
-  VideoWriter writer(path, w, h, o);
+  VideoWriter writer(path, w, h, std::move(o));
   for (int t = 0; t < frames; ++t) writer.AddFrame(MakeFrame(w, h, t).data());
   EXPECT_EQ(writer.frames(), frames);
   writer.Finish();

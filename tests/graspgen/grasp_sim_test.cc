@@ -26,7 +26,7 @@ namespace {
 /// A free box of half sizes `half` (m); `extra` goes into the geom element.
 std::filesystem::path WriteFreeBox(const std::filesystem::path& dir, const std::string& name,
                                    const Vec3& half, const std::string& extra = {}) {
-  const auto path = dir / name / (name + ".xml");
+  auto path = dir / name / (name + ".xml");
   std::ostringstream xml;
   xml << "<mujoco model=\"" << name << "\">\n  <worldbody>\n    <body name=\"" << name
       << "\" pos=\"0.1 0.2 0.3\" euler=\"0.3 0.2 0.1\">\n      <freejoint/>\n"
@@ -72,7 +72,7 @@ std::filesystem::path WriteMugAsset(const std::filesystem::path& dir) {
     assets += "    <mesh name=\"" + n + "\" file=\"" + n + ".obj\"/>\n";
     geoms += "      <geom type=\"mesh\" mesh=\"" + n + "\"/>\n";
   }
-  const auto path = dir / "mug" / "mug.xml";
+  auto path = dir / "mug" / "mug.xml";
   mlspaces::testing::WriteText(
       path, "<mujoco model=\"mug\">\n  <asset>\n" + assets +
                 "  </asset>\n  <worldbody>\n    <body name=\"mug\" pos=\"0 0 0.5\">\n"
@@ -84,7 +84,7 @@ std::filesystem::path WriteMugAsset(const std::filesystem::path& dir) {
 /// A fixed cabinet with a drawer (slide, range 0..0.25 m, handle bar in a child body) and a
 /// door (hinge about -z, no range, vertical handle bar in a child body).
 std::filesystem::path WriteCabinetAsset(const std::filesystem::path& dir) {
-  const auto path = dir / "cabinet" / "cabinet.xml";
+  auto path = dir / "cabinet" / "cabinet.xml";
   mlspaces::testing::WriteText(path, R"(<mujoco model="cabinet">
   <worldbody>
     <body name="cabinet" pos="0 0 0.5">
@@ -334,6 +334,7 @@ TEST(GraspgenSimTest, MugGraspsAreDeterministicWhateverTheThreads) {
   EXPECT_EQ(one.failures, two.failures);
   ASSERT_EQ(one.poses.size(), two.poses.size());
   for (size_t i = 0; i < one.poses.size(); ++i) {
+    // NOLINTNEXTLINE(bugprone-suspicious-memory-comparison): the same bits
     EXPECT_EQ(std::memcmp(one.poses[i].m.data(), two.poses[i].m.data(), sizeof(double) * 16), 0);
     EXPECT_LT(Distance(one.poses[i], p.set.candidates[one.accepted[i]].tcp), 0.02);
   }
@@ -402,6 +403,7 @@ TEST(GraspgenSimTest, HandleGraspsOpenTheDrawerAndTheDoor) {
     EXPECT_EQ(run.tested, 2u);
     EXPECT_EQ(run.failures.at("not held after closing"), 1u);
     ASSERT_EQ(run.poses.size(), 1u);
+    // NOLINTNEXTLINE(bugprone-suspicious-memory-comparison): the same bits
     EXPECT_EQ(std::memcmp(run.poses[0].m.data(), o.tcp.m.data(), sizeof(double) * 16), 0);
   }
 }

@@ -69,6 +69,7 @@ std::vector<Vec3> BoxCornersInBody(const std::filesystem::path& asset, const cha
                  pose(d->geom_xpos + 3 * g, d->geom_xmat + 9 * g);
   const mjtNum* s = m->geom_size + 3 * g;
   std::vector<Vec3> out;
+  out.reserve(8);
   for (int i = 0; i < 8; ++i) {
     out.push_back(
         At(t, {(i & 1 ? 1 : -1) * s[0], (i & 2 ? 1 : -1) * s[1], (i & 4 ? 1 : -1) * s[2]}));

@@ -22,6 +22,7 @@ GraspCandidate At(double x, double depth) {
 
 TEST(GraspgenOrderingTest, TwoSeparateGroupsAlternate) {
   std::vector<GraspCandidate> c;
+  c.reserve(20);
   for (int i = 0; i < 20; ++i) c.push_back(At(i < 10 ? 0.001 * i : 1 + 0.001 * i, 0.75));
   OrderParams p;
   p.clusters = 2;
@@ -34,6 +35,7 @@ TEST(GraspgenOrderingTest, TwoSeparateGroupsAlternate) {
 
 TEST(GraspgenOrderingTest, DepthRangeAndDepthPreference) {
   std::vector<GraspCandidate> c;
+  c.reserve(400);
   for (int i = 0; i < 400; ++i) c.push_back(At(0.0001 * i, (i % 20) / 19.0));
   OrderParams p;
   p.clusters = 1;

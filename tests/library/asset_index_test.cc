@@ -24,7 +24,6 @@ namespace mlspaces {
 namespace {
 
 namespace fs = std::filesystem;
-using ::mlspaces::testing::CopyExampleLibrary;
 using ::mlspaces::testing::ErrorOf;
 using ::mlspaces::testing::ExampleLibrary;
 using ::mlspaces::testing::ListFiles;

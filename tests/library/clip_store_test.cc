@@ -240,7 +240,7 @@ void ExpectSameAsFullScan(const ClipStore& store, std::span<const float> q, size
   ClipSearchOptions bounded;
   bounded.top_k = k;
   bounded.threshold = thres;
-  bounded.keep = keep;
+  bounded.keep = std::move(keep);
   size_t scored = 0, full_scored = 0;
   bounded.scored = &scored;
   ClipSearchOptions full = bounded;

@@ -102,7 +102,7 @@ class LegacySourceTest : public ::testing::Test {
   /// An original-format install of the fixture package as objects/<name>; returns its
   /// version folder in the cache.
   fs::path AddOriginalSource(const std::string& name) {
-    const fs::path version_dir = tmp / "cache" / "objects" / name / "20251117";
+    fs::path version_dir = tmp / "cache" / "objects" / name / "20251117";
     InstallLikeTheOriginal(package, version_dir, tmp / "staging" / name);
     fs::create_directory_symlink(version_dir, assets / "objects" / name);
     return version_dir;
@@ -212,6 +212,7 @@ TEST(ObjectSources, AllFoldersSortedWithTheirKind) {
 
   const std::vector<ObjectSource> all = FindObjectSources(tmp / "assets", {});
   std::vector<std::string> names;
+  names.reserve(all.size());
   for (const ObjectSource& s : all) names.push_back(s.name);
   EXPECT_THAT(names, ElementsAre("a_package", "b_legacy", "c_other", "d_link"));
   EXPECT_EQ(all[0].kind, ObjectSource::Kind::kPackage);

@@ -37,7 +37,7 @@ Json Info(const std::string& license, const std::string& url = "https://sketchfa
 /// A user library `name` in dir/name: uid -> metadata JSON.
 fs::path WriteLibrary(const fs::path& dir, const std::string& name,
                       const std::vector<std::pair<std::string, Json>>& assets) {
-  const fs::path root = dir / name;
+  fs::path root = dir / name;
   Json index = Json::object();
   for (const auto& [uid, meta] : assets) {
     WriteText(root / uid / (uid + ".xml"), "<mujoco/>");
@@ -138,7 +138,9 @@ TEST_F(LicenseTest, EveryCreativeCommonsNameMapsAsTheOriginal) {
     EXPECT_EQ(r["license"], c.spdx);
     EXPECT_THAT(r["license_url"].get<std::string>(), HasSubstr(c.url_part));
     EXPECT_EQ(r.contains("commercial_use"), c.nc);
-    if (c.nc) EXPECT_EQ(r["commercial_use"], false);
+    if (c.nc) {
+      EXPECT_EQ(r["commercial_use"], false);
+    }
     EXPECT_THAT(r["attribution"].get<std::string>(), ::testing::EndsWith(c.attribution_end));
   }
   EXPECT_EQ(Resolve("objects", "objaverse", "obj_ncsa")["derivative_license"],

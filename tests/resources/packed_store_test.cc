@@ -42,7 +42,9 @@ std::vector<Mat4> Poses(uint64_t seed, size_t n) {
   return out;
 }
 
-bool SameBits(const Mat4& a, const Mat4& b) { return std::memcmp(&a, &b, sizeof a) == 0; }
+bool SameBits(const Mat4& a, const Mat4& b) {
+  return std::memcmp(&a, &b, sizeof a) == 0;  // NOLINT(bugprone-suspicious-memory-comparison)
+}
 
 /// What a test asset should look like after reading back.
 struct Expected {
@@ -226,6 +228,7 @@ TEST(PackedStoreTest, RoundTripFindAtGraspsAnnotations) {
 
   // At(i) iterates in UID (byte) order and agrees with Find.
   std::vector<std::string> sorted;
+  sorted.reserve(assets.size());
   for (const Expected& e : assets) sorted.push_back(e.uid);
   std::sort(sorted.begin(), sorted.end());
   for (size_t i = 0; i < lib->size(); ++i) {
@@ -606,6 +609,7 @@ TEST(PackedStoreTest, ConcurrentFirstShardUse) {
   WriteStore(tmp.path(), assets);
   const auto lib = PackedLibrary::Open(tmp.path(), "test_lib");
   std::vector<std::thread> threads;
+  threads.reserve(8);
   std::atomic<int> ok{0};
   for (int t = 0; t < 8; ++t) {
     threads.emplace_back([&] {

@@ -48,7 +48,7 @@ std::string Replace(std::string text, const std::string& from, const std::string
 // A copy of franka_droid with a wrong finger_range, the TCP site turned 180 deg about its x
 // axis (+z into the palm) and arm.joints[6] naming a joint the MJCF does not have.
 fs::path BrokenFranka(const testing::TempDir& tmp) {
-  const fs::path dir = tmp.path() / "broken_robot";
+  fs::path dir = tmp.path() / "broken_robot";
   std::string xml = testing::Slurp(kFranka / "franka_droid.xml");
   xml = Replace(xml, R"(<site name="gripper/grasp_site" pos="0 0 0.14")",
                 R"(<site name="gripper/grasp_site" pos="0 0 0.14" quat="0 1 0 0")");

@@ -24,7 +24,7 @@ const fs::path kFranka = fs::path(MLSPACES_SOURCE_DIR) / "assets/robots/franka_d
 
 // A copy of franka_droid's folder whose robot.yaml has `from` replaced by `to`.
 fs::path EditedFranka(const testing::TempDir& tmp, const std::string& from, const std::string& to) {
-  const fs::path dir = tmp.path() / "robot";
+  fs::path dir = tmp.path() / "robot";
   fs::create_directories(dir);
   fs::copy_file(kFranka / "franka_droid.xml", dir / "franka_droid.xml",
                 fs::copy_options::overwrite_existing);

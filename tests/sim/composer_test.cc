@@ -346,7 +346,7 @@ TEST(Composer, CopyOfAModelWithADanglingReferenceIsAnError) {
   // MuJoCo's mj_copySpec drops the motor on a missing joint; the copy must not hide the error.
   const MjcfComposer bad(kData / "bad/dangling_ref.xml");
   try {
-    MjcfComposer copy = bad;
+    MjcfComposer copy = bad;  // NOLINT(performance-unnecessary-copy-initialization): the test
     FAIL() << "copied without an error";
   } catch (const Error& e) {
     EXPECT_EQ(fs::path(e.path()).filename(), "dangling_ref.xml");

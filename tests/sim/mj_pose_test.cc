@@ -129,6 +129,7 @@ TEST(MjPoseTest, CollisionGeomsOfASubtreeLeaveOutVisualGeoms) {
   </worldbody></mujoco>)");
   auto ids = [&](const std::vector<std::string>& names) {
     std::vector<int> out;
+    out.reserve(names.size());
     for (const std::string& n : names) out.push_back(mj_name2id(m.get(), mjOBJ_GEOM, n.c_str()));
     return out;
   };

@@ -50,7 +50,7 @@ TEST(PicturesTest, PngRoundTripsEveryByte) {
   Image image = Image::Filled(7, 5, {10, 20, 30});
   FillRect(image, 2, 1, 3, 2, {250, 0, 128});
   const testing::TempDir tmp;
-  const fs::path dir = tmp.path();
+  const fs::path& dir = tmp.path();
   WritePng(dir / "a.png", image);
   const Image back = ReadPng(dir / "a.png");
   EXPECT_EQ(back.width, 7);
@@ -63,7 +63,7 @@ TEST(PicturesTest, PngRoundTripsEveryByte) {
 
 TEST(PicturesTest, BadPngFilesAreOneLineErrorsNamingTheFile) {
   const testing::TempDir tmp;
-  const fs::path dir = tmp.path();
+  const fs::path& dir = tmp.path();
   WriteFileAtomic(dir / "bad.png", "not a png");
   for (const fs::path& p : {dir / "bad.png", dir / "missing.png"}) {
     try {

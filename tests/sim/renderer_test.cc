@@ -532,6 +532,7 @@ TEST_P(RendererTest, OneRendererPerThreadInParallel) {
   std::vector<std::vector<unsigned char>> images(kThreads);
   std::vector<std::string> errors(kThreads);
   std::vector<std::thread> threads;
+  threads.reserve(kThreads);
   for (int t = 0; t < kThreads; ++t) {
     threads.emplace_back([&, t] {
       try {

@@ -88,7 +88,8 @@ std::vector<Vec3> CasterPoints(const mjModel* m, const mjData* d) {
   const double r = m->geom_size[3 * arm], half = m->geom_size[3 * arm + 1];
   for (const double end : {-1.0, 1.0}) {
     for (int s = 0; s < 26; ++s) {  // the directions of a cube's faces, edges and corners
-      Vec3 dir = {double(s % 3) - 1, double(s / 3 % 3) - 1, double(s / 9) - 1};
+      Vec3 dir = {double(s % 3) - 1, double(s / 3 % 3) - 1,
+                  double(s / 9) - 1};  // NOLINT(bugprone-integer-division)
       if (s == 13) dir = {0, 0, 1};
       const double n = Norm(dir);
       Vec3 p;

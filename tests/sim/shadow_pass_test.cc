@@ -118,7 +118,8 @@ Difference Compare(const std::vector<unsigned char>& a, const std::vector<unsign
     far += most > level;
   }
   out.mean /= static_cast<double>(a.size());
-  out.share = static_cast<double>(far) / static_cast<double>(a.size() / 3);
+  out.share = static_cast<double>(far) /
+              static_cast<double>(a.size() / 3);  // NOLINT(bugprone-integer-division): pixels
   return out;
 }
 

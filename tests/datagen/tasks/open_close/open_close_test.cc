@@ -92,7 +92,7 @@ TEST(OpenCloseConfigTest, BadTaskFieldsGetOneLineNamingFileAndField) {
       }
     }
     testing::WriteText(dir / "bad.yaml", text);
-    const ExperimentConfig c = LoadConfigFile(dir / "bad.yaml", ConfigRegistry::WithBuiltins());
+    ExperimentConfig c = LoadConfigFile(dir / "bad.yaml", ConfigRegistry::WithBuiltins());
     Validate(c, dir / "bad.yaml");  // as `mlspaces datagen` does
     return c;
   };

@@ -123,7 +123,7 @@ TEST(PickAndPlaceConfigTest, BadFieldsGetOneLineNamingFileAndField) {
   }
   auto load = [&](const std::string& text) {
     testing::WriteText(dir / "bad.yaml", text);
-    const ExperimentConfig c = LoadConfigFile(dir / "bad.yaml", ConfigRegistry::WithBuiltins());
+    ExperimentConfig c = LoadConfigFile(dir / "bad.yaml", ConfigRegistry::WithBuiltins());
     Validate(c, dir / "bad.yaml");
     return c;
   };

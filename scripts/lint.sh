@@ -4,8 +4,9 @@
 #   scripts/lint.sh --format-check    list the files that differ from .clang-format; exit 1 if any
 #                                     (ctest `format_check` runs this)
 #   scripts/lint.sh --tidy [FILE...]  clang-tidy with .clang-tidy over the sources (default: every
-#                                     .cc of src/ and apps/), using build/compile_commands.json;
-#                                     exit 1 on any warning
+#                                     .cc of src/, apps/ and tests/ but the out-of-tree install
+#                                     consumer), using build/compile_commands.json; exit 1 on any
+#                                     warning
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$ROOT"
@@ -33,7 +34,11 @@ case "${1:-}" in
     build="${MLSPACES_BUILD_DIR:-$ROOT/build}"
     [[ -f "$build/compile_commands.json" ]] || {
       echo "lint: no $build/compile_commands.json: run scripts/build.sh first" >&2; exit 2; }
-    if (($#)); then files=("$@"); else mapfile -t files < <(git ls-files 'src/*.cc' 'apps/*.cc'); fi
+    if (($#)); then
+      files=("$@")
+    else
+      mapfile -t files < <(git ls-files 'src/*.cc' 'apps/*.cc' 'tests/*.cc' ':!tests/install/*')
+    fi
     # One process per core; --quiet prints only diagnostics; any warning fails.
     printf '%s\n' "${files[@]}" | xargs -P "$(nproc)" -n 4 \
       clang-tidy --quiet -p "$build" --warnings-as-errors='*' 2>/dev/null

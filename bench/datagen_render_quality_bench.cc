@@ -1,24 +1,25 @@
-// Camera rendering: speed against picture quality, on the states of real tutorial episodes.
+// Camera rendering: speed against picture quality, on the states of real episodes.
 //
-// Runs `--episodes` episodes of the custom-asset tutorial (examples/custom_assets/datagen.yaml)
-// without cameras, keeping the simulation state at every policy step, then renders every kept
-// state from every camera of the config (DROID: wrist_camera, exo_camera_1, 640x368) under each
-// render setting below. Per setting it prints the mean time of one camera frame (Render:
-// scene update, GL passes, read-back, row flip), frames per second, and the mean and minimum
-// SSIM per camera against the full-quality frame of the same state (MuJoCo's own settings:
-// 4096² shadow maps over MuJoCo's fixed square, 4x multisampling, shadows and reflections);
-// "fit" rows fit the shadow maps to the casters (sim::FitShadowMaps), "map" is the side of
-// the map that gives; "one" draws the shadows in one pass (one_pass_shadows), "crs" with
-// coarse straight sides (coarse_sides). It then times the H.264
-// encoding of the default setting's frames (VideoWriter, the dataset's options) and prints the
-// per-episode cost of each stage and the camera episodes per hour per process that follow.
+// Runs `--episodes` episodes of a datagen config (default: the custom-asset tutorial,
+// examples/custom_assets/datagen.yaml; `--config` any other, e.g. examples/open_close's cabinet
+// or examples/pick_and_place's table, on its first scene) without cameras, keeping the simulation
+// state at every policy step, then renders every kept state from every camera of the config (DROID:
+// wrist_camera, exo_camera_1, 640x368) under each render setting below. Per setting it prints the
+// mean time of one camera frame (Render: scene update, GL passes, read-back, row flip), frames per
+// second, and the mean and minimum SSIM per camera against the full-quality frame of the same state
+// (MuJoCo's own settings: 4096² shadow maps over MuJoCo's fixed square, 4x multisampling, shadows
+// and reflections); "fit" rows fit the shadow maps to the casters (sim::FitShadowMaps), "map" is
+// the side of the map that gives; "one" draws the shadows in one pass (one_pass_shadows), "crs"
+// with coarse straight sides (coarse_sides). It then times the H.264 encoding of the default
+// setting's frames (VideoWriter, the dataset's options) and prints the per-episode cost of each
+// stage and the camera episodes per hour per process that follow.
 //
 // SSIM is skimage.metrics.structural_similarity(a, b, channel_axis=2, data_range=255) with its
 // defaults (7x7 uniform window, sample covariance, K1 0.01, K2 0.03, the 3-pixel border left
 // out), averaged over the channels.
 //
 //   datagen_render_quality_bench [--gl osmesa|egl] [--episodes N] [--settings a,b,...]
-//                                [--csv FILE]
+//                                [--csv FILE] [--config DATAGEN.yaml]
 // DUMP=DIR writes each setting's frames of the middle state there (PPM), to look at.
 // LP_NUM_THREADS (llvmpipe's threads) is left as the caller sets it; bench/render_bench.sh sets
 // 0 (rasterising on the calling thread, as datagen does with one worker per core).
@@ -165,6 +166,7 @@ struct Options {
   int episodes = 4;
   std::vector<std::string> settings;
   std::string csv;
+  fs::path config = kExample / "datagen.yaml";
 };
 
 Options ParseArgs(int argc, char** argv) {
@@ -188,6 +190,8 @@ Options ParseArgs(int argc, char** argv) {
       }
     } else if (a == "--csv") {
       o.csv = value();
+    } else if (a == "--config") {
+      o.config = value();
     } else {
       throw mlspaces::UsageError("unknown argument " + a);
     }
@@ -201,18 +205,16 @@ struct Episodes {
   double physics_seconds = 0;  // the whole episodes, cameras off
 };
 
-// Runs the tutorial's episodes 0..n-1 as `mlspaces datagen` does, cameras off.
-Episodes RunEpisodes(dg::ExperimentConfig config, dg::Env& env, int n) {
-  mlspaces::Registry registry(mlspaces::Registry::Options{config.libraries.assets_dir});
-  config.libraries.ApplyTo(registry);
-  auto sampler = dg::TaskSamplerRegistry::WithBuiltins().Create(config, *config.seed);
+// Runs episodes 0..n-1 of the config's first scene as `mlspaces datagen` does, cameras off.
+Episodes RunEpisodes(const dg::ExperimentConfig& config, dg::Env& env, dg::TaskSampler& sampler,
+                     mlspaces::Registry& registry, int n) {
   Episodes out;
   dg::EpisodeRunnerOptions options;
   options.scene_name = "house_0";
   options.on_step = [&](const mjModel* m, const mjData* d, int64_t) {
     out.qpos.emplace_back(d->qpos, d->qpos + m->nq);
   };
-  dg::EpisodeRunner runner(env, *sampler, registry, config, options);
+  dg::EpisodeRunner runner(env, sampler, registry, config, options);
   for (int e = 0; e < n; ++e) {
     const auto t0 = Clock::now();
     const dg::EpisodeResult r = runner.Run(e);
@@ -229,21 +231,30 @@ int main(int argc, char** argv) {
   try {
     const Options opt = ParseArgs(argc, argv);
     dg::ExperimentConfig config =
-        dg::LoadConfigFile(kExample / "datagen.yaml", dg::ConfigRegistry::WithBuiltins());
+        dg::LoadConfigFile(opt.config, dg::ConfigRegistry::WithBuiltins());
     if (!config.seed) config.seed = 1;
-    dg::Env env = dg::Env::Create(sim::Scene::Load(kExample / "scene.xml"),
-                                  dg::RobotSpecFromConfig(config.robot_config), "house_0");
+    // As `mlspaces datagen` builds a scene's environment (datagen/run.cc).
+    mlspaces::Registry registry(mlspaces::Registry::Options{config.libraries.assets_dir});
+    config.libraries.ApplyTo(registry);
+    auto sampler = dg::TaskSamplerRegistry::WithBuiltins().Create(config, *config.seed);
+    sim::Scene composed = sim::Scene::Load(config.task_sampler_config.scene_xml_paths.at(0));
+    sampler->AddAuxiliaryObjects(composed);
+    dg::Env env = dg::Env::Create(
+        std::move(composed),
+        dg::RobotSpecFromConfig(config.robot_config, {}, config.libraries.assets_dir), "house_0");
+    sampler->PrepareEnv(env);
     env.Reset();
-    const Episodes eps = RunEpisodes(config, env, opt.episodes);
+    const Episodes eps = RunEpisodes(config, env, *sampler, registry, opt.episodes);
     const mjModel* m = env.model();
     const dg::CameraSystemConfig cams =
         dg::CamerasForRobot(config.camera_config, dg::RobotSpecFromConfig(config.robot_config));
     const dg::CameraSystem system(m, cams);
     const int w = system.width(), h = system.height();
     const size_t ncam = system.size(), nstates = eps.qpos.size();
-    std::printf("# %lld episodes (%lld successful), %zu states, %zu cameras at %dx%d, gl %s\n",
-                static_cast<long long>(eps.episodes), static_cast<long long>(eps.successes),
-                nstates, ncam, w, h, std::string(sim::GlBackendName(opt.gl)).c_str());
+    std::printf("# %s: %lld episodes (%lld successful), %zu states, %zu cameras at %dx%d, gl %s\n",
+                opt.config.filename().string().c_str(), static_cast<long long>(eps.episodes),
+                static_cast<long long>(eps.successes), nstates, ncam, w, h,
+                std::string(sim::GlBackendName(opt.gl)).c_str());
     const char* lp = std::getenv("LP_NUM_THREADS");
     std::printf("# LP_NUM_THREADS=%s\n", lp ? lp : "(unset)");
 

@@ -231,13 +231,14 @@ void Renderer::Draw(unsigned char* rgb, float* depth_m) {
   const int w = s.options.width, h = s.options.height;
   const mjrRect viewport{0, 0, w, h};
   mjr_setBuffer(mjFB_OFFSCREEN, &s.con);
-  if (s.options.fit_shadows) FitShadowMaps(s.model.get(), &s.scn, &s.con, s.default_clip);
+  const bool fitted =
+      s.options.fit_shadows && FitShadowMaps(s.model.get(), &s.scn, &s.con, s.default_clip).fitted;
   ++s.frames;
   int geom = -1;
   const bool one_pass = s.shadow_pass && ShadowPass::HasShadows(s.scn, s.con);
   const char* missed = one_pass ? s.shadow_pass->Unsupported(s.scn, s.con, &geom) : nullptr;
   if (one_pass && missed == nullptr) {
-    s.shadow_pass->Render(viewport, &s.scn, &s.con);
+    s.shadow_pass->Render(viewport, &s.scn, &s.con, fitted);
     ++s.one_pass_frames;
   } else {
     if (missed != nullptr) {

@@ -572,7 +572,8 @@ const CoarseLevel* ShadowPass::Coarse(const mjvGeom& g, const float* eye) {
   return level;
 }
 
-void ShadowPass::Render(const mjrRect& viewport, mjvScene* scn, const mjrContext* con) {
+void ShadowPass::Render(const mjrRect& viewport, mjvScene* scn, const mjrContext* con,
+                        bool fitted) {
   Gl& gl = *gl_;
   float head[3];  // the eye, for the whole frame
   HeadPos(*scn, head);
@@ -600,7 +601,7 @@ void ShadowPass::Render(const mjrRect& viewport, mjvScene* scn, const mjrContext
   for (int i = 0; i < scn->nlight; ++i) {
     if (Supported(scn->lights[i]) && scn->lights[i].castshadow) lights.push_back(i);
   }
-  DrawMaps(*scn, *con, lights);
+  DrawMaps(*scn, *con, lights, fitted);
 
   gl.BindFramebuffer(GL_FRAMEBUFFER, con->offFBO);
   gl.DrawBuffer(GL_COLOR_ATTACHMENT0);

@@ -56,8 +56,11 @@ class ShadowPass {
   const char* Unsupported(const mjvScene& scn, const mjrContext& con, int* geom) const;
 
   /// Renders `scn` (Unsupported() null) into `con`'s current buffer, as mjr_render(viewport,
-  /// scn, con) with its shadows. `scn` is modified as mjr_render modifies it.
-  void Render(const mjrRect& viewport, mjvScene* scn, const mjrContext* con);
+  /// scn, con) with its shadows. `scn` is modified as mjr_render modifies it. `fitted`: the
+  /// directional lights' squares were fitted to the casters (FitShadowMaps), which reach the
+  /// squares' edges; their maps are then looked up where mjr_render drew them, not as
+  /// mjr_render looks them up, a texel off at the edges (see DrawMaps).
+  void Render(const mjrRect& viewport, mjvScene* scn, const mjrContext* con, bool fitted = false);
 
   /// How many times the maps were drawn (a state seen by two cameras draws them once).
   long long map_renders() const { return map_renders_; }
@@ -101,7 +104,8 @@ class ShadowPass {
   // map slots.
   void SetLights(const BuiltProgram& program, const mjvScene& scn, const float* view,
                  const std::vector<int>& shadow_lights);
-  void DrawMaps(const mjvScene& scn, const mjrContext& con, const std::vector<int>& lights);
+  void DrawMaps(const mjvScene& scn, const mjrContext& con, const std::vector<int>& lights,
+                bool fitted);
   // MeshClosed for mesh `mesh` of the model, found on first use.
   bool ClosedMesh(int mesh);
   // The coarse sides to draw `g` with, seen from `eye` (and the positional lights of the

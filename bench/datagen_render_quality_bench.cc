@@ -237,11 +237,8 @@ int main(int argc, char** argv) {
     mlspaces::Registry registry(mlspaces::Registry::Options{config.libraries.assets_dir});
     config.libraries.ApplyTo(registry);
     auto sampler = dg::TaskSamplerRegistry::WithBuiltins().Create(config, *config.seed);
-    sim::Scene composed = sim::Scene::Load(config.task_sampler_config.scene_xml_paths.at(0));
-    sampler->AddAuxiliaryObjects(composed);
-    dg::Env env = dg::Env::Create(
-        std::move(composed),
-        dg::RobotSpecFromConfig(config.robot_config, {}, config.libraries.assets_dir), "house_0");
+    dg::Env env = dg::CreateSceneEnv(config, *sampler,
+                                     config.task_sampler_config.scene_xml_paths.at(0), "house_0");
     sampler->PrepareEnv(env);
     env.Reset();
     const Episodes eps = RunEpisodes(config, env, *sampler, registry, opt.episodes);

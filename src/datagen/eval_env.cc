@@ -47,12 +47,8 @@ void EvalEnv::LoadHouse(int64_t house) {
     env_.reset();
     house_ = -1;
     const std::filesystem::path& xml = scenes[static_cast<size_t>(house)];
-    sim::Scene composed = sim::Scene::Load(xml);
-    sampler_->AddAuxiliaryObjects(composed);  // pick-and-place: its receptacles
     env_ = std::make_unique<Env>(
-        Env::Create(std::move(composed),
-                    RobotSpecFromConfig(config_.robot_config, {}, config_.libraries.assets_dir),
-                    "house_" + std::to_string(house)));
+        CreateSceneEnv(config_, *sampler_, xml, "house_" + std::to_string(house)));
     sampler_->PrepareEnv(*env_);
     CheckSimTimestep(env_->model(), config_, xml.string());
     robot_ = std::make_unique<robots::RobotView>(env_->model(), env_->robot());

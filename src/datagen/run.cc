@@ -237,11 +237,7 @@ class ItemRunner {
     if (env_house_ != item.house) {
       runner_.reset();
       env_.reset();
-      sim::Scene composed = sim::Scene::Load(item.scene_xml);
-      sampler_.AddAuxiliaryObjects(composed);  // pick-and-place: its receptacles
-      env_.emplace(Env::Create(
-          std::move(composed),
-          RobotSpecFromConfig(config_.robot_config, {}, config_.libraries.assets_dir), scene));
+      env_.emplace(CreateSceneEnv(config_, sampler_, item.scene_xml, scene));
       sampler_.PrepareEnv(*env_);
       env_house_ = -1;  // a scene whose preflight throws is built again by the next item
       // Broken input stops the run here, before the scene's first attempt, when no pickup

@@ -11,6 +11,7 @@
 #include "mlspaces/core/transform.h"
 #include "mlspaces/datagen/tasks/open_close/sampler.h"
 #include "mlspaces/datagen/tasks/pick_and_place/sampler.h"
+#include "mlspaces/sim/scene.h"
 
 namespace mlspaces::datagen {
 namespace {
@@ -118,6 +119,15 @@ std::vector<std::string> TaskSampler::CandidateObjects(const Env& env) {
     out.push_back(std::move(name));
   }
   return out;
+}
+
+Env CreateSceneEnv(const ExperimentConfig& config, TaskSampler& sampler,
+                   const std::filesystem::path& scene_xml, std::string scene_key) {
+  sim::Scene composed = sim::Scene::Load(scene_xml);
+  sampler.AddAuxiliaryObjects(composed);
+  return Env::Create(std::move(composed),
+                     RobotSpecFromConfig(config.robot_config, {}, config.libraries.assets_dir),
+                     std::move(scene_key));
 }
 
 Pose ComposePlanar(const Pose& pose, double dx, double dy, double yaw) {

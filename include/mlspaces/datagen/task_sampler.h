@@ -20,6 +20,7 @@
 #include "mlspaces/core/export.h"
 
 #include <cstdint>
+#include <filesystem>
 #include <functional>
 #include <map>
 #include <memory>
@@ -167,6 +168,13 @@ class MLSPACES_API TaskSampler {
   int64_t task_counter_ = 0;
   int64_t episode_ = -1;
 };
+
+/// A scene of `config` as `mlspaces datagen` builds it: `scene_xml` composed, `sampler`'s
+/// auxiliary objects added (pick-and-place: its receptacles), the config's robot inserted
+/// and the whole compiled. The caller then calls sampler.PrepareEnv on the Env where it
+/// keeps it. @throws Error as sim::Scene::Load, the sampler and Env::Create.
+MLSPACES_API Env CreateSceneEnv(const ExperimentConfig& config, TaskSampler& sampler,
+                                const std::filesystem::path& scene_xml, std::string scene_key);
 
 /// `pose @ T(dx, dy, yaw)`: a planar move expressed in the frame of `pose` (the tutorial's
 /// `pose @ random_pose`): pos += R (dx, dy, 0), quat = quat * RotZ(yaw). yaw in radians.

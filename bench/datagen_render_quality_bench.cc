@@ -278,10 +278,13 @@ int main(int argc, char** argv) {
       r->Render(data.get(), system.View(0, data.get()), warm.data());  // first-use compiles
       for (size_t s = 0; s < nstates; ++s) {
         set_state(s);
+        std::vector<sim::CameraView> views;  // as the camera recorder: one state's maps shared
+        for (size_t k = 0; k < ncam; ++k) views.push_back(system.View(k, data.get()));
+        r->SetShadowViews(views);
         for (size_t k = 0; k < ncam; ++k) {
           std::vector<unsigned char>& f = frames[s * ncam + k];
           f.resize(static_cast<size_t>(w) * h * 3);
-          const sim::CameraView view = system.View(k, data.get());
+          const sim::CameraView& view = views[k];
           const auto t0 = Clock::now();
           r->Render(data.get(), view, f.data());
           times->push_back(Since(t0));

@@ -202,8 +202,11 @@ void CameraRecorder::Begin(const fs::path& dir, int64_t episode) {
 }
 
 void CameraRecorder::Capture(const mjData* d) {
+  views_.clear();
+  for (size_t i = 0; i < system_.size(); ++i) views_.push_back(system_.View(i, d));
+  renderer_->SetShadowViews(views_);  // the state's cameras share its shadow maps
   for (size_t i = 0; i < system_.size(); ++i) {
-    const sim::CameraView view = system_.View(i, d);
+    const sim::CameraView& view = views_[i];
     CameraSystem::AppendParams(view, system_.width(), system_.height(), records_[i].params);
     auto t0 = Clock::now();
     renderer_->Render(d, view, rgb_buf_.data(), config_.record_depth ? depth_buf_.data() : nullptr);

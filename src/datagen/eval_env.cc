@@ -139,7 +139,11 @@ void EvalEnv::Render(size_t index, unsigned char* rgb) {
     throw Error("camera index " + std::to_string(index) + " out of range (" +
                 std::to_string(cameras_->size()) + " cameras)");
   }
-  renderer_->Render(env_->data(), cameras_->View(index, env_->data()), rgb, nullptr);
+  // Every camera's view, so that the cameras of one state share its shadow maps.
+  std::vector<sim::CameraView> views;
+  for (size_t i = 0; i < cameras_->size(); ++i) views.push_back(cameras_->View(i, env_->data()));
+  renderer_->SetShadowViews(views);
+  renderer_->Render(env_->data(), views[index], rgb, nullptr);
 }
 
 }  // namespace mlspaces::datagen

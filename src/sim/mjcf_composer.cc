@@ -447,6 +447,7 @@ ModelPtr MjcfComposer::Compile(const mjVFS* vfs) const {
 }
 
 mjSpec* MjcfComposer::spec() { return impl_->spec.get(); }
+const mjSpec* MjcfComposer::spec() const { return impl_->spec.get(); }
 
 const std::vector<Diagnostic>& MjcfComposer::warnings() const { return impl_->warnings; }
 

@@ -52,7 +52,8 @@ struct Renderer::Impl {
   // which saves flipping them after mjr_readPixels; null otherwise.
   decltype(&::glPixelStorei) pack_invert = nullptr;
   long long frames = 0, one_pass_frames = 0;
-  std::string one_pass_missed;  // why one pass could not draw the last frame it missed
+  std::vector<ShadowView> shadow_views;  // SetShadowViews
+  std::string one_pass_missed;           // why one pass could not draw the last frame it missed
 
   ~Impl() {
     if (context_made && gl) {
@@ -168,35 +169,67 @@ Renderer::Renderer(const mjModel* m, RenderOptions options) : impl_(std::make_un
 
 Renderer::~Renderer() = default;
 
+namespace {
+
+void CheckFovy(const char* where, const CameraView& view) {
+  if (!(view.fovy_deg > 0 && view.fovy_deg < 180)) {
+    throw UsageError(std::string(where) + ": fovy_deg must be in (0, 180), got " +
+                     std::to_string(view.fovy_deg));
+  }
+}
+
+// `view` as mjv_updateCamera builds a fixed camera (one eye; mono rendering averages both):
+// the near plane in double, then rounded to float. `c` keeps its other fields.
+void SetGlCamera(const mjModel* m, const CameraView& view, float znear, float zfar,
+                 mjvGLCamera* c) {
+  const double top = m->vis.map.znear * m->stat.extent * std::tan(view.fovy_deg * mjPI / 360.0);
+  for (int i = 0; i < 3; ++i) {
+    c->pos[i] = static_cast<float>(view.pos[i]);
+    c->forward[i] = static_cast<float>(-view.xmat[3 * i + 2]);
+    c->up[i] = static_cast<float>(view.xmat[3 * i + 1]);
+  }
+  c->frustum_center = 0;
+  c->frustum_top = static_cast<float>(top);
+  c->frustum_bottom = static_cast<float>(-top);
+  c->frustum_near = znear;
+  c->frustum_far = zfar;
+}
+
+bool SameCamera(const mjvGLCamera& a, const mjvGLCamera& b) {
+  return std::equal(a.pos, a.pos + 3, b.pos) && std::equal(a.forward, a.forward + 3, b.forward) &&
+         std::equal(a.up, a.up + 3, b.up) && a.frustum_center == b.frustum_center &&
+         a.frustum_width == b.frustum_width && a.frustum_bottom == b.frustum_bottom &&
+         a.frustum_top == b.frustum_top && a.frustum_near == b.frustum_near &&
+         a.frustum_far == b.frustum_far && a.orthographic == b.orthographic;
+}
+
+}  // namespace
+
+void Renderer::SetShadowViews(const std::vector<CameraView>& views) {
+  Impl& s = *impl_;
+  std::vector<ShadowView> out;
+  out.reserve(views.size());
+  for (const CameraView& v : views) {
+    CheckFovy("Renderer::SetShadowViews", v);
+    ShadowView sv;
+    SetGlCamera(s.model.get(), v, s.znear, s.zfar, &sv.camera);
+    sv.aspect = static_cast<double>(s.options.width) / s.options.height;
+    out.push_back(sv);
+  }
+  s.shadow_views = std::move(out);
+}
+
 void Renderer::Render(const mjData* d, const CameraView& view, unsigned char* rgb, float* depth_m) {
   Impl& s = *impl_;
   if (d == nullptr || rgb == nullptr) throw UsageError("Renderer::Render: null data or rgb");
-  if (!(view.fovy_deg > 0 && view.fovy_deg < 180)) {
-    throw UsageError("Renderer::Render: fovy_deg must be in (0, 180), got " +
-                     std::to_string(view.fovy_deg));
-  }
+  CheckFovy("Renderer::Render", view);
   s.gl->MakeCurrent();
   s.cam.type = mjCAMERA_FREE;
   // mjv_updateScene only uses d's scratch stack (restored before it returns).
   mjv_updateScene(s.model.get(), const_cast<mjData*>(d), &s.opt, nullptr, &s.cam, mjCAT_ALL,
                   &s.scn);
-  // Replace the free camera by `view`, as mjv_updateCamera builds a fixed camera: both eyes
-  // at the same place (mono rendering averages them).
-  // As mjv_updateCamera: the near plane in double, then rounded to float.
-  const double znear = s.model->vis.map.znear * s.model->stat.extent;
-  const double top = znear * std::tan(view.fovy_deg * mjPI / 360.0);
-  for (mjvGLCamera& c : s.scn.camera) {
-    for (int i = 0; i < 3; ++i) {
-      c.pos[i] = static_cast<float>(view.pos[i]);
-      c.forward[i] = static_cast<float>(-view.xmat[3 * i + 2]);
-      c.up[i] = static_cast<float>(view.xmat[3 * i + 1]);
-    }
-    c.frustum_center = 0;
-    c.frustum_top = static_cast<float>(top);
-    c.frustum_bottom = static_cast<float>(-top);
-    c.frustum_near = s.znear;
-    c.frustum_far = s.zfar;
-  }
+  // Replace the free camera by `view`: both eyes at the same place.
+  for (mjvGLCamera& c : s.scn.camera) SetGlCamera(s.model.get(), view, s.znear, s.zfar, &c);
   // MuJoCo 3 places the headlight in mjv_updateScene, at the camera: move it with the view.
   for (int i = 0; i < s.scn.nlight; ++i) {
     mjvLight& l = s.scn.lights[i];
@@ -231,8 +264,19 @@ void Renderer::Draw(unsigned char* rgb, float* depth_m) {
   const int w = s.options.width, h = s.options.height;
   const mjrRect viewport{0, 0, w, h};
   mjr_setBuffer(mjFB_OFFSCREEN, &s.con);
-  const bool fitted =
-      s.options.fit_shadows && FitShadowMaps(s.model.get(), &s.scn, &s.con, s.default_clip).fitted;
+  bool fitted = false;
+  if (s.options.fit_shadows) {
+    // The set views and this one (once), in the same order for every camera of a state.
+    std::vector<ShadowView> views = s.shadow_views;
+    const mjvGLCamera* eye = s.scn.camera;
+    const ShadowView own{SameCamera(eye[0], eye[1]) ? eye[0] : mjv_averageCamera(eye, eye + 1),
+                         static_cast<double>(w) / h};
+    if (std::none_of(views.begin(), views.end(),
+                     [&](const ShadowView& v) { return SameCamera(v.camera, own.camera); })) {
+      views.push_back(own);
+    }
+    fitted = FitShadowMaps(s.model.get(), &s.scn, &s.con, s.default_clip, views).fitted;
+  }
   ++s.frames;
   int geom = -1;
   const bool one_pass = s.shadow_pass && ShadowPass::HasShadows(s.scn, s.con);

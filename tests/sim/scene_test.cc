@@ -97,5 +97,47 @@ TEST(Scene, BadInsertionsAreErrorsAndLeaveTheSceneAsItWas) {
   EXPECT_EQ(scene.metadata()["objects"].size(), objects);
 }
 
+// Bodies parked 35 m up (with a child, a joint and a site) leave the statistic, and with it the
+// cameras' near plane, as the scene has it; a centre the scene sets stays.
+TEST(Scene, BodiesLeftOutOfTheStatisticLeaveItAsTheSceneHasIt) {
+  constexpr const char* kParked = R"(<mujoco><worldbody>
+    <body name="shelf"><geom type="box" size="1 1 0.5"/></body>
+    <body name="box" pos="0 0 0.6"><freejoint/><geom type="box" size="0.1 0.1 0.1"/>
+      <site name="tip" pos="0 0 0.2"/>
+      <body name="lid" pos="0 0 0.15"><joint type="hinge"/><geom type="sphere" size="0.05"/></body>
+    </body></worldbody></mujoco>)";
+  const Pose far{{5, 5, 35}, {1, 0, 0, 0}};
+  auto load = [&](bool parked, bool left_out) {
+    Scene scene = Scene::Load(kData / "custom_assets/scene.xml");
+    scene.InsertRobot(kData / "two_link_arm.xml", "robot_0/", Pose{{-0.5, 0, 0}, {1, 0, 0, 0}});
+    if (parked) scene.InsertRobotString(kParked, kData / "parked.xml", "parked/", far);
+    if (left_out) scene.ExcludeFromStatistic("parked/");
+    return scene.Compile();
+  };
+  const ModelPtr plain = load(false, false);
+  const ModelPtr stretched = load(true, false);
+  const ModelPtr kept = load(true, true);
+  EXPECT_GT(stretched->stat.extent, 30);
+  EXPECT_EQ(kept->nbody, stretched->nbody);
+  ASSERT_GT(plain->stat.extent, 2 * kept->stat.meansize);  // the box, not the bodies' size
+  EXPECT_NEAR(kept->stat.extent, plain->stat.extent, 1e-12);
+  for (int k = 0; k < 3; ++k) EXPECT_NEAR(kept->stat.center[k], plain->stat.center[k], 1e-12);
+  EXPECT_LT(kept->vis.map.znear * kept->stat.extent, 0.05) << "the near plane";
+
+  // A centre the scene sets is kept; the extent is still the scene's.
+  const mlspaces::testing::TempDir tmp;
+  WriteFileAtomic(tmp / "set.xml", R"(<mujoco><statistic center="1 2 3"/><worldbody>
+    <geom type="plane" size="1 1 0.1"/>
+    <body pos="0 0 1"><freejoint/><geom type="sphere" size="0.1"/></body></worldbody></mujoco>)");
+  Scene set = Scene::Load(tmp / "set.xml");
+  const ModelPtr alone = set.Compile();
+  set.InsertRobotString(kParked, tmp / "parked.xml", "parked/", far);
+  set.ExcludeFromStatistic("parked/");
+  const ModelPtr with = set.Compile();
+  EXPECT_EQ(with->stat.center[0], 1);
+  EXPECT_EQ(with->stat.center[2], 3);
+  EXPECT_NEAR(with->stat.extent, alone->stat.extent, 1e-12);
+}
+
 }  // namespace
 }  // namespace mlspaces::sim

@@ -11,6 +11,7 @@
 
 #include <gtest/gtest.h>
 
+#include "mlspaces/core/error.h"
 #include "mlspaces/core/transform.h"
 #include "mlspaces/sim/mujoco_handlers.h"
 #include "mlspaces/sim/renderer.h"
@@ -18,9 +19,17 @@
 namespace mlspaces::sim {
 namespace {
 
+// A ball high above the floor, out of the camera's view, whose shadow falls on the floor in
+// view (at (-0.5, 0.5): 3 m from it toward the sun); a ball parked 35 m up, far from all, and
+// a camera that sees it and nothing else.
+constexpr const char* kHigh =
+    R"(<geom name="high" type="sphere" pos="-1.573 -0.305 2.683" size="0.2"/>)";
+constexpr const char* kParked = R"(<geom name="parked" type="sphere" pos="20 20 35" size="0.2"/>
+    <camera name="up" pos="20 20 36" xyaxes="1 0 0 0 1 0" fovy="30"/>)";
+
 // A box and a tilted capsule on a floor, lit from the side by a shadow-casting directional
-// light; `below` adds a ball under the floor.
-std::string Xml(bool below) {
+// light; `below` adds a ball under the floor, `extra` more.
+std::string Xml(bool below, const std::string& extra = "") {
   return std::string(R"(
 <mujoco>
   <worldbody>
@@ -32,7 +41,7 @@ std::string Xml(bool below) {
     <geom name="arm" type="capsule" fromto="0.4 0.2 0.3 0.7 0.1 0.6" size="0.04"
           rgba="0 0 1 1"/>
     <camera name="view" pos="1.2 -1.4 1.3" xyaxes="0.76 0.65 0 -0.4 0.47 0.78" fovy="50"/>)") +
-         (below ? R"(<geom name="under" type="sphere" pos="0 0 -0.5" size="0.1"/>)" : "") +
+         (below ? R"(<geom name="under" type="sphere" pos="0 0 -0.5" size="0.1"/>)" : "") + extra +
          R"(
   </worldbody>
 </mujoco>)";
@@ -45,8 +54,8 @@ struct Scene {
   mjvCamera cam{};
   mjvScene scn{};
   mjrContext con{};
-  explicit Scene(bool below = false) {
-    m = LoadModelFromMemory(Xml(below));
+  explicit Scene(bool below = false, const std::string& extra = "") {
+    m = LoadModelFromMemory(Xml(below, extra));
     d = MakeData(m.get());
     mj_forward(m.get(), d.get());
     mjv_defaultOption(&opt);
@@ -59,6 +68,16 @@ struct Scene {
   }
   ~Scene() { mjv_freeScene(&scn); }
   float DefaultClip() const { return static_cast<float>(m->stat.extent); }
+  // Model camera `name` as FitShadowMaps' views take it (the scene's camera, one eye); the
+  // scene is updated from it.
+  ShadowView View(const char* name, double aspect) {
+    mjvCamera fixed;
+    mjv_defaultCamera(&fixed);
+    fixed.type = mjCAMERA_FIXED;
+    fixed.fixedcamid = mj_name2id(m.get(), mjOBJ_CAMERA, name);
+    mjv_updateScene(m.get(), d.get(), &opt, nullptr, &fixed, mjCAT_ALL, &scn);
+    return {mjv_averageCamera(&scn.camera[0], &scn.camera[1]), aspect};
+  }
   const mjvGeom* Geom(const char* name) const {
     const int id = mj_name2id(m.get(), mjOBJ_GEOM, name);
     for (int i = 0; i < scn.ngeom; ++i) {
@@ -161,12 +180,53 @@ TEST(ShadowFitTest, LeavesTheSceneWithoutShadowsOrShadowCastingDirectionalLights
   EXPECT_FLOAT_EQ(spot.con.shadowClip, spot.DefaultClip());
 }
 
+TEST(ShadowFitTest, TheViewsLeaveOutTheCastersWhoseShadowsNoViewSees) {
+  Scene s(false, std::string(kHigh) + kParked);
+  // The high ball is out of the view: above its top edge.
+  const CameraView cam =
+      Renderer::ModelCamera(s.m.get(), s.d.get(), mj_name2id(s.m.get(), mjOBJ_CAMERA, "view"));
+  const int high = mj_name2id(s.m.get(), mjOBJ_GEOM, "high");
+  const Vec3 q =
+      Sub({s.d->geom_xpos[3 * high], s.d->geom_xpos[3 * high + 1], s.d->geom_xpos[3 * high + 2]},
+          cam.pos);
+  const Vec3 up = {cam.xmat[1], cam.xmat[4], cam.xmat[7]};
+  const Vec3 back = {cam.xmat[2], cam.xmat[5], cam.xmat[8]};
+  ASSERT_GT(Dot(q, up) - 0.2, -Dot(q, back) * std::tan(cam.fovy_deg * M_PI / 360));
+
+  const ShadowFit all = FitShadowMaps(s.m.get(), &s.scn, &s.con, s.DefaultClip());
+  ASSERT_TRUE(all.fitted);
+  EXPECT_EQ(all.casters_unseen, 0);
+  EXPECT_GT(all.clip, 10) << "the parked ball stretches the square";
+
+  const ShadowView view = s.View("view", 4.0 / 3);
+  const ShadowFit seen = FitShadowMaps(s.m.get(), &s.scn, &s.con, s.DefaultClip(), {view});
+  ASSERT_TRUE(seen.fitted);
+  EXPECT_EQ(seen.casters_unseen, 1) << "the parked ball";
+  // The square of the casters without the parked ball: the high one's shadow is in view.
+  Scene unparked(false, kHigh);
+  const ShadowFit want =
+      FitShadowMaps(unparked.m.get(), &unparked.scn, &unparked.con, unparked.DefaultClip());
+  EXPECT_FLOAT_EQ(seen.clip, want.clip);
+  Scene bare;
+  const ShadowFit without_high = FitShadowMaps(bare.m.get(), &bare.scn, &bare.con, 1);
+  EXPECT_GT(seen.clip, 1.5 * without_high.clip) << "the high ball counts";
+
+  // Looking at the parked ball as well: it counts again; the high one's shadow is not seen
+  // from up there but is from the view.
+  const ShadowView parked = s.View("up", 1);
+  const ShadowFit both = FitShadowMaps(s.m.get(), &s.scn, &s.con, s.DefaultClip(), {view, parked});
+  EXPECT_EQ(both.casters_unseen, 0);
+  EXPECT_FLOAT_EQ(both.clip, all.clip);
+  const ShadowFit only_up = FitShadowMaps(s.m.get(), &s.scn, &s.con, s.DefaultClip(), {parked});
+  EXPECT_EQ(only_up.casters_unseen, 3) << "box, arm and high ball";
+}
+
 // The fixed camera's image with `options`, and where MuJoCo's geometry puts shadows on the
 // floor: per pixel, -1 not the floor, 1 a ray from its floor point toward the sun hits a geom,
-// 0 it does not.
+// 0 it does not; `hit`: that geom.
 struct Shot {
   std::vector<unsigned char> rgb;
-  std::vector<int> truth;
+  std::vector<int> truth, hit;
   int map = 0;
 };
 
@@ -188,6 +248,7 @@ Shot Render(const Scene& s, RenderOptions options, bool shadows) {
   mjtNum to_sun[3];
   for (int i = 0; i < 3; ++i) to_sun[i] = -s.d->light_xdir[3 * sun + i];
   shot.truth.assign(kW * kH, -1);
+  shot.hit.assign(kW * kH, -1);
   for (int row = 0; row < kH; ++row) {
     for (int col = 0; col < kW; ++col) {
       const double z = depth[row * kW + col];
@@ -202,6 +263,7 @@ Shot Render(const Scene& s, RenderOptions options, bool shadows) {
       int geom = -1;
       shot.truth[row * kW + col] =
           mj_ray(s.m.get(), s.d.get(), p, to_sun, nullptr, 1, -1, &geom, nullptr) >= 0 ? 1 : 0;
+      shot.hit[row * kW + col] = geom;
     }
   }
   return shot;
@@ -243,6 +305,63 @@ TEST(ShadowFitTest, DrawsTheShadowsWhereTheGeometryPutsThemWithASmallerMap) {
       "shadow agreement with the geometry: fitted (%d texels) %.3f, MuJoCo's square "
       "(2048) %.3f\n",
       fit.map, agreement, ShadowAgreement(own, none));
+}
+
+// The shadow of a ball out of view stays; a ball parked far away no more coarsens the map.
+TEST(ShadowFitTest, DrawsTheShadowsOfCastersOutOfViewAndNotThoseNoViewSees) {
+  Scene s(false, std::string(kHigh) + kParked);
+  RenderOptions mujoco;
+  mujoco.shadow_size = 2048;
+  RenderOptions fitted = mujoco;
+  fitted.fit_shadows = true;
+  const Shot none = Render(s, mujoco, false);
+  const Shot fit = Render(s, fitted, true);
+  const int high = mj_name2id(s.m.get(), mjOBJ_GEOM, "high");
+  // The high ball's shadow: in view, and drawn.
+  long high_real = 0, high_drawn = 0;
+  for (size_t i = 0; i < fit.hit.size(); ++i) {
+    if (fit.truth[i] != 1 || fit.hit[i] != high) continue;
+    ++high_real;
+    int shade = 0;
+    for (int c = 0; c < 3; ++c) shade = std::max(shade, none.rgb[3 * i + c] - fit.rgb[3 * i + c]);
+    high_drawn += shade > 40;
+  }
+  EXPECT_GT(high_real, 500);
+  EXPECT_GT(high_drawn, 0.9 * static_cast<double>(high_real));
+  const double agreement = ShadowAgreement(fit, none);
+  EXPECT_GT(agreement, 0.85);
+  // Every caster in the square (the parked ball's 35 m stretch): the same map, coarse shadows.
+  const Shot own = Render(s, mujoco, true);
+  std::printf(
+      "shadow agreement with the geometry, a ball parked 35 m up: fitted to the view "
+      "(%d texels) %.3f, MuJoCo's square (2048) %.3f\n",
+      fit.map, agreement, ShadowAgreement(own, none));
+}
+
+TEST(ShadowFitTest, TheCamerasOfAStateShareTheirMapsWhenTheRendererKnowsThem) {
+  Scene s(false, std::string(kHigh) + kParked);
+  RenderOptions o;
+  o.width = 160;
+  o.height = 120;
+  o.shadow_size = 512;
+  o.fit_shadows = true;
+  o.one_pass_shadows = true;
+  std::vector<CameraView> views;
+  for (const char* name : {"view", "up"}) {
+    views.push_back(
+        Renderer::ModelCamera(s.m.get(), s.d.get(), mj_name2id(s.m.get(), mjOBJ_CAMERA, name)));
+  }
+  std::vector<unsigned char> rgb(3 * 160 * 120);
+  Renderer apart(s.m.get(), o);
+  for (const CameraView& v : views) apart.Render(s.d.get(), v, rgb.data());
+  EXPECT_EQ(apart.shadow_map_renders(), 2) << "each view's own square";
+  Renderer shared(s.m.get(), o);
+  shared.SetShadowViews(views);
+  for (const CameraView& v : views) shared.Render(s.d.get(), v, rgb.data());
+  EXPECT_EQ(shared.shadow_map_renders(), 1);
+  CameraView bad = views[0];
+  bad.fovy_deg = 0;
+  EXPECT_THROW(shared.SetShadowViews({bad}), UsageError);
 }
 
 }  // namespace

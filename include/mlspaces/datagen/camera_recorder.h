@@ -128,6 +128,7 @@ class MLSPACES_API CameraRecorder {
   std::vector<std::unique_ptr<VideoWriter>> rgb_, depth_;
   std::vector<CameraRecord> records_;
   std::vector<unsigned char> rgb_buf_, grey_buf_;
+  std::vector<sim::CameraView> views_;  // this state's, Capture's
   std::vector<float> depth_buf_;
   double render_seconds_ = 0, encode_seconds_ = 0;
 };

@@ -122,6 +122,7 @@ class MLSPACES_API MjcfComposer {
   /// The composed model's mjSpec, for edits with MuJoCo's API before compiling: never null,
   /// owned by the composer (do not delete it). Edits show in Compile, Emit and copies.
   mjSpec* spec();
+  const mjSpec* spec() const;
 
   /// MuJoCo's compile warnings, of every Compile/Emit so far: severity kWarning, path = the
   /// file this composer was built from, message = MuJoCo's text. Printed as

@@ -160,6 +160,12 @@ class MLSPACES_API Renderer {
   void Render(const mjData* d, const CameraView& view, unsigned char* rgb,
               float* depth_m = nullptr);
 
+  /// The views the renders to come show each state from (a camera system's cameras), for
+  /// fit_shadows: each state's maps then hold the shadows any of them sees, and its renders
+  /// share one set of maps. Without, a render's maps hold the shadows its own view sees.
+  /// Kept until set again (empty: none). @throws UsageError for a fovy_deg outside (0, 180).
+  void SetShadowViews(const std::vector<CameraView>& views);
+
   /// Renders camera `camera_id` of the model through MuJoCo's own fixed-camera path
   /// (mjCAMERA_FIXED); same outputs as Render(). Equals Render(d, ModelCamera(m, d, id), ...)
   /// up to float rounding. @throws UsageError for an id out of range.

@@ -55,9 +55,17 @@ class MLSPACES_API Scene {
   // ===========================================================================================
   // Compiling and access
 
+  /// Leaves the bodies whose names start with `prefix`, with everything under them, out of
+  /// the compiled model's statistic (mjModel::stat center and extent, computed as MuJoCo
+  /// computes them from the rest): bodies parked far from the scene (pick-and-place's unused
+  /// receptacles, 35 m up) would otherwise set the scale MuJoCo renders at, the cameras'
+  /// near plane (vis.map.znear x extent) first. A centre or extent the scene sets
+  /// (<statistic>) is kept.
+  void ExcludeFromStatistic(std::string prefix);
+
   /// Compiles the composed scene: never null, owned by the caller. @throws Error with file,
   /// line and element.
-  ModelPtr Compile() const { return composer_.Compile(); }
+  ModelPtr Compile() const;
 
   /// The scene metadata, {"objects": {...}} with the inserted objects' entries; valid while
   /// the Scene lives.
@@ -73,6 +81,7 @@ class MLSPACES_API Scene {
   Json metadata_;
   ComposeOptions options_;
   int inserted_ = 0;
+  std::vector<std::string> excluded_;  // ExcludeFromStatistic's prefixes
 };
 
 }  // namespace mlspaces::sim

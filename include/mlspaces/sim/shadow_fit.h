@@ -9,6 +9,8 @@
 // sharpness for a fraction of the cost (docs/sim.md, "Render speed and quality").
 #include <mujoco/mujoco.h>
 
+#include <vector>
+
 #include "mlspaces/core/export.h"
 
 namespace mlspaces::sim {
@@ -18,6 +20,14 @@ struct ShadowFit {
   bool fitted = false;     ///< false: the scene is left as mjv_updateScene made it
   float clip = 0;          ///< half side of the shadow square (mjrContext::shadowClip), metres
   int planes_skipped = 0;  ///< planes drawn no more into the shadow maps
+  int casters_unseen = 0;  ///< casters in no light's square: no view sees their shadows
+};
+
+/// A picture the fitted maps must shadow rightly: one eye of the camera mjv_updateScene (or
+/// the caller) put in the scene, and the picture's width / height.
+struct ShadowView {
+  mjvGLCamera camera{};
+  double aspect = 1;
 };
 
 /// Fits the shadow maps of `scn`'s shadow-casting directional lights to its casters, for the
@@ -32,8 +42,12 @@ struct ShadowFit {
 /// mjCAT_DECOR). It leaves the scene and `con->shadowClip = default_clip` unchanged (fitted
 /// false) when shadows are off, no directional light casts, or a caster has no known bounds
 /// (a plane with something behind it, a flex or skin, a mesh that is no model geom).
+/// With `views`, a light's square holds only the casters whose shadows can fall on what one
+/// of the views sees (a geom whose box meets the view's frustum, the part of a plane inside
+/// it): parked or far-off casters no more stretch it. Every caster counts without views, or
+/// when a geom some view may see has no known bounds.
 /// `m` is the model the scene was made from (geom boxes: mjModel::geom_aabb). Never throws.
 MLSPACES_API ShadowFit FitShadowMaps(const mjModel* m, mjvScene* scn, mjrContext* con,
-                                     float default_clip);
+                                     float default_clip, const std::vector<ShadowView>& views = {});
 
 }  // namespace mlspaces::sim

@@ -163,6 +163,9 @@ void PickAndPlaceTaskSampler::AddAuxiliaryObjects(sim::Scene& scene) {
       std::to_string(hx) + " " + std::to_string(hy) +
       " 0.5\" contype=\"8\" conaffinity=\"15\" group=\"4\"/></body></worldbody></mujoco>";
   scene.InsertRobotString(floor, scene.composer().path(), kPrefix, Pose{{5, 5, 35}, {1, 0, 0, 0}});
+  // The parked receptacles leave the scene's scale as it was (the original's parking made the
+  // extent 35 m: its cameras clipped everything within 0.35 m, the gripper included).
+  scene.ExcludeFromStatistic(std::string(kPrefix));
   for (size_t i = 0; i < n; ++i) {
     for (int j = 0; j < copies; ++j) {
       const Pose at{{5.0 - 0.5 * static_cast<double>(n) + 0.5 + static_cast<double>(i),

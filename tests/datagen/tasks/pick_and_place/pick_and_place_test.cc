@@ -17,6 +17,7 @@
 #include "mlspaces/datagen/config.h"
 #include "mlspaces/datagen/dataset_validate.h"
 #include "mlspaces/datagen/run.h"
+#include "mlspaces/datagen/task_sampler.h"
 #include "mlspaces/datagen/tasks/pick_and_place/sampler.h"
 #include "mlspaces/datagen/tasks/pick_and_place/success.h"
 #include "test_util.h"
@@ -207,6 +208,30 @@ TEST(PickAndPlaceRunTest, EpisodesPerReceptacleRotatesTheReceptacle) {
       }
     }
   }
+}
+
+// The unused receptacles are parked 35 m up, as the original parks them, but the scene keeps
+// its own scale: the original's parking made mjModel::stat.extent 35 m, and its cameras'
+// near plane (vis.map.znear x extent) 0.35 m, which cut the gripper out of the wrist camera.
+TEST(PickAndPlaceSceneTest, ParkedReceptaclesLeaveTheScenesScale) {
+  testing::TempDir dir;
+  const ExperimentConfig c = Example("datagen.yaml", dir / "out", 1, 1);
+  const std::unique_ptr<TaskSampler> sampler = TaskSamplerRegistry::WithBuiltins().Create(c, 1);
+  Env env = CreateSceneEnv(c, *sampler, c.task_sampler_config.scene_xml_paths.at(0), "house_0");
+  const mjModel* m = env.model();
+  mj_forward(m, env.data());
+  int parked = 0;
+  for (int b = 1; b < m->nbody; ++b) {
+    const char* name = mj_id2name(m, mjOBJ_BODY, b);
+    if (name != nullptr && std::string(name).starts_with("place_receptacle/") &&
+        env.data()->xpos[3 * b + 2] > 34) {
+      ++parked;
+    }
+  }
+  EXPECT_GE(parked, 2) << "the staging floor and the receptacles";
+  EXPECT_LT(m->stat.extent, 4);
+  EXPECT_LT(m->stat.center[2], 2);
+  EXPECT_LT(m->vis.map.znear * m->stat.extent, 0.04);
 }
 
 TEST(PickAndPlaceRunTest, WorkersShardsAndResumeGiveTheSameBytes) {

@@ -72,7 +72,9 @@ namespace {
 
 // The map side for fitted shadows: the texel size of a shadowsize² map over MuJoCo's square,
 // on the square that fits the casters at the model's initial state plus a quarter for motion
-// (FitShadowMaps fits each frame; the map size is fixed with the context).
+// (FitShadowMaps fits each frame; the map size is fixed with the context). The casters are
+// those whose shadows can fall in the box of the model's statistic (what cameras look at;
+// bodies parked far away are not in it, sim::Scene::ExcludeFromStatistic).
 int FittedShadowSize(const mjModel* m, Renderer::Impl& s) {
   const int full = m->vis.quality.shadowsize;
   const float default_clip = s.default_clip;
@@ -82,7 +84,20 @@ int FittedShadowSize(const mjModel* m, Renderer::Impl& s) {
   mjrContext probe;
   mjr_defaultContext(&probe);
   probe.shadowSize = full;
-  const ShadowFit fit = FitShadowMaps(m, &s.scn, &probe, default_clip);
+  // The statistic's box (centre +- extent / 2 on each axis) seen from above, orthographic.
+  const double half = 0.5 * m->stat.extent;
+  ShadowView box;
+  box.camera.orthographic = 1;
+  for (int k = 0; k < 3; ++k) box.camera.pos[k] = static_cast<float>(m->stat.center[k]);
+  box.camera.pos[2] += static_cast<float>(2 * half);
+  box.camera.forward[2] = -1;
+  box.camera.up[1] = 1;
+  box.camera.frustum_width = static_cast<float>(half);
+  box.camera.frustum_bottom = static_cast<float>(-half);
+  box.camera.frustum_top = static_cast<float>(half);
+  box.camera.frustum_near = static_cast<float>(half);
+  box.camera.frustum_far = static_cast<float>(3 * half);
+  const ShadowFit fit = FitShadowMaps(m, &s.scn, &probe, default_clip, {box});
   if (!fit.fitted || !(default_clip > 0)) return full;
   const double share = std::min(1.0, 1.25 * fit.clip / default_clip);
   return std::max(64, static_cast<int>(std::ceil(full * share)));

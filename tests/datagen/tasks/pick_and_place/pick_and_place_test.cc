@@ -2,6 +2,7 @@
 // errors, and real runs of the examples (examples/pick_and_place): episodes succeed, validate,
 // record the receptacle, and are the same bytes with 1 or 2 workers, shards and after a resume.
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <map>
 #include <sstream>
@@ -229,6 +230,8 @@ TEST(PickAndPlaceSceneTest, ParkedReceptaclesLeaveTheScenesScale) {
     }
   }
   EXPECT_GE(parked, 2) << "the staging floor and the receptacles";
+  std::printf("stat.extent %.3f m, the cameras' near plane %.4f m\n", m->stat.extent,
+              m->vis.map.znear * m->stat.extent);
   EXPECT_LT(m->stat.extent, 4);
   EXPECT_LT(m->stat.center[2], 2);
   EXPECT_LT(m->vis.map.znear * m->stat.extent, 0.04);

@@ -269,73 +269,70 @@ Shot Render(const Scene& s, RenderOptions options, bool shadows) {
   return shot;
 }
 
-// Floor pixels shadowed in the render (at least 40 levels darker than without shadows) and
-// by the geometry: intersection over union.
+// Pixel i is shadowed in the render: at least 40 levels darker than without shadows.
+bool Drawn(const Shot& lit, const Shot& unlit, size_t i) {
+  int shade = 0;
+  for (int c = 0; c < 3; ++c) shade = std::max(shade, unlit.rgb[3 * i + c] - lit.rgb[3 * i + c]);
+  return shade > 40;
+}
+
+// Floor pixels shadowed in the render and by the geometry: intersection over union.
 double ShadowAgreement(const Shot& lit, const Shot& unlit) {
   long both = 0, either = 0;
   for (size_t i = 0; i < lit.truth.size(); ++i) {
     if (lit.truth[i] < 0) continue;
-    int shade = 0;
-    for (int c = 0; c < 3; ++c) shade = std::max(shade, unlit.rgb[3 * i + c] - lit.rgb[3 * i + c]);
-    const bool drawn = shade > 40, real = lit.truth[i] == 1;
+    const bool drawn = Drawn(lit, unlit, i), real = lit.truth[i] == 1;
     both += drawn && real;
     either += drawn || real;
   }
   return either == 0 ? 0 : static_cast<double>(both) / either;
 }
 
-TEST(ShadowFitTest, DrawsTheShadowsWhereTheGeometryPutsThemWithASmallerMap) {
-  Scene s;
+// The scene's camera without shadows, with fitted maps and with MuJoCo's square, both at
+// shadow_size 2048; the fitted shadows agree with the geometry (IoU > 0.85).
+struct Shots {
+  Shot none, fit, own;
+};
+Shots ShootAndCompare(const Scene& s, const char* what) {
   RenderOptions mujoco;
   mujoco.shadow_size = 2048;
   RenderOptions fitted = mujoco;
   fitted.fit_shadows = true;
-  const Shot none = Render(s, mujoco, false);
-  const Shot fit = Render(s, fitted, true);
-  const long real = std::count(fit.truth.begin(), fit.truth.end(), 1);
-  EXPECT_GT(real, 1000) << "the view holds too little shadow to compare";
-  // The texel size of 2048 texels over MuJoCo's square, on a far smaller square.
-  EXPECT_GE(fit.map, 64);
-  EXPECT_LT(fit.map, 2048 * 2 / 3);
-  const double agreement = ShadowAgreement(fit, none);
+  Shots out{Render(s, mujoco, false), Render(s, fitted, true), Render(s, mujoco, true)};
+  EXPECT_GT(std::count(out.fit.truth.begin(), out.fit.truth.end(), 1), 1000)
+      << "the view holds too little shadow to compare";
+  const double agreement = ShadowAgreement(out.fit, out.none);
   EXPECT_GT(agreement, 0.85);
   // MuJoCo's own square (its floor in the map: acne here) for comparison.
-  const Shot own = Render(s, mujoco, true);
   std::printf(
-      "shadow agreement with the geometry: fitted (%d texels) %.3f, MuJoCo's square "
-      "(2048) %.3f\n",
-      fit.map, agreement, ShadowAgreement(own, none));
+      "shadow agreement with the geometry%s: fitted (%d texels) %.3f, MuJoCo's square (2048) "
+      "%.3f\n",
+      what, out.fit.map, agreement, ShadowAgreement(out.own, out.none));
+  return out;
 }
 
-// The shadow of a ball out of view stays; a ball parked far away no more coarsens the map.
+TEST(ShadowFitTest, DrawsTheShadowsWhereTheGeometryPutsThemWithASmallerMap) {
+  Scene s;
+  const Shots shots = ShootAndCompare(s, "");
+  // The texel size of 2048 texels over MuJoCo's square, on a far smaller square.
+  EXPECT_GE(shots.fit.map, 64);
+  EXPECT_LT(shots.fit.map, 2048 * 2 / 3);
+}
+
+// The shadow of a ball out of view stays; a ball parked far away is left out.
 TEST(ShadowFitTest, DrawsTheShadowsOfCastersOutOfViewAndNotThoseNoViewSees) {
   Scene s(false, std::string(kHigh) + kParked);
-  RenderOptions mujoco;
-  mujoco.shadow_size = 2048;
-  RenderOptions fitted = mujoco;
-  fitted.fit_shadows = true;
-  const Shot none = Render(s, mujoco, false);
-  const Shot fit = Render(s, fitted, true);
-  const int high = mj_name2id(s.m.get(), mjOBJ_GEOM, "high");
+  const Shots shots = ShootAndCompare(s, ", a ball out of view, a ball parked 35 m up");
   // The high ball's shadow: in view, and drawn.
+  const int high = mj_name2id(s.m.get(), mjOBJ_GEOM, "high");
   long high_real = 0, high_drawn = 0;
-  for (size_t i = 0; i < fit.hit.size(); ++i) {
-    if (fit.truth[i] != 1 || fit.hit[i] != high) continue;
+  for (size_t i = 0; i < shots.fit.hit.size(); ++i) {
+    if (shots.fit.truth[i] != 1 || shots.fit.hit[i] != high) continue;
     ++high_real;
-    int shade = 0;
-    for (int c = 0; c < 3; ++c) shade = std::max(shade, none.rgb[3 * i + c] - fit.rgb[3 * i + c]);
-    high_drawn += shade > 40;
+    high_drawn += Drawn(shots.fit, shots.none, i);
   }
   EXPECT_GT(high_real, 500);
   EXPECT_GT(high_drawn, 0.9 * static_cast<double>(high_real));
-  const double agreement = ShadowAgreement(fit, none);
-  EXPECT_GT(agreement, 0.85);
-  // Every caster in the square (the parked ball's 35 m stretch): the same map, coarse shadows.
-  const Shot own = Render(s, mujoco, true);
-  std::printf(
-      "shadow agreement with the geometry, a ball parked 35 m up: fitted to the view "
-      "(%d texels) %.3f, MuJoCo's square (2048) %.3f\n",
-      fit.map, agreement, ShadowAgreement(own, none));
 }
 
 TEST(ShadowFitTest, TheCamerasOfAStateShareTheirMapsWhenTheRendererKnowsThem) {

@@ -381,10 +381,11 @@ struct MLSPACES_API CameraSystemConfig {
   bool reflections = true;
   /// Shadow-map side in texels (0: the scene's vis.quality.shadowsize, 4096 unless it sets
   /// one), offscreen multisampling (-1: the scene's offsamples, 4 unless set; 0: off) and
-  /// shadow maps fitted to the casters each frame (sim::FitShadowMaps: the same shadows with
-  /// smaller texels). The defaults render several times faster than the original's settings
-  /// at mean SSIM >= 0.97 against them (docs/sim.md, "Render speed and quality");
-  /// `shadow_size: 0, multisamples: -1, fit_shadows: false` renders as the original does.
+  /// shadow maps fitted each frame to the casters whose shadows the state's cameras see
+  /// (sim::FitShadowMaps: the same shadows with smaller texels). The defaults render several times
+  /// faster than the original's settings at mean SSIM >= 0.97 against them (docs/sim.md, "Render
+  /// speed and quality"); `shadow_size: 0, multisamples: -1, fit_shadows: false` renders as the
+  /// original does.
   int64_t shadow_size = 1024;
   int64_t multisamples = 0;
   bool fit_shadows = true;

@@ -130,6 +130,26 @@ TEST_F(CameraRecorderTest, OneFramePerCaptureInEveryVideo) {
   }
 }
 
+// With the default shadows (fitted to what the state's cameras see, one pass), both cameras
+// of a state share one set of maps: one map draw per captured state.
+TEST_F(CameraRecorderTest, TheCamerasOfAStateShareItsShadowMaps) {
+  testing::TempDir dir;
+  CameraSystemConfig config;
+  config.img_resolution = {160, 96};
+  ASSERT_TRUE(config.shadows && config.fit_shadows && config.one_pass_shadows);
+  CameraRecorder rec(env_.model(), config, 15, sim::GlBackend::kOsMesa);
+  rec.Begin(dir.path(), 0);
+  for (int i = 0; i < 3; ++i) {
+    for (int k = 0; k < 25; ++k) mj_step(env_.model(), env_.data());
+    mj_forward(env_.model(), env_.data());
+    rec.Capture(env_.data());
+  }
+  rec.End();
+  EXPECT_EQ(rec.renderer().frames(), 6);
+  EXPECT_EQ(rec.renderer().one_pass_frames(), 6);
+  EXPECT_EQ(rec.renderer().shadow_map_renders(), 3);
+}
+
 TEST_F(CameraRecorderTest, MissingCamerasAreNamed) {
   CameraSystemConfig config = SmallCameras();
   config.cameras[0].mjcf_name = "gripper/no_camera";

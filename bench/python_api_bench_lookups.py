@@ -19,57 +19,17 @@ from pathlib import Path
 # The library (numpy only: both venvs run this).
 
 
-def _rotations(q):
-    import numpy as np
-    q = q / np.linalg.norm(q, axis=1, keepdims=True)
-    w, x, y, z = q.T
-    return np.stack([
-        np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)], -1),
-        np.stack([2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)], -1),
-        np.stack([2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)], -1),
-    ], 1)
-
-
-def random_poses(n: int, seed: int):
-    import numpy as np
-    rng = np.random.default_rng(seed)
-    out = np.tile(np.eye(4), (n, 1, 1))
-    out[:, :3, :3] = _rotations(rng.normal(size=(n, 4)))
-    out[:, :3, 3] = rng.uniform(-0.2, 0.2, size=(n, 3))
-    return out
-
-
-MINIMAL_MJCF = """<mujoco model="{uid}">
-  <worldbody><body name="{uid}"><freejoint/><geom type="box" size="0.02 0.02 0.02"/></body>
-  </worldbody>
-</mujoco>
-"""
-
-
 def write_library(root: Path, n_uids: int, n_grasps: int, robot: str = "droid") -> list[str]:
-    """A user asset + grasp library as python/tests/conftest.py's write_library writes it
-    (np.savez grasps, json metadata, MolmoSpaces' index files). Returns the UIDs."""
-    import numpy as np
-    root.mkdir(parents=True, exist_ok=True)
+    """A user asset + grasp library of `n_uids` UIDs with `n_grasps` grasps each for `robot`,
+    as the Python tests write it (python/tests/library_files.py). Returns the UIDs. Imported
+    here, not at the top: a worker's import_s must still include numpy's import."""
+    tests = str(Path(__file__).resolve().parents[1] / "python" / "tests")
+    if tests not in sys.path:
+        sys.path.insert(0, tests)
+    import library_files
+
     uids = [f"block_{k:04d}" for k in range(n_uids)]
-    assets, grasp_paths = {}, {}
-    for k, uid in enumerate(uids):
-        d = root / uid
-        (d / robot).mkdir(parents=True, exist_ok=True)
-        (d / f"{uid}.xml").write_text(MINIMAL_MJCF.format(uid=uid))
-        meta = {"uid": uid, "category": "block", "description": f"a {uid}",
-                "description_long": f"a long {uid}",
-                "description_short": {"one_word": "block", "two_words": f"{uid} block",
-                                      "three_words": f"small {uid} block"},
-                "mass": 0.05 + k, "boundingBox": {"x": 0.04, "y": 0.04, "z": 0.04}}
-        (d / f"{uid}.json").write_text(json.dumps(meta, indent=2))
-        assets[uid] = {"uid": uid, "object_path": f"{uid}/{uid}.xml",
-                       "metadata_path": f"{uid}/{uid}.json", "metadata_npz_path": None}
-        np.savez(d / robot / "grasps.npz", transforms=random_poses(n_grasps, 100 * k))
-        grasp_paths.setdefault(robot, {})[uid] = f"{uid}/{robot}/grasps.npz"
-    (root / "assets_index.json").write_text(json.dumps(assets, indent=4, sort_keys=True))
-    (root / "grasps_index.json").write_text(json.dumps(
-        {"articulated_grasp_paths": {}, "grasp_paths": grasp_paths}, indent=4))
+    library_files.write_library(root, {uid: n_grasps for uid in uids}, robots=(robot,))
     return uids
 
 

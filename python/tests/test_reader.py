@@ -249,3 +249,38 @@ def test_corrupt_or_missing_video_is_a_value_error_naming_the_file(run_folder, t
     assert ep1.frames("exo_camera_1").shape[0] == ep1.num_steps  # the intact ones still read
     with pytest.raises(ValueError, match="file not found"):
         _core.video_info(tmp_path / "nope.mp4")
+
+
+def test_object_image_points_are_read_as_the_original_writes_them(run_folder):
+    """obs/extra/object_image_points: per task object and camera, up to 10 (x / W, y / H)
+    pixels of the object, NaN after num_points; the block's points are red in its video."""
+    red = seen = 0
+    for ep in read_dataset(run_folder):
+        points_of = ep["obs"]["extra"]["object_image_points"]
+        assert sorted(points_of) == ["gripper", "pickup_obj"]
+        T = ep.num_steps
+        for obj, cams in points_of.items():
+            assert sorted(cams) == sorted(CAMERAS)
+            for cam, arrays in cams.items():
+                points, count = arrays["points"], arrays["num_points"]
+                assert points.shape == (T, 10, 2) and points.dtype == np.float32
+                assert count.shape == (T, 1) and count.dtype == np.int32
+                for t in range(T):
+                    n = int(count[t, 0])
+                    assert 0 <= n <= 10
+                    assert np.isfinite(points[t, :n]).all() and np.isnan(points[t, n:]).all()
+                    assert ((points[t, :n] >= 0) & (points[t, :n] < 1)).all()
+                    # The original rounds (x / W, y / H) to 4 decimals: pixels of the image.
+                    cols = points[t, :n, 0] * WIDTH
+                    np.testing.assert_allclose(cols, np.round(cols), atol=0.01)
+        # The gripper is in the wrist camera's view throughout.
+        assert (points_of["gripper"]["wrist_camera"]["num_points"] == 10).all()
+        frames = ep["obs/sensor_data/exo_camera_1"]
+        block = points_of["pickup_obj"]["exo_camera_1"]
+        for t in range(T):
+            for x, y in block["points"][t, :int(block["num_points"][t, 0])]:
+                r, g, b = frames[t, int(round(y * HEIGHT)), int(round(x * WIDTH))].astype(int)
+                red += r > g + 40 and r > b + 40
+                seen += 1
+    assert seen > 0
+    assert red > 0.8 * seen, f"{red} of {seen} points of the red block are red in the video"

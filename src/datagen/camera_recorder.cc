@@ -182,11 +182,17 @@ std::string CameraRecorder::TempVideoName(int64_t episode, const std::string& ca
   return ".episode_" + std::to_string(episode) + "_" + camera + ".mp4";
 }
 
-void CameraRecorder::Begin(const fs::path& dir, int64_t episode) {
+void CameraRecorder::Begin(const fs::path& dir, int64_t episode, std::vector<TrackedObject> objects,
+                           uint64_t seed) {
   Abort();
   dir_ = dir;
   episode_ = episode;
   records_.clear();
+  points_.reset();
+  if (config_.object_image_points && !objects.empty()) {
+    points_ = std::make_unique<ObjectImagePoints>(renderer_->model(), std::move(objects));
+    points_rng_ = Rng(DeriveSeed(seed, {0x706f696e7473ULL}));  // "points"
+  }
   for (size_t i = 0; i < system_.size(); ++i) {
     const std::string& name = system_.name(i);
     rgb_.push_back(std::make_unique<VideoWriter>(dir / TempVideoName(episode, name),
@@ -201,7 +207,7 @@ void CameraRecorder::Begin(const fs::path& dir, int64_t episode) {
   }
 }
 
-void CameraRecorder::Capture(const mjData* d) {
+void CameraRecorder::Capture(const mjData* d, std::map<std::string, Series>* extra) {
   views_.clear();
   for (size_t i = 0; i < system_.size(); ++i) views_.push_back(system_.View(i, d));
   renderer_->SetShadowViews(views_);  // the state's cameras share its shadow maps
@@ -223,6 +229,14 @@ void CameraRecorder::Capture(const mjData* d) {
       depth_[i]->AddFrame(grey_buf_.data());
     }
     encode_seconds_ += Since(t0);
+    if (points_ != nullptr && extra != nullptr && TracksObjectsIn(system_.name(i))) {
+      t0 = Clock::now();
+      segment_buf_.resize(rgb_buf_.size() / 3);
+      renderer_->RenderSegmentation(d, view, segment_buf_.data());
+      points_->Append(segment_buf_.data(), system_.width(), system_.height(), system_.name(i),
+                      config_.cameras[i].skip_erosion, points_rng_, *extra);
+      points_seconds_ += Since(t0);
+    }
   }
 }
 

@@ -448,12 +448,20 @@ void EpisodeRunner::Rollout(Episode& e) {
   } abort_videos{cameras_.get()};
   const double render0 = cameras_ ? cameras_->render_seconds() : 0;
   const double encode0 = cameras_ ? cameras_->encode_seconds() : 0;
-  if (cameras_) cameras_->Begin(options_.video_dir, e.index);
+  const double points0 = cameras_ ? cameras_->points_seconds() : 0;
+  std::map<std::string, Series>* points = options_.record ? &e.rec.extra : nullptr;
+  if (cameras_) {
+    const RobotSpec& robot = env_.robot();
+    cameras_->Begin(
+        options_.video_dir, e.index,
+        TaskObjects(m, e.task->task(), config_.task_config, robot.prefix + robot.gripper_body),
+        attempt.seed);
+  }
 
   double t_policy = 0, t_physics = 0, t_observe = 0;
   auto t_obs = Clock::now();
   Observe(e, nullptr);
-  if (cameras_) cameras_->Capture(d);
+  if (cameras_) cameras_->Capture(d, points);
   t_observe += Since(t_obs);
   const ActionNoiseConfig& noise = config_.robot_config.action_noise_config;
   while (!e.terminated && !e.truncated) {
@@ -474,7 +482,7 @@ void EpisodeRunner::Rollout(Episode& e) {
     e.truncated = e.step >= config_.task_horizon;
     t_obs = Clock::now();
     Observe(e, &action);
-    if (cameras_) cameras_->Capture(d);
+    if (cameras_) cameras_->Capture(d, points);
     t_observe += Since(t_obs);
     if (config_.end_on_success && e.verdict.success && !e.terminated) {
       e.terminated = true;
@@ -488,9 +496,11 @@ void EpisodeRunner::Rollout(Episode& e) {
     e.rec.cameras = cameras_->End();
     const double render = cameras_->render_seconds() - render0;
     const double encode = cameras_->encode_seconds() - encode0;
-    attempt.AddTiming("observe", std::max(0.0, t_observe - render - encode));
+    const double image_points = cameras_->points_seconds() - points0;
+    attempt.AddTiming("observe", std::max(0.0, t_observe - render - encode - image_points));
     attempt.AddTiming("render", render);
     attempt.AddTiming("encode", encode);
+    if (image_points > 0) attempt.AddTiming("points", image_points);
   } else {
     attempt.AddTiming("observe", t_observe);
   }

@@ -52,8 +52,9 @@ struct Renderer::Impl {
   // which saves flipping them after mjr_readPixels; null otherwise.
   decltype(&::glPixelStorei) pack_invert = nullptr;
   long long frames = 0, one_pass_frames = 0;
-  std::vector<ShadowView> shadow_views;  // SetShadowViews
-  std::string one_pass_missed;           // why one pass could not draw the last frame it missed
+  std::vector<ShadowView> shadow_views;    // SetShadowViews
+  std::string one_pass_missed;             // why one pass could not draw the last frame it missed
+  std::vector<unsigned char> segment_rgb;  // RenderSegmentation's colours
 
   ~Impl() {
     if (context_made && gl) {
@@ -235,9 +236,55 @@ void Renderer::SetShadowViews(const std::vector<CameraView>& views) {
 }
 
 void Renderer::Render(const mjData* d, const CameraView& view, unsigned char* rgb, float* depth_m) {
-  Impl& s = *impl_;
   if (d == nullptr || rgb == nullptr) throw UsageError("Renderer::Render: null data or rgb");
   CheckFovy("Renderer::Render", view);
+  UpdateScene(d, view);
+  Draw(rgb, depth_m);
+}
+
+void Renderer::RenderSegmentation(const mjData* d, const CameraView& view, int* geom_ids) {
+  Impl& s = *impl_;
+  if (d == nullptr || geom_ids == nullptr) {
+    throw UsageError("Renderer::RenderSegmentation: null data or geom_ids");
+  }
+  CheckFovy("Renderer::RenderSegmentation", view);
+  UpdateScene(d, view);
+  const int w = s.options.width, h = s.options.height;
+  const mjrRect viewport{0, 0, w, h};
+  mjr_setBuffer(mjFB_OFFSCREEN, &s.con);
+  // MuJoCo's segmentation: each geom flat in the colour of its index in the scene plus one
+  // (mjRND_IDCOLOR), no lights, textures, shadows, reflection or multisampling; 0 is clear.
+  // One pass draws it the same way with fewer vertices where it can.
+  if (s.shadow_pass && ShadowPass::SegmentUnsupported(s.scn) == nullptr) {
+    s.shadow_pass->Segment(viewport, s.scn, s.con);
+  } else {
+    mjtByte* flags = s.scn.flags;
+    const mjtByte segment = flags[mjRND_SEGMENT], idcolor = flags[mjRND_IDCOLOR];
+    flags[mjRND_SEGMENT] = flags[mjRND_IDCOLOR] = 1;
+    mjr_render(viewport, &s.scn, &s.con);
+    flags[mjRND_SEGMENT] = segment;
+    flags[mjRND_IDCOLOR] = idcolor;
+  }
+  std::vector<unsigned char>& rgb = s.segment_rgb;
+  rgb.resize(static_cast<size_t>(3) * w * h);
+  if (s.pack_invert != nullptr) s.pack_invert(GL_PACK_INVERT_MESA, GL_TRUE);
+  mjr_readPixels(rgb.data(), nullptr, viewport, &s.con);
+  if (s.pack_invert != nullptr) {
+    s.pack_invert(GL_PACK_INVERT_MESA, GL_FALSE);
+  } else {
+    FlipRows(rgb.data(), w, h, 3);
+  }
+  const size_t count = static_cast<size_t>(w) * h;
+  for (size_t i = 0; i < count; ++i) {
+    const unsigned char* c = &rgb[3 * i];
+    const int segid = (c[0] | (c[1] << 8) | (c[2] << 16)) - 1;
+    const mjvGeom* g = segid >= 0 && segid < s.scn.ngeom ? &s.scn.geoms[segid] : nullptr;
+    geom_ids[i] = g != nullptr && g->objtype == mjOBJ_GEOM ? g->objid : -1;
+  }
+}
+
+void Renderer::UpdateScene(const mjData* d, const CameraView& view) {
+  Impl& s = *impl_;
   s.gl->MakeCurrent();
   s.cam.type = mjCAMERA_FREE;
   // mjv_updateScene only uses d's scratch stack (restored before it returns).
@@ -254,7 +301,6 @@ void Renderer::Render(const mjData* d, const CameraView& view, unsigned char* rg
       l.dir[k] = static_cast<float>(-view.xmat[3 * k + 2]);
     }
   }
-  Draw(rgb, depth_m);
 }
 
 void Renderer::RenderCamera(const mjData* d, int camera_id, unsigned char* rgb, float* depth_m) {
@@ -369,6 +415,7 @@ CameraView Renderer::ModelCamera(const mjModel* m, const mjData* d, int camera_i
 
 int Renderer::width() const { return impl_->options.width; }
 int Renderer::height() const { return impl_->options.height; }
+const mjModel* Renderer::model() const { return impl_->model.get(); }
 GlBackend Renderer::backend() const { return impl_->options.backend; }
 int Renderer::egl_device() const { return impl_->egl_device; }
 int Renderer::shadow_size() const { return impl_->con.shadowSize; }

@@ -62,6 +62,18 @@ class ShadowPass {
   /// mjr_render looks them up, a texel off at the edges (see DrawMaps).
   void Render(const mjrRect& viewport, mjvScene* scn, const mjrContext* con, bool fitted = false);
 
+  /// Why Segment cannot draw `scn` as mjr_render draws it with mjRND_SEGMENT and
+  /// mjRND_IDCOLOR, or null when it can: a geom type it does not draw, skins, stereo, a frame
+  /// or a scene transform. The text is static.
+  static const char* SegmentUnsupported(const mjvScene& scn);
+  /// Renders the segmentation of `scn` (SegmentUnsupported() null) into `con`'s current
+  /// buffer, as mjr_render with mjRND_SEGMENT and mjRND_IDCOLOR: each geom whose segid is
+  /// >= 0 in the flat colour segid + 1 (red the low byte), unlit, untextured, without
+  /// multisampling, over a clear of 0, in the scene's order. The geoms wholly outside the view
+  /// volume are left out, and coarse sides (which cover the same pixels) used where the pass
+  /// has them.
+  void Segment(const mjrRect& viewport, const mjvScene& scn, const mjrContext& con);
+
   /// How many times the maps were drawn (a state seen by two cameras draws them once).
   long long map_renders() const { return map_renders_; }
   /// How many geom draws were left out, the geom being wholly outside the view volume of

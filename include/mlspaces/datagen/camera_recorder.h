@@ -12,7 +12,9 @@
 // OpenCV-style axes, as in the dataset format: docs/dataset.md), extrinsic_cv =
 // inverse(cam2world_gl)[:3] (3x4, world to camera), intrinsic_cv = [[f, 0, W/2], [0, f, H/2],
 // [0, 0, 1]] with f = (H/2) / tan(fovy/2).
-// The cameras are fixed, so visibility_constraints are not used (docs/datagen.md).
+// The cameras are fixed, so visibility_constraints are not used (docs/datagen.md). With
+// camera_config.object_image_points, each state also gets one segmentation render per camera
+// for obs/extra/object_image_points (object_image_points.h).
 //
 // Lifetimes: the models and data passed in are read during the call only. References a
 // CameraSystem or CameraRecorder returns (name(), cameras()) are valid while it lives.
@@ -29,6 +31,7 @@
 #include "mlspaces/datagen/config.h"
 #include "mlspaces/datagen/env.h"
 #include "mlspaces/datagen/episode_record.h"
+#include "mlspaces/datagen/object_image_points.h"
 #include "mlspaces/datagen/video.h"
 #include "mlspaces/sim/renderer.h"
 
@@ -94,10 +97,16 @@ class MLSPACES_API CameraRecorder {
   // ===========================================================================================
   // Episodes
 
-  /// Starts episode `episode`: its videos are written in `dir` under TempVideoName().
-  void Begin(const std::filesystem::path& dir, int64_t episode);
-  /// Renders every camera at the state in `d` and appends a frame and the parameters.
-  void Capture(const mjData* d);
+  /// Starts episode `episode`: its videos are written in `dir` under TempVideoName(). With
+  /// camera_config.object_image_points, Capture records the image points of `objects`
+  /// (TaskObjects), drawn from a generator seeded by `seed` (the episode's).
+  /// @throws Error as ObjectImagePoints for an object whose body is not in the model.
+  void Begin(const std::filesystem::path& dir, int64_t episode,
+             std::vector<TrackedObject> objects = {}, uint64_t seed = 0);
+  /// Renders every camera at the state in `d` and appends a frame and the parameters; with
+  /// tracked objects and `extra` not null, appends a row of their image points per camera
+  /// (not "follower" cameras: TracksObjectsIn) to `extra` (obs/extra series).
+  void Capture(const mjData* d, std::map<std::string, Series>* extra = nullptr);
   /// Finishes the videos: one CameraRecord per camera whose video_file (and
   /// depth_video_file) name the finished files in the episode's dir (temp names: the
   /// trajectory writer renames them to their final names).
@@ -114,9 +123,11 @@ class MLSPACES_API CameraRecorder {
   const CameraSystem& cameras() const { return system_; }
   /// The renderer (its frame counts, sim::Renderer::one_pass_missed()); valid while this lives.
   const sim::Renderer& renderer() const { return *renderer_; }
-  /// Seconds spent rendering / encoding so far, over every episode.
+  /// Seconds spent rendering / encoding / on image points (segmentation renders and the
+  /// points drawn from them) so far, over every episode.
   double render_seconds() const { return render_seconds_; }
   double encode_seconds() const { return encode_seconds_; }
+  double points_seconds() const { return points_seconds_; }
 
  private:
   CameraSystem system_;
@@ -130,7 +141,10 @@ class MLSPACES_API CameraRecorder {
   std::vector<unsigned char> rgb_buf_, grey_buf_;
   std::vector<sim::CameraView> views_;  // this state's, Capture's
   std::vector<float> depth_buf_;
-  double render_seconds_ = 0, encode_seconds_ = 0;
+  std::unique_ptr<ObjectImagePoints> points_;  // this episode's tracked objects; null: none
+  Rng points_rng_{0};
+  std::vector<int> segment_buf_;
+  double render_seconds_ = 0, encode_seconds_ = 0, points_seconds_ = 0;
 };
 
 }  // namespace mlspaces::datagen

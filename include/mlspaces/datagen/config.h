@@ -349,6 +349,9 @@ struct MLSPACES_API CameraConfig {
   double fov = 45.0;                                            ///< vertical field of view, degrees
   /// Minimum visible fraction per object name (robot placement checks).
   std::map<std::string, double> visibility_constraints;
+  /// object_image_points of this camera from the whole segmentation mask, not eroded (the
+  /// original's option for wide-angle cameras).
+  bool skip_erosion = false;
 
   template <class A>
   void Serialize(A* a) {
@@ -361,6 +364,7 @@ struct MLSPACES_API CameraConfig {
     a->Visit("camera_quaternion", camera_quaternion);
     a->Visit("fov", fov);
     a->Visit("visibility_constraints", visibility_constraints);
+    a->Visit("skip_erosion", skip_erosion);
   }
 };
 
@@ -397,6 +401,9 @@ struct MLSPACES_API CameraSystemConfig {
   /// sides where the lighting allows (sim::RenderOptions::coarse_sides): the same pixels
   /// covered, about a fifth less time a frame on llvmpipe; false draws MuJoCo's shapes.
   bool coarse_sides = true;
+  /// Record obs/extra/object_image_points (datagen/object_image_points.h), as the original
+  /// always does: one segmentation render per camera and observation.
+  bool object_image_points = true;
 
   /// FrankaDroidCameraSystem's two cameras: wrist_camera and exo_camera_1.
   static std::vector<CameraConfig> DroidCameras();
@@ -417,6 +424,7 @@ struct MLSPACES_API CameraSystemConfig {
     a->Visit("fit_shadows", fit_shadows);
     a->Visit("one_pass_shadows", one_pass_shadows);
     a->Visit("coarse_sides", coarse_sides);
+    a->Visit("object_image_points", object_image_points);
   }
 };
 

@@ -160,6 +160,14 @@ class MLSPACES_API Renderer {
   void Render(const mjData* d, const CameraView& view, unsigned char* rgb,
               float* depth_m = nullptr);
 
+  /// The segmentation of the state in `d` seen from `view`: MuJoCo's mjRND_SEGMENT |
+  /// mjRND_IDCOLOR render of the geoms Render draws (vis_option()'s groups), each flat, with
+  /// no lights, textures, shadows, reflection or multisampling. `geom_ids`: height*width ints,
+  /// rows top to bottom, written: the model geom id seen at each pixel, -1 where none is
+  /// (background, sites, frames and other decor). Same conditions on `d` as Render().
+  /// @throws UsageError for a null d or geom_ids, or fovy_deg outside (0, 180).
+  void RenderSegmentation(const mjData* d, const CameraView& view, int* geom_ids);
+
   /// The views the renders to come show each state from (a camera system's cameras), for
   /// fit_shadows: each state's maps then hold the shadows any of them sees, and its renders
   /// share one set of maps. Without, a render's maps hold the shadows its own view sees.
@@ -180,6 +188,10 @@ class MLSPACES_API Renderer {
 
   int width() const;
   int height() const;
+  /// The Renderer's copy of the model (the offscreen buffer raised to the picture's size):
+  /// its names, ids and structure are the model's. Owned by the Renderer, valid while it
+  /// lives.
+  const mjModel* model() const;
   GlBackend backend() const;
   /// The EGL device this Renderer renders on (an index of ListEglDevices()); -1 for OSMesa
   /// and the surfaceless platform.
@@ -219,6 +231,8 @@ class MLSPACES_API Renderer {
   struct Impl;
 
  private:
+  // The abstract scene of the state in `d` seen from `view`, the context current.
+  void UpdateScene(const mjData* d, const CameraView& view);
   void Draw(unsigned char* rgb, float* depth_m);
   std::unique_ptr<Impl> impl_;
 };

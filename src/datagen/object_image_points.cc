@@ -1,0 +1,199 @@
+#include "mlspaces/datagen/object_image_points.h"
+
+#include <mujoco/mujoco.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <limits>
+#include <utility>
+
+#include "mlspaces/core/error.h"
+
+namespace mlspaces::datagen {
+namespace {
+
+constexpr char kGroup[] = "object_image_points/";
+
+// numpy.round(x, 4) on float32: x * 10000, rint (half to even), / 10000, each in float32.
+float Round4(float x) {
+  const float scaled = x * 10000.0f;
+  return std::nearbyint(scaled) / 10000.0f;
+}
+
+}  // namespace
+
+std::vector<TrackedObject> TaskObjects(const mjModel* m, const Task& task, const TaskConfig& config,
+                                       const std::string& gripper_body) {
+  std::vector<TrackedObject> out{{"gripper", gripper_body}};
+  std::vector<std::string> added;
+  for (const auto& [name, _] : config.added_objects) {
+    if (mj_name2id(m, mjOBJ_BODY, name.c_str()) >= 0) added.push_back(name);
+  }
+  if (task.place) {
+    for (const std::string& r : task.place->other_receptacles) added.push_back(r);
+  }
+  for (size_t k = 0; k < added.size(); ++k) {
+    out.push_back({"added_" + std::to_string(k), added[k]});
+  }
+  // The original's deduplicate_task_objects_name: the role replaces any key of its body.
+  auto assign = [&out](const std::string& key, const std::string& body) {
+    std::erase_if(out, [&](const TrackedObject& o) { return o.body == body; });
+    out.push_back({key, body});
+  };
+  assign("pickup_obj", task.pickup_obj_name);
+  if (task.place) assign("place_receptacle", task.place->receptacle);
+  return out;
+}
+
+bool TracksObjectsIn(std::string_view camera_name) {
+  std::string lower(camera_name);
+  for (char& c : lower) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return lower.find("follower") == std::string::npos;
+}
+
+std::vector<unsigned char> ErodeMask(const std::vector<unsigned char>& mask, int width, int height,
+                                     int iterations) {
+  if (width < 0 || height < 0 ||
+      mask.size() != static_cast<size_t>(width) * static_cast<size_t>(height)) {
+    throw UsageError("ErodeMask: the mask holds " + std::to_string(mask.size()) + " pixels, not " +
+                     std::to_string(width) + "x" + std::to_string(height));
+  }
+  std::vector<unsigned char> cur(mask.size()), next(mask.size());
+  for (size_t i = 0; i < mask.size(); ++i) cur[i] = mask[i] != 0 ? 1 : 0;
+  for (int it = 0; it < iterations; ++it) {
+    for (int y = 0; y < height; ++y) {
+      for (int x = 0; x < width; ++x) {
+        const size_t i = static_cast<size_t>(y) * width + x;
+        next[i] = cur[i] != 0 && x > 0 && x + 1 < width && y > 0 && y + 1 < height &&
+                          cur[i - 1] != 0 && cur[i + 1] != 0 && cur[i - width] != 0 &&
+                          cur[i + width] != 0
+                      ? 1
+                      : 0;
+      }
+    }
+    std::swap(cur, next);
+  }
+  return cur;
+}
+
+ImagePoints::ImagePoints() { points.fill(std::numeric_limits<float>::quiet_NaN()); }
+
+ImagePoints SampleImagePoints(const std::vector<unsigned char>& mask, int width, int height,
+                              bool erode, Rng& rng, const MaskWindow& window) {
+  std::vector<unsigned char> eroded;
+  const std::vector<unsigned char>* use = &mask;
+  if (erode) {
+    eroded = ErodeMask(mask, width, height, kImagePointErosions);
+    if (std::any_of(eroded.begin(), eroded.end(), [](unsigned char v) { return v != 0; })) {
+      use = &eroded;
+    }
+  } else if (mask.size() != static_cast<size_t>(width) * static_cast<size_t>(height)) {
+    ErodeMask(mask, width, height, 0);  // throws the size error
+  }
+  std::vector<uint32_t> pixels;
+  for (size_t i = 0; i < use->size(); ++i) {
+    if ((*use)[i] != 0) pixels.push_back(static_cast<uint32_t>(i));
+  }
+  ImagePoints out;
+  const size_t n = std::min<size_t>(pixels.size(), kMaxImagePoints);
+  if (pixels.size() > kMaxImagePoints) {
+    // Partial Fisher-Yates: the first n slots become a draw without replacement.
+    for (size_t k = 0; k < n; ++k) {
+      const size_t j = k + static_cast<size_t>(rng.UniformInt(pixels.size() - k));
+      std::swap(pixels[k], pixels[j]);
+    }
+  }
+  const int image_w = window.image_width > 0 ? window.image_width : width;
+  const int image_h = window.image_height > 0 ? window.image_height : height;
+  const auto w = static_cast<float>(image_w), h = static_cast<float>(image_h);
+  for (size_t k = 0; k < n; ++k) {
+    const uint32_t row = pixels[k] / static_cast<uint32_t>(width) + window.y;
+    const uint32_t col = pixels[k] % static_cast<uint32_t>(width) + window.x;
+    out.points[2 * k] = Round4(static_cast<float>(col) / w);
+    out.points[2 * k + 1] = Round4(static_cast<float>(row) / h);
+  }
+  out.count = static_cast<int32_t>(n);
+  return out;
+}
+
+ObjectImagePoints::ObjectImagePoints(const mjModel* m, std::vector<TrackedObject> objects)
+    : objects_(std::move(objects)) {
+  for (const TrackedObject& o : objects_) {
+    const int root = mj_name2id(m, mjOBJ_BODY, o.body.c_str());
+    if (root < 0) {
+      throw Error("object_image_points: no body '" + o.body + "' in the scene", "",
+                  "object_image_points/" + o.key);
+    }
+    std::vector<unsigned char> owns(static_cast<size_t>(m->ngeom), 0);
+    for (int g = 0; g < m->ngeom; ++g) {
+      for (int b = m->geom_bodyid[g]; b > 0; b = m->body_parentid[b]) {
+        if (b == root) {
+          owns[g] = 1;
+          break;
+        }
+      }
+      if (root == 0) owns[g] = 1;  // the world's subtree is everything
+    }
+    owns_.push_back(std::move(owns));
+  }
+  owner_.resize(static_cast<size_t>(m->ngeom));
+  for (size_t k = 0; k < owns_.size(); ++k) {
+    for (int g = 0; g < m->ngeom; ++g) {
+      if (owns_[k][g] != 0) owner_[g].push_back(static_cast<int>(k));
+    }
+  }
+}
+
+void ObjectImagePoints::Append(const int* geom_ids, int width, int height,
+                               const std::string& camera, bool skip_erosion, Rng& rng,
+                               std::map<std::string, Series>& extra) const {
+  // Each object's pixels lie in its bounding box: erode and draw there (outside it nothing is
+  // set, so the erosion and the row-major order are the whole image's).
+  struct Box {
+    int x0 = std::numeric_limits<int>::max(), y0 = std::numeric_limits<int>::max();
+    int x1 = -1, y1 = -1;
+  };
+  std::vector<Box> boxes(objects_.size());
+  for (int y = 0; y < height; ++y) {
+    const int* row = geom_ids + static_cast<size_t>(y) * width;
+    for (int x = 0; x < width; ++x) {
+      const int g = row[x];
+      if (g < 0 || static_cast<size_t>(g) >= owner_.size() || owner_[g].empty()) continue;
+      for (const int k : owner_[g]) {
+        Box& b = boxes[k];
+        b.x0 = std::min(b.x0, x);
+        b.x1 = std::max(b.x1, x);
+        b.y0 = std::min(b.y0, y);
+        b.y1 = std::max(b.y1, y);
+      }
+    }
+  }
+  std::vector<unsigned char> mask;
+  for (size_t k = 0; k < objects_.size(); ++k) {
+    const Box& b = boxes[k];
+    ImagePoints p;
+    if (b.x1 >= 0) {
+      const int bw = b.x1 - b.x0 + 1, bh = b.y1 - b.y0 + 1;
+      const std::vector<unsigned char>& owns = owns_[k];
+      mask.assign(static_cast<size_t>(bw) * bh, 0);
+      for (int y = 0; y < bh; ++y) {
+        const int* row = geom_ids + static_cast<size_t>(b.y0 + y) * width + b.x0;
+        for (int x = 0; x < bw; ++x) {
+          const int g = row[x];
+          mask[static_cast<size_t>(y) * bw + x] =
+              g >= 0 && static_cast<size_t>(g) < owns.size() && owns[g] != 0 ? 1 : 0;
+        }
+      }
+      const bool erode = !skip_erosion && objects_[k].key.find("handle") == std::string::npos;
+      p = SampleImagePoints(mask, bw, bh, erode, rng, {b.x0, b.y0, width, height});
+    }
+    const std::string base = kGroup + objects_[k].key + "/" + camera + "/";
+    extra.try_emplace(base + "points", DType::kFloat32, std::vector<size_t>{kMaxImagePoints, 2})
+        .first->second.Append(std::vector<double>(p.points.begin(), p.points.end()));
+    extra.try_emplace(base + "num_points", DType::kInt32, std::vector<size_t>{1})
+        .first->second.AppendInts({p.count});
+  }
+}
+
+}  // namespace mlspaces::datagen

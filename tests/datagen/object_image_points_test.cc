@@ -1,0 +1,241 @@
+// object_image_points: the erosion (scipy's), the points drawn from a mask (numpy's rounding),
+// the objects of a task, and the points the camera recorder writes for the tutorial scene.
+#include "mlspaces/datagen/object_image_points.h"
+
+#include <mujoco/mujoco.h>
+
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <set>
+
+#include <gtest/gtest.h>
+
+#include "mlspaces/core/error.h"
+#include "mlspaces/datagen/camera_recorder.h"
+#include "mlspaces/datagen/env.h"
+#include "test_util.h"
+
+namespace mlspaces::datagen {
+namespace {
+
+namespace fs = std::filesystem;
+const fs::path kExample = fs::path(MLSPACES_EXAMPLES_DIR) / "custom_assets";
+
+using Mask = std::vector<unsigned char>;
+
+// The definition of two erosions by the 3x3 cross with the outside unset: every pixel within
+// Manhattan distance `n` of a kept pixel is set and inside the image.
+Mask ErodeByDefinition(const Mask& m, int w, int h, int n) {
+  Mask out(m.size(), 0);
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
+      bool keep = true;
+      for (int dy = -n; dy <= n && keep; ++dy) {
+        for (int dx = -n; dx <= n && keep; ++dx) {
+          if (std::abs(dx) + std::abs(dy) > n) continue;
+          const int u = x + dx, v = y + dy;
+          keep = u >= 0 && u < w && v >= 0 && v < h && m[static_cast<size_t>(v) * w + u] != 0;
+        }
+      }
+      out[static_cast<size_t>(y) * w + x] = keep ? 1 : 0;
+    }
+  }
+  return out;
+}
+
+TEST(ErodeMask, IsScipysBinaryErosionWithTheCross) {
+  // A full 5x5: the border goes, then the ring inside it: the centre alone stays.
+  const Mask full(25, 1);
+  const Mask once = ErodeMask(full, 5, 5, 1), twice = ErodeMask(full, 5, 5, 2);
+  EXPECT_EQ(std::count(once.begin(), once.end(), 1), 9);
+  EXPECT_EQ(std::count(twice.begin(), twice.end(), 1), 1);
+  EXPECT_EQ(twice[12], 1);
+  // Random blobs: equal to the definition for 0, 1, 2 and 3 iterations.
+  Rng rng(5);
+  for (int trial = 0; trial < 20; ++trial) {
+    const int w = 5 + static_cast<int>(rng.UniformInt(30)),
+              h = 5 + static_cast<int>(rng.UniformInt(30));
+    Mask m(static_cast<size_t>(w) * h);
+    for (auto& v : m) v = rng.Uniform01() < 0.8 ? 1 : 0;
+    for (int n = 0; n <= 3; ++n) {
+      ASSERT_EQ(ErodeMask(m, w, h, n), ErodeByDefinition(m, w, h, n)) << trial << " " << n;
+    }
+  }
+  EXPECT_THROW(ErodeMask(Mask(10), 3, 3, 1), UsageError);
+}
+
+Mask Rect(int w, int h, int x0, int y0, int x1, int y1) {
+  Mask m(static_cast<size_t>(w) * h, 0);
+  for (int y = y0; y <= y1; ++y) {
+    for (int x = x0; x <= x1; ++x) m[static_cast<size_t>(y) * w + x] = 1;
+  }
+  return m;
+}
+
+TEST(SampleImagePoints, TenDistinctPixelsOfTheErodedMaskRoundedAsNumpy) {
+  const int w = 640, h = 368;
+  const Mask m = Rect(w, h, 100, 50, 139, 79);  // 40 x 30
+  const Mask eroded = ErodeMask(m, w, h, 2);
+  Rng rng(1);
+  const ImagePoints p = SampleImagePoints(m, w, h, true, rng);
+  ASSERT_EQ(p.count, 10);
+  std::set<std::pair<float, float>> seen;
+  for (int k = 0; k < 10; ++k) {
+    const float x = p.points[2 * k], y = p.points[2 * k + 1];
+    const int col = static_cast<int>(std::lround(x * w)),
+              row = static_cast<int>(std::lround(y * h));
+    EXPECT_EQ(eroded[static_cast<size_t>(row) * w + col], 1) << x << " " << y;
+    seen.insert({x, y});
+  }
+  EXPECT_EQ(seen.size(), 10u);
+  // numpy.round(np.float32(col) / 640, 4) in float32 differs from rounding in double here.
+  const Mask few = [&] {
+    Mask f(static_cast<size_t>(w) * h, 0);
+    for (int col : {4, 12, 28}) f[col] = 1;
+    return f;
+  }();
+  Rng untouched(9), reference(9);
+  const ImagePoints q = SampleImagePoints(few, w, h, true, untouched);
+  ASSERT_EQ(q.count, 3);  // erosion leaves nothing: the mask itself, in row-major order
+  EXPECT_EQ(q.points[0], 0.0062f);
+  EXPECT_EQ(q.points[2], 0.0188f);
+  EXPECT_EQ(q.points[4], 0.0438f);
+  EXPECT_EQ(q.points[1], 0.0f);
+  for (int k = 6; k < 20; ++k) EXPECT_TRUE(std::isnan(q.points[k])) << k;
+  EXPECT_EQ(untouched.NextU64(), reference.NextU64()) << "no draw for ten points or fewer";
+  const ImagePoints none = SampleImagePoints(Mask(static_cast<size_t>(w) * h, 0), w, h, true, rng);
+  EXPECT_EQ(none.count, 0);
+  for (float v : none.points) EXPECT_TRUE(std::isnan(v));
+}
+
+TEST(SampleImagePoints, AWindowHoldingTheMaskDrawsTheWholeImagesPoints) {
+  const int w = 200, h = 100;
+  const Mask whole = Rect(w, h, 30, 20, 80, 60);
+  Mask window(51 * 41, 1);
+  Rng a(3), b(3);
+  const ImagePoints p = SampleImagePoints(whole, w, h, true, a);
+  const ImagePoints q = SampleImagePoints(window, 51, 41, true, b, {30, 20, w, h});
+  EXPECT_EQ(std::memcmp(p.points.data(), q.points.data(), sizeof p.points), 0);
+  // Without erosion the border pixels can be drawn too; a different seed draws others.
+  Rng c(4);
+  const ImagePoints r = SampleImagePoints(whole, w, h, false, c);
+  EXPECT_EQ(r.count, 10);
+  EXPECT_NE(std::memcmp(p.points.data(), r.points.data(), sizeof p.points), 0);
+}
+
+TEST(TracksObjectsIn, LeavesOutFollowerCameras) {
+  EXPECT_TRUE(TracksObjectsIn("wrist_camera"));
+  EXPECT_FALSE(TracksObjectsIn("exo_Follower_camera"));
+}
+
+class ObjectImagePointsTest : public ::testing::Test {
+ protected:
+  ObjectImagePointsTest()
+      : env_(Env::Create(sim::Scene::Load(kExample / "scene.xml"),
+                         RobotSpecFromConfig(TutorialRobot()), "house_0")) {}
+  static RobotConfig TutorialRobot() {
+    RobotConfig robot;
+    robot.base_size.reset();
+    return robot;
+  }
+  Env env_;
+};
+
+TEST_F(ObjectImagePointsTest, TheTaskObjectsAreTheOriginals) {
+  Task task;
+  task.pickup_obj_name = "red_block";
+  TaskConfig config;
+  config.added_objects = {{"red_block", "block.xml"}, {"not_in_scene", "x.xml"}};
+  const std::vector<TrackedObject> pick =
+      TaskObjects(env_.model(), task, config, "robot_0/gripper/base");
+  ASSERT_EQ(pick.size(), 2u);
+  EXPECT_EQ(pick[0].key, "gripper");
+  EXPECT_EQ(pick[0].body, "robot_0/gripper/base");
+  EXPECT_EQ(pick[1].key, "pickup_obj");  // replaces added_0, the same body
+  EXPECT_EQ(pick[1].body, "red_block");
+  task.place = TaskPlace{};
+  task.place->receptacle = "bowl";
+  task.place->other_receptacles = {"plate", "cup"};
+  const std::vector<TrackedObject> place = TaskObjects(env_.model(), task, {}, "g");
+  std::vector<std::string> keys;
+  for (const TrackedObject& o : place) keys.push_back(o.key + "=" + o.body);
+  EXPECT_EQ(keys, (std::vector<std::string>{"gripper=g", "added_0=plate", "added_1=cup",
+                                            "pickup_obj=red_block", "place_receptacle=bowl"}));
+}
+
+TEST_F(ObjectImagePointsTest, AMissingBodyIsNamed) {
+  testing::ExpectError(
+      [&] {
+        ObjectImagePoints(env_.model(), {{"pickup_obj", "no_such_body"}});
+      },
+      {"no_such_body", "object_image_points/pickup_obj"});
+}
+
+// The recorder's points lie on the object in a segmentation of the same state, ten per
+// camera while it is seen, none for an object out of sight; the same seed draws the same.
+TEST_F(ObjectImagePointsTest, TheRecorderDrawsThemFromTheObjectsPixels) {
+  testing::TempDir dir;
+  CameraSystemConfig config;
+  config.img_resolution = {320, 192};
+  const mjModel* m = env_.model();
+  mjData* d = env_.data();
+  const std::vector<TrackedObject> objects{{"gripper", "robot_0/gripper/base"},
+                                           {"pickup_obj", "red_block"}};
+  auto capture = [&](uint64_t seed) {
+    CameraRecorder rec(m, config, 15, sim::GlBackend::kOsMesa);
+    std::map<std::string, Series> extra;
+    rec.Begin(dir.path(), 0, objects, seed);
+    rec.Capture(d, &extra);
+    rec.Capture(d, nullptr);  // nothing to append to
+    rec.End();
+    return extra;
+  };
+  mj_forward(m, d);
+  const std::map<std::string, Series> extra = capture(11);
+  ASSERT_EQ(extra.size(), 8u);
+  const CameraSystem cams(m, config);
+  sim::RenderOptions options;
+  options.width = 320;
+  options.height = 192;
+  sim::Renderer seg(m, options);
+  std::vector<int> ids(320 * 192);
+  const int block = mj_name2id(m, mjOBJ_BODY, "red_block");
+  for (size_t c = 0; c < cams.size(); ++c) {
+    seg.RenderSegmentation(d, cams.View(c, d), ids.data());
+    const std::string base = "object_image_points/pickup_obj/" + cams.name(c) + "/";
+    const Series& points = extra.at(base + "points");
+    const Series& count = extra.at(base + "num_points");
+    ASSERT_EQ(points.steps(), 1u);
+    EXPECT_EQ(points.row_shape(), (std::vector<size_t>{10, 2}));
+    EXPECT_EQ(count.dtype(), DType::kInt32);
+    const int32_t n = *reinterpret_cast<const int32_t*>(count.bytes().data());
+    const auto* xy = reinterpret_cast<const float*>(points.bytes().data());
+    EXPECT_EQ(n, 10) << cams.name(c) << ": the block is in both cameras' views";
+    for (int k = 0; k < n; ++k) {
+      const int col = static_cast<int>(std::lround(xy[2 * k] * 320));
+      const int row = static_cast<int>(std::lround(xy[2 * k + 1] * 192));
+      const int g = ids[static_cast<size_t>(row) * 320 + col];
+      ASSERT_GE(g, 0);
+      EXPECT_EQ(m->geom_bodyid[g], block) << cams.name(c) << " point " << k;
+    }
+  }
+  // The same seed, the same bytes; another seed, other points.
+  EXPECT_EQ(capture(11).at("object_image_points/gripper/wrist_camera/points").bytes(),
+            extra.at("object_image_points/gripper/wrist_camera/points").bytes());
+  EXPECT_NE(capture(12).at("object_image_points/pickup_obj/exo_camera_1/points").bytes(),
+            extra.at("object_image_points/pickup_obj/exo_camera_1/points").bytes());
+  // The block far away: out of both views, no points, NaN rows.
+  const int jnt = m->body_jntadr[block];
+  d->qpos[m->jnt_qposadr[jnt] + 2] = -50;
+  mj_forward(m, d);
+  const std::map<std::string, Series> hidden = capture(11);
+  const Series& gone = hidden.at("object_image_points/pickup_obj/exo_camera_1/num_points");
+  EXPECT_EQ(*reinterpret_cast<const int32_t*>(gone.bytes().data()), 0);
+  // Switched off: nothing recorded.
+  config.object_image_points = false;
+  EXPECT_TRUE(capture(11).empty());
+}
+
+}  // namespace
+}  // namespace mlspaces::datagen

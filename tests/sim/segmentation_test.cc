@@ -1,0 +1,178 @@
+// Renderer::RenderSegmentation: the geom seen at each pixel, against MuJoCo's ray casts, one
+// pass against mjr_render's own segmentation, and the colour frames around it unchanged.
+#include <mujoco/mujoco.h>
+
+#include <array>
+#include <cmath>
+#include <memory>
+#include <set>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "mlspaces/core/error.h"
+#include "mlspaces/sim/mujoco_handlers.h"
+#include "mlspaces/sim/renderer.h"
+
+namespace mlspaces::sim {
+namespace {
+
+// Every geom type one pass draws (a mesh, a half-transparent box, a plane), a body with two
+// geoms, and a big site in front of the capsule.
+constexpr const char* kXml = R"(
+<mujoco model="segmentation_test">
+  <asset>
+    <mesh name="tetra" vertex="0 0 0  0.2 0 0  0 0.2 0  0 0 0.2"/>
+  </asset>
+  <worldbody>
+    <light pos="0 0 3" dir="0 0 -1" directional="true" castshadow="true"/>
+    <geom name="floor" type="plane" size="2 2 0.1" rgba="0.5 0.5 0.5 1"/>
+    <body name="pair" pos="0 0 0.1">
+      <geom name="pair_box" type="box" size="0.1 0.1 0.1" rgba="1 0 0 1"/>
+      <geom name="pair_ball" type="sphere" pos="0 0 0.18" size="0.08" rgba="0 1 0 1"/>
+    </body>
+    <geom name="capsule" type="capsule" fromto="0.35 -0.3 0.06 0.35 0.3 0.06" size="0.06"/>
+    <geom name="cylinder" type="cylinder" pos="-0.35 0.2 0.1" size="0.07 0.1"/>
+    <geom name="ellipsoid" type="ellipsoid" pos="-0.3 -0.3 0.1" size="0.1 0.06 0.08"/>
+    <geom name="glass" type="box" pos="0 -0.35 0.1" size="0.12 0.02 0.1" rgba="0.2 0.2 1 0.4"/>
+    <geom name="tetra" type="mesh" mesh="tetra" pos="0.2 0.35 0"/>
+    <site name="marker" pos="0.35 0.45 0.06" size="0.05" rgba="1 1 0 1"/>
+  </worldbody>
+</mujoco>)";
+
+struct World {
+  ModelPtr m;
+  DataPtr d;
+};
+
+World Load() {
+  World w;
+  w.m = LoadModelFromMemory(kXml);
+  w.d = MakeData(w.m.get());
+  mj_forward(w.m.get(), w.d.get());
+  return w;
+}
+
+RenderOptions Options(bool one_pass) {
+  RenderOptions o;
+  o.width = 320;
+  o.height = 240;
+  o.one_pass_shadows = one_pass;
+  o.coarse_sides = one_pass;
+  o.fit_shadows = one_pass;
+  o.shadow_size = 1024;
+  return o;
+}
+
+const CameraView kView = LookAt({1.1, -0.9, 0.9}, {0, 0, 0.1}, 50);
+
+// The geom mj_ray hits through the centre of pixel (row, col) of `view` (-1: none).
+int RayGeom(const mjModel* m, const mjData* d, const CameraView& view, int width, int height,
+            int row, int col) {
+  const double t = std::tan(view.fovy_deg * mjPI / 360.0);
+  const double x = ((col + 0.5) / width * 2 - 1) * t * width / height;
+  const double y = (1 - (row + 0.5) / height * 2) * t;
+  mjtNum dir[3];
+  for (int k = 0; k < 3; ++k) {
+    dir[k] = x * view.xmat[3 * k] + y * view.xmat[3 * k + 1] - view.xmat[3 * k + 2];
+  }
+  int geom = -1;
+  mj_ray(m, d, view.pos.data(), dir, nullptr, 1, -1, &geom, nullptr);
+  return geom;
+}
+
+std::vector<int> Segment(Renderer& r, const mjData* d, const CameraView& view) {
+  std::vector<int> ids(static_cast<size_t>(r.width()) * r.height(), -7);
+  r.RenderSegmentation(d, view, ids.data());
+  return ids;
+}
+
+class SegmentationTest : public ::testing::TestWithParam<bool> {};
+
+TEST_P(SegmentationTest, EachPixelShowsTheGeomAMujocoRayHits) {
+  World w = Load();
+  Renderer r(w.m.get(), Options(GetParam()));
+  const std::vector<int> ids = Segment(r, w.d.get(), kView);
+  int agree = 0, total = 0;
+  std::set<int> seen;
+  for (int row = 0; row < r.height(); row += 2) {
+    for (int col = 0; col < r.width(); col += 2) {
+      const int id = ids[static_cast<size_t>(row) * r.width() + col];
+      ASSERT_GE(id, -1);
+      ASSERT_LT(id, w.m->ngeom);
+      seen.insert(id);
+      agree += id == RayGeom(w.m.get(), w.d.get(), kView, r.width(), r.height(), row, col);
+      ++total;
+    }
+  }
+  // Pixels on the outlines of tessellated shapes may differ; nothing else.
+  EXPECT_GT(agree, 0.97 * total) << agree << " of " << total;
+  EXPECT_EQ(static_cast<int>(seen.size()), w.m->ngeom + 1) << "every geom and the background";
+}
+
+TEST_P(SegmentationTest, SitesAndTheBackgroundAreNoGeom) {
+  World w = Load();
+  Renderer r(w.m.get(), Options(GetParam()));
+  r.vis_option().sitegroup[0] = 1;
+  const int site = mj_name2id(w.m.get(), mjOBJ_SITE, "marker");
+  const std::array<double, 3> p{w.d->site_xpos[3 * site], w.d->site_xpos[3 * site + 1],
+                                w.d->site_xpos[3 * site + 2]};
+  // Looking at the site from above, the floor beyond the plane's edge at the top.
+  const CameraView view = LookAt({p[0], p[1] - 0.6, p[2] + 0.4}, p, 40);
+  const std::vector<int> ids = Segment(r, w.d.get(), view);
+  const int w2 = r.width() / 2, h2 = r.height() / 2;
+  EXPECT_EQ(ids[static_cast<size_t>(h2) * r.width() + w2], -1) << "the site";
+  r.vis_option().sitegroup[0] = 0;
+  const std::vector<int> without = Segment(r, w.d.get(), view);
+  EXPECT_EQ(without[static_cast<size_t>(h2) * r.width() + w2],
+            RayGeom(w.m.get(), w.d.get(), view, r.width(), r.height(), h2, w2));
+  const CameraView sky = LookAt({0, 0, 0.5}, {0, 0, 3}, 40);
+  const std::vector<int> up = Segment(r, w.d.get(), sky);
+  for (const int id : up) ASSERT_EQ(id, -1);
+}
+
+TEST_P(SegmentationTest, LeavesTheColourFramesAsTheyWere) {
+  World w = Load();
+  Renderer r(w.m.get(), Options(GetParam()));
+  const size_t n = static_cast<size_t>(r.width()) * r.height();
+  std::vector<unsigned char> before(3 * n), after(3 * n);
+  std::vector<float> depth_before(n), depth_after(n);
+  r.Render(w.d.get(), kView, before.data(), depth_before.data());
+  Segment(r, w.d.get(), kView);
+  r.Render(w.d.get(), kView, after.data(), depth_after.data());
+  EXPECT_EQ(before, after);
+  EXPECT_EQ(depth_before, depth_after);
+}
+
+TEST_P(SegmentationTest, ChecksItsArguments) {
+  World w = Load();
+  Renderer r(w.m.get(), Options(GetParam()));
+  std::vector<int> ids(static_cast<size_t>(r.width()) * r.height());
+  EXPECT_THROW(r.RenderSegmentation(nullptr, kView, ids.data()), UsageError);
+  EXPECT_THROW(r.RenderSegmentation(w.d.get(), kView, nullptr), UsageError);
+  CameraView bad = kView;
+  bad.fovy_deg = 180;
+  EXPECT_THROW(r.RenderSegmentation(w.d.get(), bad, ids.data()), UsageError);
+}
+
+INSTANTIATE_TEST_SUITE_P(Paths, SegmentationTest, ::testing::Bool(),
+                         [](const ::testing::TestParamInfo<bool>& info) {
+                           return info.param ? std::string("OnePass") : std::string("MuJoCo");
+                         });
+
+TEST(Segmentation, OnePassEqualsMujocosOwn) {
+  World w = Load();
+  Renderer one(w.m.get(), Options(true)), mujoco(w.m.get(), Options(false));
+  for (const CameraView& view :
+       {kView, LookAt({0.2, 0.1, 1.5}, {0, 0, 0}, 45), LookAt({-0.8, 0.6, 0.3}, {0, 0, 0.1}, 60)}) {
+    const std::vector<int> a = Segment(one, w.d.get(), view), b = Segment(mujoco, w.d.get(), view);
+    size_t same = 0;
+    for (size_t i = 0; i < a.size(); ++i) same += a[i] == b[i];
+    EXPECT_GT(static_cast<double>(same), 0.999 * static_cast<double>(a.size()))
+        << same << " of " << a.size();
+  }
+}
+
+}  // namespace
+}  // namespace mlspaces::sim

@@ -138,9 +138,12 @@ ObjectImagePoints::ObjectImagePoints(const mjModel* m, std::vector<TrackedObject
     owns_.push_back(std::move(owns));
   }
   owner_.resize(static_cast<size_t>(m->ngeom));
+  tracked_.assign(static_cast<size_t>(m->ngeom), 0);
   for (size_t k = 0; k < owns_.size(); ++k) {
     for (int g = 0; g < m->ngeom; ++g) {
-      if (owns_[k][g] != 0) owner_[g].push_back(static_cast<int>(k));
+      if (owns_[k][g] == 0) continue;
+      owner_[g].push_back(static_cast<int>(k));
+      tracked_[g] = 1;
     }
   }
 }
@@ -155,11 +158,12 @@ void ObjectImagePoints::Append(const int* geom_ids, int width, int height,
     int x1 = -1, y1 = -1;
   };
   std::vector<Box> boxes(objects_.size());
+  const size_t ngeom = tracked_.size();
   for (int y = 0; y < height; ++y) {
     const int* row = geom_ids + static_cast<size_t>(y) * width;
     for (int x = 0; x < width; ++x) {
-      const int g = row[x];
-      if (g < 0 || static_cast<size_t>(g) >= owner_.size() || owner_[g].empty()) continue;
+      const auto g = static_cast<size_t>(row[x]);  // -1 wraps past ngeom
+      if (g >= ngeom || tracked_[g] == 0) continue;
       for (const int k : owner_[g]) {
         Box& b = boxes[k];
         b.x0 = std::min(b.x0, x);

@@ -55,6 +55,7 @@ struct Renderer::Impl {
   std::vector<ShadowView> shadow_views;    // SetShadowViews
   std::string one_pass_missed;             // why one pass could not draw the last frame it missed
   std::vector<unsigned char> segment_rgb;  // RenderSegmentation's colours
+  std::vector<int> segment_table;          // and its colour -> geom id table
 
   ~Impl() {
     if (context_made && gl) {
@@ -242,7 +243,8 @@ void Renderer::Render(const mjData* d, const CameraView& view, unsigned char* rg
   Draw(rgb, depth_m);
 }
 
-void Renderer::RenderSegmentation(const mjData* d, const CameraView& view, int* geom_ids) {
+void Renderer::RenderSegmentation(const mjData* d, const CameraView& view, int* geom_ids,
+                                  const std::vector<unsigned char>* interest) {
   Impl& s = *impl_;
   if (d == nullptr || geom_ids == nullptr) {
     throw UsageError("Renderer::RenderSegmentation: null data or geom_ids");
@@ -250,13 +252,21 @@ void Renderer::RenderSegmentation(const mjData* d, const CameraView& view, int* 
   CheckFovy("Renderer::RenderSegmentation", view);
   UpdateScene(d, view);
   const int w = s.options.width, h = s.options.height;
+  const size_t count = static_cast<size_t>(w) * h;
   const mjrRect viewport{0, 0, w, h};
   mjr_setBuffer(mjFB_OFFSCREEN, &s.con);
   // MuJoCo's segmentation: each geom flat in the colour of its index in the scene plus one
   // (mjRND_IDCOLOR), no lights, textures, shadows, reflection or multisampling; 0 is clear.
-  // One pass draws it the same way with fewer vertices where it can.
+  // One pass draws it the same way with fewer vertices where it can, and only where the
+  // geoms of interest may be.
+  mjrRect part = viewport;
   if (s.shadow_pass && ShadowPass::SegmentUnsupported(s.scn) == nullptr) {
-    s.shadow_pass->Segment(viewport, s.scn, s.con);
+    if (interest != nullptr) part = s.shadow_pass->InterestRect(viewport, s.scn, *interest);
+    if (part.width == 0) {
+      std::fill(geom_ids, geom_ids + count, -1);
+      return;
+    }
+    s.shadow_pass->Segment(viewport, s.scn, s.con, &part);
   } else {
     mjtByte* flags = s.scn.flags;
     const mjtByte segment = flags[mjRND_SEGMENT], idcolor = flags[mjRND_IDCOLOR];
@@ -266,20 +276,30 @@ void Renderer::RenderSegmentation(const mjData* d, const CameraView& view, int* 
     flags[mjRND_IDCOLOR] = idcolor;
   }
   std::vector<unsigned char>& rgb = s.segment_rgb;
-  rgb.resize(static_cast<size_t>(3) * w * h);
+  rgb.resize(static_cast<size_t>(3) * part.width * part.height);
   if (s.pack_invert != nullptr) s.pack_invert(GL_PACK_INVERT_MESA, GL_TRUE);
-  mjr_readPixels(rgb.data(), nullptr, viewport, &s.con);
+  mjr_readPixels(rgb.data(), nullptr, part, &s.con);
   if (s.pack_invert != nullptr) {
     s.pack_invert(GL_PACK_INVERT_MESA, GL_FALSE);
   } else {
-    FlipRows(rgb.data(), w, h, 3);
+    FlipRows(rgb.data(), part.width, part.height, 3);
   }
-  const size_t count = static_cast<size_t>(w) * h;
-  for (size_t i = 0; i < count; ++i) {
-    const unsigned char* c = &rgb[3 * i];
-    const int segid = (c[0] | (c[1] << 8) | (c[2] << 16)) - 1;
-    const mjvGeom* g = segid >= 0 && segid < s.scn.ngeom ? &s.scn.geoms[segid] : nullptr;
-    geom_ids[i] = g != nullptr && g->objtype == mjOBJ_GEOM ? g->objid : -1;
+  // Colour segid + 1 -> model geom id (-1: the clear colour, decor), by table.
+  std::vector<int>& table = s.segment_table;
+  table.assign(static_cast<size_t>(s.scn.ngeom) + 1, -1);
+  for (int j = 0; j < s.scn.ngeom; ++j) {
+    const mjvGeom& g = s.scn.geoms[j];
+    if (g.objtype == mjOBJ_GEOM) table[static_cast<size_t>(j) + 1] = g.objid;
+  }
+  if (part.width != w || part.height != h) std::fill(geom_ids, geom_ids + count, -1);
+  const int top = h - (part.bottom + part.height);  // the part's first row, top down
+  const unsigned char* c = rgb.data();
+  for (int row = 0; row < part.height; ++row) {
+    int* out = geom_ids + static_cast<size_t>(top + row) * w + part.left;
+    for (int col = 0; col < part.width; ++col, c += 3) {
+      const auto colour = static_cast<size_t>(c[0] | (c[1] << 8) | (c[2] << 16));
+      out[col] = colour < table.size() ? table[colour] : -1;
+    }
   }
 }
 

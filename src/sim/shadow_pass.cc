@@ -202,43 +202,6 @@ const char* ShadowPass::Unsupported(const mjvScene& scn, const mjrContext& con, 
   return nullptr;
 }
 
-const char* ShadowPass::SegmentUnsupported(const mjvScene& scn) {
-  if (scn.stereo != mjSTEREO_NONE) return "stereo";
-  if (scn.framewidth > 0) return "a frame";
-  if (scn.enabletransform) return "a scene transform";
-  if (scn.nskin > 0) return "skins";
-  for (int i = 0; i < scn.ngeom; ++i) {
-    if (!DrawnType(scn.geoms[i].type)) return "a geom type it does not draw";
-  }
-  return nullptr;
-}
-
-void ShadowPass::Segment(const mjrRect& viewport, const mjvScene& scn, const mjrContext& con) {
-  Gl& gl = *gl_;
-  float head[3];
-  HeadPos(scn, head);
-  coarse_points_.clear();  // unlit: the pieces need only span little seen from the eye
-  float cam_project[16], cam_view[16];
-  BeginFrame(viewport, scn, con, cam_project, cam_view);
-  // As mjr_render's segmentation: constant colours, no lights, fog or multisampling.
-  gl.Disable(GL_LIGHTING);
-  gl.Disable(GL_COLOR_MATERIAL);
-  gl.Disable(GL_MULTISAMPLE);
-  gl.Disable(GL_TEXTURE_2D);
-  const ViewVolume view_volume = ViewVolumeOf(Mul(cam_project, cam_view).data());
-  for (int j = 0; j < scn.ngeom; ++j) {
-    const mjvGeom& g = scn.geoms[j];
-    if (g.segid < 0 || LeftOut(view_volume, g)) continue;
-    const unsigned id = static_cast<unsigned>(g.segid) + 1;
-    gl.Color4f(static_cast<float>(id & 0xFF) / 255.0f,
-               static_cast<float>((id >> 8) & 0xFF) / 255.0f,
-               static_cast<float>((id >> 16) & 0xFF) / 255.0f, 1.0f);
-    DrawGeom(gl, g, con, Coarse(g, head));
-  }
-  gl.Enable(GL_LIGHTING);
-  gl.Enable(GL_COLOR_MATERIAL);
-}
-
 struct ShadowPass::Programs {
   Programs(ShadowPass* owner, const mjvScene& scene, const float* modelview,
            std::vector<int> maps = {}, const float* map_matrices = nullptr)

@@ -71,8 +71,17 @@ class ShadowPass {
   /// >= 0 in the flat colour segid + 1 (red the low byte), unlit, untextured, without
   /// multisampling, over a clear of 0, in the scene's order. The geoms wholly outside the view
   /// volume are left out, and coarse sides (which cover the same pixels) used where the pass
-  /// has them.
-  void Segment(const mjrRect& viewport, const mjvScene& scn, const mjrContext& con);
+  /// has them. `part` (may be null: all of `viewport`): only its pixels are drawn, the geoms
+  /// wholly outside it left out.
+  void Segment(const mjrRect& viewport, const mjvScene& scn, const mjrContext& con,
+               const mjrRect* part = nullptr);
+  /// The part of `viewport` where the geoms of `scn` whose model geom id `interest` marks
+  /// (non-zero; ids past its end are not marked) may be seen, from the camera of `scn` and the
+  /// geoms' drawn bounding spheres, with a pixel to spare; width 0 when none can be (all
+  /// behind the camera or outside the view), all of `viewport` when one crosses the near plane
+  /// or is unbounded (a plane, a height field).
+  mjrRect InterestRect(const mjrRect& viewport, const mjvScene& scn,
+                       const std::vector<unsigned char>& interest) const;
 
   /// How many times the maps were drawn (a state seen by two cameras draws them once).
   long long map_renders() const { return map_renders_; }

@@ -2,6 +2,7 @@
 // pass against mjr_render's own segmentation, and the colour frames around it unchanged.
 #include <mujoco/mujoco.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <memory>
@@ -82,9 +83,10 @@ int RayGeom(const mjModel* m, const mjData* d, const CameraView& view, int width
   return geom;
 }
 
-std::vector<int> Segment(Renderer& r, const mjData* d, const CameraView& view) {
+std::vector<int> Segment(Renderer& r, const mjData* d, const CameraView& view,
+                         const std::vector<unsigned char>* interest = nullptr) {
   std::vector<int> ids(static_cast<size_t>(r.width()) * r.height(), -7);
-  r.RenderSegmentation(d, view, ids.data());
+  r.RenderSegmentation(d, view, ids.data(), interest);
   return ids;
 }
 
@@ -171,6 +173,42 @@ TEST(Segmentation, OnePassEqualsMujocosOwn) {
     for (size_t i = 0; i < a.size(); ++i) same += a[i] == b[i];
     EXPECT_GT(static_cast<double>(same), 0.999 * static_cast<double>(a.size()))
         << same << " of " << a.size();
+  }
+}
+
+// With geoms of interest, only the part of the image where they may be is drawn: their pixels
+// as in the whole segmentation (what hides them too), -1 around; nothing in view, all -1.
+TEST(Segmentation, GeomsOfInterestKeepTheirPixelsInLessWork) {
+  World w = Load();
+  Renderer r(w.m.get(), Options(true));
+  std::vector<unsigned char> interest(static_cast<size_t>(w.m->ngeom), 0);
+  for (const char* name : {"pair_box", "pair_ball"}) {
+    interest[static_cast<size_t>(mj_name2id(w.m.get(), mjOBJ_GEOM, name))] = 1;
+  }
+  const std::vector<CameraView> views = {
+      kView,                                             // the pair in the middle, small
+      LookAt({0.45, 0.0, 0.35}, {0.9, 0.0, 0.35}, 60),   // the pair behind the eye
+      LookAt({0.0, -0.13, 0.25}, {0.0, 0.5, 0.25}, 60),  // the box crossing the near plane
+      LookAt({0.9, 0.9, 0.6}, {0.0, 0.0, 0.2}, 30),      // the pair at the edge, the glass before
+  };
+  for (size_t v = 0; v < views.size(); ++v) {
+    const std::vector<int> full = Segment(r, w.d.get(), views[v]);
+    const std::vector<int> part = Segment(r, w.d.get(), views[v], &interest);
+    size_t of_interest = 0, dropped = 0;
+    for (size_t i = 0; i < full.size(); ++i) {
+      const bool wanted = full[i] >= 0 && interest[static_cast<size_t>(full[i])] != 0;
+      of_interest += wanted;
+      if (wanted) ASSERT_EQ(part[i], full[i]) << "view " << v << " pixel " << i;
+      if (part[i] != full[i]) {
+        ASSERT_EQ(part[i], -1) << "view " << v << " pixel " << i;
+        ++dropped;
+      }
+    }
+    if (v == 0) {
+      EXPECT_GT(of_interest, 100u);
+      EXPECT_GT(dropped, full.size() / 2) << "most of the image is not drawn";
+    }
+    if (v == 1) EXPECT_EQ(dropped, full.size() - std::count(full.begin(), full.end(), -1));
   }
 }
 

@@ -92,6 +92,9 @@ class MLSPACES_API ObjectImagePoints {
   ObjectImagePoints(const mjModel* m, std::vector<TrackedObject> objects);
 
   const std::vector<TrackedObject>& objects() const { return objects_; }
+  /// Per model geom, 1 for the geoms of some object (sim::Renderer::RenderSegmentation's
+  /// `interest`).
+  const std::vector<unsigned char>& tracked_geoms() const { return tracked_; }
   /// Appends one row of every object's points in the segmentation `geom_ids` (width*height,
   /// as sim::Renderer::RenderSegmentation writes it) of camera `camera` to `extra`, creating
   /// the series object_image_points/<key>/<camera>/{points,num_points} on first use. The
@@ -103,6 +106,7 @@ class MLSPACES_API ObjectImagePoints {
   std::vector<TrackedObject> objects_;
   std::vector<std::vector<unsigned char>> owns_;  // [object][geom]: the geom is the object's
   std::vector<std::vector<int>> owner_;           // [geom]: the objects owning it
+  std::vector<unsigned char> tracked_;            // [geom]: some object owns it
 };
 
 }  // namespace mlspaces::datagen

@@ -165,8 +165,13 @@ class MLSPACES_API Renderer {
   /// no lights, textures, shadows, reflection or multisampling. `geom_ids`: height*width ints,
   /// rows top to bottom, written: the model geom id seen at each pixel, -1 where none is
   /// (background, sites, frames and other decor). Same conditions on `d` as Render().
+  /// `interest` (may be null): per model geom id, non-zero for the geoms the caller needs;
+  /// with one_pass_shadows only the part of the image where they may be seen is then drawn
+  /// and read (every geom drawn there: what hides them still does) and the pixels outside it
+  /// are -1 (none at all is drawn when they cannot be seen). Their pixels are always right.
   /// @throws UsageError for a null d or geom_ids, or fovy_deg outside (0, 180).
-  void RenderSegmentation(const mjData* d, const CameraView& view, int* geom_ids);
+  void RenderSegmentation(const mjData* d, const CameraView& view, int* geom_ids,
+                          const std::vector<unsigned char>* interest = nullptr);
 
   /// The views the renders to come show each state from (a camera system's cameras), for
   /// fit_shadows: each state's maps then hold the shadows any of them sees, and its renders

@@ -56,6 +56,9 @@ struct Renderer::Impl {
   std::string one_pass_missed;             // why one pass could not draw the last frame it missed
   std::vector<unsigned char> segment_rgb;  // RenderSegmentation's colours
   std::vector<int> segment_table;          // and its colour -> geom id table
+  // The last Render() was drawn by one pass and its buffer is as it left it (SegmentLastFrame).
+  bool frame_in_buffer = false;
+  long long frame_segmentations = 0;
 
   ~Impl() {
     if (context_made && gl) {
@@ -243,38 +246,12 @@ void Renderer::Render(const mjData* d, const CameraView& view, unsigned char* rg
   Draw(rgb, depth_m);
 }
 
-void Renderer::RenderSegmentation(const mjData* d, const CameraView& view, int* geom_ids,
-                                  const std::vector<unsigned char>* interest) {
-  Impl& s = *impl_;
-  if (d == nullptr || geom_ids == nullptr) {
-    throw UsageError("Renderer::RenderSegmentation: null data or geom_ids");
-  }
-  CheckFovy("Renderer::RenderSegmentation", view);
-  UpdateScene(d, view);
+namespace {
+
+// Reads the segmentation colours of `part` of the offscreen buffer into geom_ids (width x
+// height, top down; -1 outside `part`).
+void ReadSegmentation(Renderer::Impl& s, const mjrRect& part, int* geom_ids) {
   const int w = s.options.width, h = s.options.height;
-  const size_t count = static_cast<size_t>(w) * h;
-  const mjrRect viewport{0, 0, w, h};
-  mjr_setBuffer(mjFB_OFFSCREEN, &s.con);
-  // MuJoCo's segmentation: each geom flat in the colour of its index in the scene plus one
-  // (mjRND_IDCOLOR), no lights, textures, shadows, reflection or multisampling; 0 is clear.
-  // One pass draws it the same way with fewer vertices where it can, and only where the
-  // geoms of interest may be.
-  mjrRect part = viewport;
-  if (s.shadow_pass && ShadowPass::SegmentUnsupported(s.scn) == nullptr) {
-    if (interest != nullptr) part = s.shadow_pass->InterestRect(viewport, s.scn, *interest);
-    if (part.width == 0) {
-      std::fill(geom_ids, geom_ids + count, -1);
-      return;
-    }
-    s.shadow_pass->Segment(viewport, s.scn, s.con, &part);
-  } else {
-    mjtByte* flags = s.scn.flags;
-    const mjtByte segment = flags[mjRND_SEGMENT], idcolor = flags[mjRND_IDCOLOR];
-    flags[mjRND_SEGMENT] = flags[mjRND_IDCOLOR] = 1;
-    mjr_render(viewport, &s.scn, &s.con);
-    flags[mjRND_SEGMENT] = segment;
-    flags[mjRND_IDCOLOR] = idcolor;
-  }
   std::vector<unsigned char>& rgb = s.segment_rgb;
   rgb.resize(static_cast<size_t>(3) * part.width * part.height);
   if (s.pack_invert != nullptr) s.pack_invert(GL_PACK_INVERT_MESA, GL_TRUE);
@@ -291,7 +268,9 @@ void Renderer::RenderSegmentation(const mjData* d, const CameraView& view, int* 
     const mjvGeom& g = s.scn.geoms[j];
     if (g.objtype == mjOBJ_GEOM) table[static_cast<size_t>(j) + 1] = g.objid;
   }
-  if (part.width != w || part.height != h) std::fill(geom_ids, geom_ids + count, -1);
+  if (part.width != w || part.height != h) {
+    std::fill(geom_ids, geom_ids + static_cast<size_t>(w) * h, -1);
+  }
   const int top = h - (part.bottom + part.height);  // the part's first row, top down
   const unsigned char* c = rgb.data();
   for (int row = 0; row < part.height; ++row) {
@@ -301,6 +280,66 @@ void Renderer::RenderSegmentation(const mjData* d, const CameraView& view, int* 
       out[col] = colour < table.size() ? table[colour] : -1;
     }
   }
+}
+
+}  // namespace
+
+void Renderer::RenderSegmentation(const mjData* d, const CameraView& view, int* geom_ids,
+                                  const std::vector<unsigned char>* interest) {
+  Impl& s = *impl_;
+  if (d == nullptr || geom_ids == nullptr) {
+    throw UsageError("Renderer::RenderSegmentation: null data or geom_ids");
+  }
+  CheckFovy("Renderer::RenderSegmentation", view);
+  UpdateScene(d, view);
+  s.frame_in_buffer = false;
+  const int w = s.options.width, h = s.options.height;
+  const mjrRect viewport{0, 0, w, h};
+  mjr_setBuffer(mjFB_OFFSCREEN, &s.con);
+  // MuJoCo's segmentation: each geom flat in the colour of its index in the scene plus one
+  // (mjRND_IDCOLOR), no lights, textures, shadows, reflection or multisampling; 0 is clear.
+  // One pass draws it the same way with fewer vertices where it can, and only where the
+  // geoms of interest may be.
+  mjrRect part = viewport;
+  if (s.shadow_pass && ShadowPass::SegmentUnsupported(s.scn) == nullptr) {
+    if (interest != nullptr) part = s.shadow_pass->InterestRect(viewport, s.scn, *interest);
+    if (part.width == 0) {
+      std::fill(geom_ids, geom_ids + static_cast<size_t>(w) * h, -1);
+      return;
+    }
+    s.shadow_pass->Segment(viewport, s.scn, s.con, &part);
+  } else {
+    mjtByte* flags = s.scn.flags;
+    const mjtByte segment = flags[mjRND_SEGMENT], idcolor = flags[mjRND_IDCOLOR];
+    flags[mjRND_SEGMENT] = flags[mjRND_IDCOLOR] = 1;
+    mjr_render(viewport, &s.scn, &s.con);
+    flags[mjRND_SEGMENT] = segment;
+    flags[mjRND_IDCOLOR] = idcolor;
+  }
+  ReadSegmentation(s, part, geom_ids);
+}
+
+void Renderer::SegmentLastFrame(const mjData* d, const CameraView& view, int* geom_ids,
+                                const std::vector<unsigned char>& interest) {
+  Impl& s = *impl_;
+  if (!s.frame_in_buffer || s.con.offSamples > 0) {
+    RenderSegmentation(d, view, geom_ids, &interest);
+    return;
+  }
+  if (geom_ids == nullptr) throw UsageError("Renderer::SegmentLastFrame: null geom_ids");
+  s.gl->MakeCurrent();
+  const int w = s.options.width, h = s.options.height;
+  const mjrRect viewport{0, 0, w, h};
+  const mjrRect part = s.shadow_pass->InterestRect(viewport, s.scn, interest);
+  s.frame_in_buffer = false;  // its colours are drawn over
+  if (part.width == 0) {
+    ++s.frame_segmentations;
+    std::fill(geom_ids, geom_ids + static_cast<size_t>(w) * h, -1);
+    return;
+  }
+  s.shadow_pass->SegmentFrame(viewport, s.scn, s.con, interest, part);
+  ++s.frame_segmentations;
+  ReadSegmentation(s, part, geom_ids);
 }
 
 void Renderer::UpdateScene(const mjData* d, const CameraView& view) {
@@ -362,7 +401,8 @@ void Renderer::Draw(unsigned char* rgb, float* depth_m) {
   int geom = -1;
   const bool one_pass = s.shadow_pass && ShadowPass::HasShadows(s.scn, s.con);
   const char* missed = one_pass ? s.shadow_pass->Unsupported(s.scn, s.con, &geom) : nullptr;
-  if (one_pass && missed == nullptr) {
+  s.frame_in_buffer = one_pass && missed == nullptr;
+  if (s.frame_in_buffer) {
     s.shadow_pass->Render(viewport, &s.scn, &s.con, fitted);
     ++s.one_pass_frames;
   } else {
@@ -441,6 +481,7 @@ int Renderer::egl_device() const { return impl_->egl_device; }
 int Renderer::shadow_size() const { return impl_->con.shadowSize; }
 long long Renderer::frames() const { return impl_->frames; }
 long long Renderer::one_pass_frames() const { return impl_->one_pass_frames; }
+long long Renderer::frame_segmentations() const { return impl_->frame_segmentations; }
 const std::string& Renderer::one_pass_missed() const { return impl_->one_pass_missed; }
 long long Renderer::shadow_map_renders() const {
   return impl_->shadow_pass ? impl_->shadow_pass->map_renders() : 0;

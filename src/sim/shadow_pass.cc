@@ -595,6 +595,8 @@ void ShadowPass::Render(const mjrRect& viewport, mjvScene* scn, const mjrContext
   // The whole frame: clear, reflection, the maps, one lit pass, the skybox.
   float cam_project[16], cam_view[16];
   BeginFrame(viewport, *scn, *con, cam_project, cam_view);
+  std::copy_n(cam_project, 16, frame_project_.begin());
+  std::copy_n(cam_view, 16, frame_view_.begin());
   DrawReflection(*scn, *con, reflective, head, cam_project, cam_view, transparent);
 
   std::vector<int> lights;  // shadow-casting lights, in map order

@@ -75,6 +75,14 @@ class ShadowPass {
   /// wholly outside it left out.
   void Segment(const mjrRect& viewport, const mjvScene& scn, const mjrContext& con,
                const mjrRect* part = nullptr);
+  /// Draws over the frame Render() last drew into `con`'s buffer (same `viewport` and `scn`,
+  /// its depth buffer untouched since) the geoms whose model geom id `interest` marks, each
+  /// in the colour segid + 1 where it is the frame's nearest surface, over a clear of 0 in
+  /// `part` alone: the segmentation of those geoms (Segment's, for opaque geoms) for the
+  /// price of drawing them. The frame must not be multisampled; a transparent geom, drawn
+  /// blended without depth, does not show.
+  void SegmentFrame(const mjrRect& viewport, const mjvScene& scn, const mjrContext& con,
+                    const std::vector<unsigned char>& interest, const mjrRect& part);
   /// The part of `viewport` where the geoms of `scn` whose model geom id `interest` marks
   /// (non-zero; ids past its end are not marked) may be seen, from the camera of `scn` and the
   /// geoms' drawn bounding spheres, with a pixel to spare; width 0 when none can be (all
@@ -140,6 +148,7 @@ class ShadowPass {
   // frame's positional lights (x y z each) that choose them with the eye.
   std::unique_ptr<detail::CoarseSides> coarse_;
   std::vector<float> coarse_points_;
+  std::array<float, 16> frame_project_{}, frame_view_{};  // the last Render()'s matrices
   std::vector<float> mesh_radius_;  // per mesh: the largest distance of a vertex from its frame
   const mjModel* model_ = nullptr;
   std::vector<signed char> mesh_closed_;  // per mesh: -1 not yet known, else MeshClosed

@@ -23,6 +23,68 @@ const char* ShadowPass::SegmentUnsupported(const mjvScene& scn) {
   return nullptr;
 }
 
+namespace {
+
+// The clip matrix of `part` of `viewport`: its normalised coordinates mapped onto [-1, 1].
+std::array<float, 16> PartClip(const mjrRect& viewport, const mjrRect& part, const float* clip) {
+  const float a = 2.0f * static_cast<float>(part.left - viewport.left) / viewport.width - 1;
+  const float b = a + 2.0f * static_cast<float>(part.width) / viewport.width;
+  const float c = 2.0f * static_cast<float>(part.bottom - viewport.bottom) / viewport.height - 1;
+  const float d = c + 2.0f * static_cast<float>(part.height) / viewport.height;
+  const float to_part[16] = {2 / (b - a), 0, 0, 0, 0, 2 / (d - c),        0,
+                             0,           0, 0, 1, 0, -(a + b) / (b - a), -(c + d) / (d - c),
+                             0,           1};
+  return Mul(to_part, clip);
+}
+
+}  // namespace
+
+void ShadowPass::SegmentFrame(const mjrRect& viewport, const mjvScene& scn, const mjrContext& con,
+                              const std::vector<unsigned char>& interest, const mjrRect& part) {
+  Gl& gl = *gl_;
+  float head[3];
+  HeadPos(scn, head);  // with the frame's lights (coarse_points_): the lit pass's pieces
+  gl.BindFramebuffer(GL_FRAMEBUFFER, con.offFBO);
+  gl.DrawBuffer(GL_COLOR_ATTACHMENT0);
+  gl.UseProgram(0);
+  gl.Viewport(viewport.left, viewport.bottom, viewport.width, viewport.height);
+  gl.Scissor(part.left, part.bottom, part.width, part.height);
+  gl.Enable(GL_SCISSOR_TEST);
+  gl.ClearColor(0, 0, 0, 0);
+  gl.Clear(GL_COLOR_BUFFER_BIT);
+  gl.MatrixMode(GL_PROJECTION);
+  gl.LoadMatrixf(frame_project_.data());
+  gl.MatrixMode(GL_MODELVIEW);
+  gl.LoadMatrixf(frame_view_.data());
+  gl.Disable(GL_LIGHTING);
+  gl.Disable(GL_COLOR_MATERIAL);
+  gl.Disable(GL_MULTISAMPLE);
+  gl.Disable(GL_TEXTURE_2D);
+  gl.Disable(GL_BLEND);
+  gl.Enable(GL_DEPTH_TEST);
+  gl.DepthFunc(GL_GEQUAL);  // nothing is nearer than the frame's surface: equal passes
+  gl.DepthMask(GL_FALSE);
+  const std::array<float, 16> clip = Mul(frame_project_.data(), frame_view_.data());
+  const ViewVolume volume = ViewVolumeOf(PartClip(viewport, part, clip.data()).data());
+  for (int j = 0; j < scn.ngeom; ++j) {
+    const mjvGeom& g = scn.geoms[j];
+    if (g.segid < 0 || g.objtype != mjOBJ_GEOM || g.objid < 0 || g.transparent ||
+        static_cast<size_t>(g.objid) >= interest.size() ||
+        interest[static_cast<size_t>(g.objid)] == 0 || LeftOut(volume, g)) {
+      continue;
+    }
+    const unsigned id = static_cast<unsigned>(g.segid) + 1;
+    gl.Color4f(static_cast<float>(id & 0xFF) / 255.0f,
+               static_cast<float>((id >> 8) & 0xFF) / 255.0f,
+               static_cast<float>((id >> 16) & 0xFF) / 255.0f, 1.0f);
+    DrawGeom(gl, g, con, Coarse(g, head));
+  }
+  gl.DepthMask(GL_TRUE);
+  gl.Disable(GL_SCISSOR_TEST);
+  gl.Enable(GL_LIGHTING);
+  gl.Enable(GL_COLOR_MATERIAL);
+}
+
 mjrRect ShadowPass::InterestRect(const mjrRect& viewport, const mjvScene& scn,
                                  const std::vector<unsigned char>& interest) const {
   const mjvGLCamera cam = mjv_averageCamera(scn.camera, scn.camera + 1);
@@ -99,15 +161,7 @@ void ShadowPass::Segment(const mjrRect& viewport, const mjvScene& scn, const mjr
   if (part != nullptr) {
     gl.Scissor(part->left, part->bottom, part->width, part->height);
     gl.Enable(GL_SCISSOR_TEST);
-    // Clip space of the part: its normalised coordinates [a, b] mapped onto [-1, 1].
-    const float a = 2.0f * static_cast<float>(part->left - viewport.left) / viewport.width - 1;
-    const float b = a + 2.0f * static_cast<float>(part->width) / viewport.width;
-    const float c = 2.0f * static_cast<float>(part->bottom - viewport.bottom) / viewport.height - 1;
-    const float d = c + 2.0f * static_cast<float>(part->height) / viewport.height;
-    const float to_part[16] = {2 / (b - a), 0, 0, 0, 0, 2 / (d - c),        0,
-                               0,           0, 0, 1, 0, -(a + b) / (b - a), -(c + d) / (d - c),
-                               0,           1};
-    clip = Mul(to_part, clip.data());
+    clip = PartClip(viewport, *part, clip.data());
   }
   const ViewVolume view_volume = ViewVolumeOf(clip.data());
   for (int j = 0; j < scn.ngeom; ++j) {

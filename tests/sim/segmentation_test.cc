@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdio>
 #include <memory>
 #include <set>
 #include <string>
@@ -63,6 +64,7 @@ RenderOptions Options(bool one_pass) {
   o.coarse_sides = one_pass;
   o.fit_shadows = one_pass;
   o.shadow_size = 1024;
+  o.multisamples = 0;
   return o;
 }
 
@@ -209,6 +211,65 @@ TEST(Segmentation, GeomsOfInterestKeepTheirPixelsInLessWork) {
       EXPECT_GT(dropped, full.size() / 2) << "most of the image is not drawn";
     }
     if (v == 1) EXPECT_EQ(dropped, full.size() - std::count(full.begin(), full.end(), -1));
+  }
+}
+
+// Right after a frame, its depth gives the geoms of interest the pixels a segmentation gives
+// them; when the frame cannot serve (MuJoCo's passes, multisampling, another render since),
+// the segmentation is rendered.
+TEST(Segmentation, TheLastFramesDepthShowsTheGeomsOfInterestAsASegmentation) {
+  World w = Load();
+  std::vector<unsigned char> interest(static_cast<size_t>(w.m->ngeom), 0);
+  for (const char* name : {"pair_box", "pair_ball", "capsule", "floor"}) {
+    interest[static_cast<size_t>(mj_name2id(w.m.get(), mjOBJ_GEOM, name))] = 1;
+  }
+  struct Case {
+    RenderOptions options;
+    bool shadows;
+  };
+  RenderOptions multisampled = Options(true);
+  multisampled.multisamples = 4;
+  for (const Case& c : {Case{Options(true), true}, Case{Options(true), false},
+                        Case{Options(false), true}, Case{multisampled, true}}) {
+    const bool from_depth = c.options.one_pass_shadows && c.shadows && c.options.multisamples < 1;
+    for (const CameraView& view : {kView, LookAt({-0.8, 0.6, 0.3}, {0, 0, 0.1}, 60)}) {
+      Renderer r(w.m.get(), c.options);
+      r.scene().flags[mjRND_SHADOW] = c.shadows ? 1 : 0;
+      const size_t n = static_cast<size_t>(r.width()) * r.height();
+      std::vector<unsigned char> rgb(3 * n);
+      const std::vector<int> full = Segment(r, w.d.get(), view);
+      r.Render(w.d.get(), view, rgb.data());
+      std::vector<int> last(n, -7);
+      r.SegmentLastFrame(w.d.get(), view, last.data(), interest);
+      // Other geoms' pixels are -1, or theirs.
+      size_t wanted = 0, same = 0, others_shown = 0;
+      for (size_t i = 0; i < n; ++i) {
+        if (full[i] < 0 || interest[static_cast<size_t>(full[i])] == 0) {
+          // A transparent geom hides nothing in the frame: what is behind it shows.
+          const bool transparent = full[i] >= 0 && w.m->geom_rgba[4 * full[i] + 3] < 1;
+          others_shown += !transparent && last[i] != -1 && last[i] != full[i];
+          continue;
+        }
+        ++wanted;
+        same += last[i] == full[i];
+      }
+      EXPECT_LT(others_shown, n / 1000);
+      EXPECT_EQ(r.frame_segmentations(), from_depth ? 1 : 0);
+      EXPECT_GT(wanted, n / 4);
+      EXPECT_GT(static_cast<double>(same), 0.999 * static_cast<double>(wanted))
+          << same << " of " << wanted << (c.shadows ? "" : " (no shadows)");
+      if (from_depth) std::printf("from the frame's depth: %zu of %zu pixels\n", same, wanted);
+      // Another render in between: the frame is gone, the segmentation is rendered.
+      r.Render(w.d.get(), view, rgb.data());
+      Segment(r, w.d.get(), view);
+      r.SegmentLastFrame(w.d.get(), view, last.data(), interest);
+      EXPECT_EQ(r.frame_segmentations(), from_depth ? 1 : 0);
+      for (size_t i = 0; i < n; ++i) {
+        if (full[i] >= 0 && interest[static_cast<size_t>(full[i])] != 0) {
+          ASSERT_EQ(last[i], full[i]) << i;
+        }
+      }
+    }
   }
 }
 

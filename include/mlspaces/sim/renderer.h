@@ -173,6 +173,17 @@ class MLSPACES_API Renderer {
   void RenderSegmentation(const mjData* d, const CameraView& view, int* geom_ids,
                           const std::vector<unsigned char>* interest = nullptr);
 
+  /// As RenderSegmentation(d, view, geom_ids, &interest) right after Render(d, view, ...),
+  /// from that frame's depth: only the geoms of interest are drawn, each where it is the
+  /// frame's nearest surface, for about the price of drawing them alone. Transparent geoms
+  /// (drawn blended, without depth) then neither show nor hide others. A frame not drawn by
+  /// one pass (one_pass_shadows off, no shadows, a scene it cannot draw) or multisampled, or
+  /// any other render since, takes RenderSegmentation instead. Only the pixels of the geoms
+  /// of interest are meant (others may be -1).
+  /// @throws UsageError as RenderSegmentation.
+  void SegmentLastFrame(const mjData* d, const CameraView& view, int* geom_ids,
+                        const std::vector<unsigned char>& interest);
+
   /// The views the renders to come show each state from (a camera system's cameras), for
   /// fit_shadows: each state's maps then hold the shadows any of them sees, and its renders
   /// share one set of maps. Without, a render's maps hold the shadows its own view sees.
@@ -221,6 +232,8 @@ class MLSPACES_API Renderer {
   /// rest went through mjr_render (frames without shadows too: one pass saves nothing there).
   long long frames() const;
   long long one_pass_frames() const;
+  /// How many SegmentLastFrame calls took the frame's depth (the others rendered).
+  long long frame_segmentations() const;
   /// With one_pass_shadows: why the last frame with shadows that went through mjr_render
   /// could not be drawn in one pass ("a label ('floor')", "fog", ...); "" when none
   /// did.

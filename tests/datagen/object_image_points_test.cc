@@ -245,5 +245,38 @@ TEST_F(ObjectImagePointsTest, TheRecorderDrawsThemFromTheObjectsPixels) {
   EXPECT_TRUE(capture(11).empty());
 }
 
+// Drawing the points over a frame after it is read leaves the videos' bytes as they were.
+TEST_F(ObjectImagePointsTest, TheVideosAreTheSameWithAndWithoutPoints) {
+  testing::TempDir dir;
+  CameraSystemConfig config;
+  config.img_resolution = {160, 96};
+  const mjModel* m = env_.model();
+  mjData* d = env_.data();
+  auto record = [&](int64_t episode, bool points) {
+    CameraRecorder rec(m, config, 15, sim::GlBackend::kOsMesa);
+    std::map<std::string, Series> extra;
+    mj_resetData(m, d);
+    rec.Begin(dir.path(), episode,
+              points ? std::vector<TrackedObject>{{"gripper", "robot_0/gripper/base"},
+                                                  {"pickup_obj", "red_block"}}
+                     : std::vector<TrackedObject>{},
+              3);
+    for (int i = 0; i < 3; ++i) {
+      for (int k = 0; k < 20; ++k) mj_step(m, d);
+      mj_forward(m, d);
+      rec.Capture(d, &extra);
+    }
+    EXPECT_EQ(extra.size(), points ? 8u : 0u);
+    if (points) EXPECT_EQ(rec.renderer().frame_segmentations(), 6);
+    return rec.End();
+  };
+  const std::vector<CameraRecord> with = record(0, true), without = record(1, false);
+  ASSERT_EQ(with.size(), 2u);
+  for (size_t c = 0; c < with.size(); ++c) {
+    EXPECT_EQ(testing::Slurp(dir / with[c].video_file), testing::Slurp(dir / without[c].video_file))
+        << with[c].name;
+  }
+}
+
 }  // namespace
 }  // namespace mlspaces::datagen

@@ -62,6 +62,12 @@ TEST(ErodeMask, IsScipysBinaryErosionWithTheCross) {
       ASSERT_EQ(ErodeMask(m, w, h, n), ErodeByDefinition(m, w, h, n)) << trial << " " << n;
     }
   }
+  // Thin images erode away; no iteration keeps the mask (as 0 / 1).
+  for (const auto& [w, h] : {std::pair{1, 1}, {2, 1}, {1, 3}, {2, 2}, {7, 2}}) {
+    const Mask thin(static_cast<size_t>(w) * h, 1);
+    EXPECT_EQ(ErodeMask(thin, w, h, 1), Mask(thin.size(), 0)) << w << "x" << h;
+  }
+  EXPECT_EQ(ErodeMask(Mask{0, 7, 1}, 3, 1, 0), (Mask{0, 1, 1}));
   EXPECT_THROW(ErodeMask(Mask(10), 3, 3, 1), UsageError);
 }
 

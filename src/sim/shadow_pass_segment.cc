@@ -37,6 +37,15 @@ std::array<float, 16> PartClip(const mjrRect& viewport, const mjrRect& part, con
   return Mul(to_part, clip);
 }
 
+// Draws `g` flat in mjr_render's segmentation colour: segid + 1, red the low byte.
+void DrawIdColour(const ShadowPass::Gl& gl, const mjvGeom& g, const mjrContext& con,
+                  const CoarseLevel* coarse) {
+  const unsigned id = static_cast<unsigned>(g.segid) + 1;
+  gl.Color4f(static_cast<float>(id & 0xFF) / 255.0f, static_cast<float>((id >> 8) & 0xFF) / 255.0f,
+             static_cast<float>((id >> 16) & 0xFF) / 255.0f, 1.0f);
+  DrawGeom(gl, g, con, coarse);
+}
+
 }  // namespace
 
 void ShadowPass::SegmentFrame(const mjrRect& viewport, const mjvScene& scn, const mjrContext& con,
@@ -73,11 +82,7 @@ void ShadowPass::SegmentFrame(const mjrRect& viewport, const mjvScene& scn, cons
         interest[static_cast<size_t>(g.objid)] == 0 || LeftOut(volume, g)) {
       continue;
     }
-    const unsigned id = static_cast<unsigned>(g.segid) + 1;
-    gl.Color4f(static_cast<float>(id & 0xFF) / 255.0f,
-               static_cast<float>((id >> 8) & 0xFF) / 255.0f,
-               static_cast<float>((id >> 16) & 0xFF) / 255.0f, 1.0f);
-    DrawGeom(gl, g, con, Coarse(g, head));
+    DrawIdColour(gl, g, con, Coarse(g, head));
   }
   gl.DepthMask(GL_TRUE);
   gl.Disable(GL_SCISSOR_TEST);
@@ -167,11 +172,7 @@ void ShadowPass::Segment(const mjrRect& viewport, const mjvScene& scn, const mjr
   for (int j = 0; j < scn.ngeom; ++j) {
     const mjvGeom& g = scn.geoms[j];
     if (g.segid < 0 || LeftOut(view_volume, g)) continue;
-    const unsigned id = static_cast<unsigned>(g.segid) + 1;
-    gl.Color4f(static_cast<float>(id & 0xFF) / 255.0f,
-               static_cast<float>((id >> 8) & 0xFF) / 255.0f,
-               static_cast<float>((id >> 16) & 0xFF) / 255.0f, 1.0f);
-    DrawGeom(gl, g, con, Coarse(g, head));
+    DrawIdColour(gl, g, con, Coarse(g, head));
   }
   gl.Disable(GL_SCISSOR_TEST);
   gl.Enable(GL_LIGHTING);

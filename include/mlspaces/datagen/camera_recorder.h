@@ -13,8 +13,9 @@
 // inverse(cam2world_gl)[:3] (3x4, world to camera), intrinsic_cv = [[f, 0, W/2], [0, f, H/2],
 // [0, 0, 1]] with f = (H/2) / tan(fovy/2).
 // The cameras are fixed, so visibility_constraints are not used (docs/datagen.md). With
-// camera_config.object_image_points, each state also gets one segmentation render per camera
-// for obs/extra/object_image_points (object_image_points.h).
+// camera_config.object_image_points, each camera's frame also gives obs/extra/
+// object_image_points (object_image_points.h): the tracked objects drawn again over the
+// frame's depth (sim::Renderer::SegmentLastFrame).
 //
 // Lifetimes: the models and data passed in are read during the call only. References a
 // CameraSystem or CameraRecorder returns (name(), cameras()) are valid while it lives.

@@ -402,7 +402,7 @@ struct MLSPACES_API CameraSystemConfig {
   /// covered, about a fifth less time a frame on llvmpipe; false draws MuJoCo's shapes.
   bool coarse_sides = true;
   /// Record obs/extra/object_image_points (datagen/object_image_points.h), as the original
-  /// always does: one segmentation render per camera and observation.
+  /// always does: the tracked objects drawn again over each camera's frame.
   bool object_image_points = true;
 
   /// FrankaDroidCameraSystem's two cameras: wrist_camera and exo_camera_1.

@@ -2,6 +2,8 @@
 
 #include <cmath>
 #include <numbers>
+#include <numeric>
+#include <unordered_map>
 
 namespace mlspaces {
 namespace {
@@ -84,6 +86,41 @@ double Rng::TruncatedNormal(double sigma, double limit) {
     const double x = sigma * Normal();
     if (std::abs(x) <= limit) return x;
   }
+}
+
+std::vector<size_t> SampleIndices(Rng& rng, size_t n, size_t k) {
+  std::vector<size_t> out;
+  if (n <= k) {
+    out.resize(n);
+    std::iota(out.begin(), out.end(), size_t{0});
+    return out;
+  }
+  // Partial Fisher-Yates: step i swaps slot i with slot i + UniformInt(n - i) and emits slot i.
+  // Large n with small k keeps only the displaced slots (same draws, same result).
+  out.reserve(k);
+  if (n <= 4096 || n <= 8 * k) {
+    std::vector<size_t> slots(n);
+    std::iota(slots.begin(), slots.end(), size_t{0});
+    for (size_t i = 0; i < k; ++i) {
+      const size_t j = i + static_cast<size_t>(rng.UniformInt(n - i));
+      std::swap(slots[i], slots[j]);
+      out.push_back(slots[i]);
+    }
+    return out;
+  }
+  std::unordered_map<size_t, size_t> displaced;
+  displaced.reserve(2 * k);
+  auto slot = [&](size_t i) {
+    auto it = displaced.find(i);
+    return it == displaced.end() ? i : it->second;
+  };
+  for (size_t i = 0; i < k; ++i) {
+    const size_t j = i + static_cast<size_t>(rng.UniformInt(n - i));
+    const size_t vi = slot(i), vj = slot(j);
+    displaced[j] = vi;
+    out.push_back(vj);
+  }
+  return out;
 }
 
 }  // namespace mlspaces

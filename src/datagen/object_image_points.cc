@@ -22,6 +22,15 @@ float Round4(float x) {
   return std::nearbyint(scaled) / 10000.0f;
 }
 
+void CheckMaskSize(const char* where, const std::vector<unsigned char>& mask, int width,
+                   int height) {
+  if (width < 0 || height < 0 ||
+      mask.size() != static_cast<size_t>(width) * static_cast<size_t>(height)) {
+    throw UsageError(std::string(where) + ": the mask holds " + std::to_string(mask.size()) +
+                     " pixels, not " + std::to_string(width) + "x" + std::to_string(height));
+  }
+}
+
 }  // namespace
 
 std::vector<TrackedObject> TaskObjects(const mjModel* m, const Task& task, const TaskConfig& config,
@@ -55,11 +64,7 @@ bool TracksObjectsIn(std::string_view camera_name) {
 
 std::vector<unsigned char> ErodeMask(const std::vector<unsigned char>& mask, int width, int height,
                                      int iterations) {
-  if (width < 0 || height < 0 ||
-      mask.size() != static_cast<size_t>(width) * static_cast<size_t>(height)) {
-    throw UsageError("ErodeMask: the mask holds " + std::to_string(mask.size()) + " pixels, not " +
-                     std::to_string(width) + "x" + std::to_string(height));
-  }
+  CheckMaskSize("ErodeMask", mask, width, height);
   std::vector<unsigned char> cur(mask.size()), next(mask.size(), 0);
   for (size_t i = 0; i < mask.size(); ++i) cur[i] = mask[i] != 0 ? 1 : 0;
   const auto w = static_cast<size_t>(width);
@@ -96,32 +101,26 @@ ImagePoints SampleImagePoints(const std::vector<unsigned char>& mask, int width,
     if (std::any_of(eroded.begin(), eroded.end(), [](unsigned char v) { return v != 0; })) {
       use = &eroded;
     }
-  } else if (mask.size() != static_cast<size_t>(width) * static_cast<size_t>(height)) {
-    ErodeMask(mask, width, height, 0);  // throws the size error
+  } else {
+    CheckMaskSize("SampleImagePoints", mask, width, height);
   }
   std::vector<uint32_t> pixels;
   for (size_t i = 0; i < use->size(); ++i) {
     if ((*use)[i] != 0) pixels.push_back(static_cast<uint32_t>(i));
   }
   ImagePoints out;
-  const size_t n = std::min<size_t>(pixels.size(), kMaxImagePoints);
-  if (pixels.size() > kMaxImagePoints) {
-    // Partial Fisher-Yates: the first n slots become a draw without replacement.
-    for (size_t k = 0; k < n; ++k) {
-      const size_t j = k + static_cast<size_t>(rng.UniformInt(pixels.size() - k));
-      std::swap(pixels[k], pixels[j]);
-    }
-  }
+  const std::vector<size_t> drawn = SampleIndices(rng, pixels.size(), kMaxImagePoints);
   const int image_w = window.image_width > 0 ? window.image_width : width;
   const int image_h = window.image_height > 0 ? window.image_height : height;
   const auto w = static_cast<float>(image_w), h = static_cast<float>(image_h);
-  for (size_t k = 0; k < n; ++k) {
-    const uint32_t row = pixels[k] / static_cast<uint32_t>(width) + window.y;
-    const uint32_t col = pixels[k] % static_cast<uint32_t>(width) + window.x;
+  for (size_t k = 0; k < drawn.size(); ++k) {
+    const uint32_t pixel = pixels[drawn[k]];
+    const uint32_t row = pixel / static_cast<uint32_t>(width) + window.y;
+    const uint32_t col = pixel % static_cast<uint32_t>(width) + window.x;
     out.points[2 * k] = Round4(static_cast<float>(col) / w);
     out.points[2 * k + 1] = Round4(static_cast<float>(row) / h);
   }
-  out.count = static_cast<int32_t>(n);
+  out.count = static_cast<int32_t>(drawn.size());
   return out;
 }
 

@@ -175,39 +175,8 @@ GraspSet LoadPackedGrasps(const PackedLibrary& library, const PackedGraspRef& re
 }
 
 std::vector<size_t> SubsampleIndices(size_t n, size_t k, uint64_t seed) {
-  std::vector<size_t> out;
-  if (n <= k) {
-    out.resize(n);
-    std::iota(out.begin(), out.end(), size_t{0});
-    return out;
-  }
-  // Partial Fisher-Yates: step i swaps slot i with slot i + UniformInt(n - i) and emits slot i.
-  // Large n with small k keeps only the displaced slots (same draws, same result).
   Rng rng(seed);
-  out.reserve(k);
-  if (n <= 4096 || n <= 8 * k) {
-    std::vector<size_t> slots(n);
-    std::iota(slots.begin(), slots.end(), size_t{0});
-    for (size_t i = 0; i < k; ++i) {
-      const size_t j = i + static_cast<size_t>(rng.UniformInt(n - i));
-      std::swap(slots[i], slots[j]);
-      out.push_back(slots[i]);
-    }
-    return out;
-  }
-  std::unordered_map<size_t, size_t> displaced;
-  displaced.reserve(2 * k);
-  auto slot = [&](size_t i) {
-    auto it = displaced.find(i);
-    return it == displaced.end() ? i : it->second;
-  };
-  for (size_t i = 0; i < k; ++i) {
-    const size_t j = i + static_cast<size_t>(rng.UniformInt(n - i));
-    const size_t vi = slot(i), vj = slot(j);
-    displaced[j] = vi;
-    out.push_back(vj);
-  }
-  return out;
+  return SampleIndices(rng, n, k);
 }
 
 std::vector<Mat4> GraspsInWorld(const Mat4& body_pose, std::span<const Mat4> grasps,

@@ -46,6 +46,27 @@ void DrawIdColour(const ShadowPass::Gl& gl, const mjvGeom& g, const mjrContext& 
   DrawGeom(gl, g, con, coarse);
 }
 
+// Whether `g` is a model geom that `interest` marks.
+bool OfInterest(const mjvGeom& g, const std::vector<unsigned char>& interest) {
+  return g.objtype == mjOBJ_GEOM && g.objid >= 0 &&
+         static_cast<size_t>(g.objid) < interest.size() &&
+         interest[static_cast<size_t>(g.objid)] != 0;
+}
+
+// mjr_render's segmentation state: constant colours, no lights, textures or multisampling
+// (FlatColours); and back to the lit state the other passes expect (LitColours).
+void FlatColours(const ShadowPass::Gl& gl) {
+  gl.Disable(GL_LIGHTING);
+  gl.Disable(GL_COLOR_MATERIAL);
+  gl.Disable(GL_MULTISAMPLE);
+  gl.Disable(GL_TEXTURE_2D);
+}
+void LitColours(const ShadowPass::Gl& gl) {
+  gl.Disable(GL_SCISSOR_TEST);
+  gl.Enable(GL_LIGHTING);
+  gl.Enable(GL_COLOR_MATERIAL);
+}
+
 }  // namespace
 
 void ShadowPass::SegmentFrame(const mjrRect& viewport, const mjvScene& scn, const mjrContext& con,
@@ -65,10 +86,7 @@ void ShadowPass::SegmentFrame(const mjrRect& viewport, const mjvScene& scn, cons
   gl.LoadMatrixf(frame_project_.data());
   gl.MatrixMode(GL_MODELVIEW);
   gl.LoadMatrixf(frame_view_.data());
-  gl.Disable(GL_LIGHTING);
-  gl.Disable(GL_COLOR_MATERIAL);
-  gl.Disable(GL_MULTISAMPLE);
-  gl.Disable(GL_TEXTURE_2D);
+  FlatColours(gl);
   gl.Disable(GL_BLEND);
   gl.Enable(GL_DEPTH_TEST);
   gl.DepthFunc(GL_GEQUAL);  // nothing is nearer than the frame's surface: equal passes
@@ -77,17 +95,11 @@ void ShadowPass::SegmentFrame(const mjrRect& viewport, const mjvScene& scn, cons
   const ViewVolume volume = ViewVolumeOf(PartClip(viewport, part, clip.data()).data());
   for (int j = 0; j < scn.ngeom; ++j) {
     const mjvGeom& g = scn.geoms[j];
-    if (g.segid < 0 || g.objtype != mjOBJ_GEOM || g.objid < 0 || g.transparent ||
-        static_cast<size_t>(g.objid) >= interest.size() ||
-        interest[static_cast<size_t>(g.objid)] == 0 || LeftOut(volume, g)) {
-      continue;
-    }
+    if (g.segid < 0 || g.transparent || !OfInterest(g, interest) || LeftOut(volume, g)) continue;
     DrawIdColour(gl, g, con, Coarse(g, head));
   }
   gl.DepthMask(GL_TRUE);
-  gl.Disable(GL_SCISSOR_TEST);
-  gl.Enable(GL_LIGHTING);
-  gl.Enable(GL_COLOR_MATERIAL);
+  LitColours(gl);
 }
 
 mjrRect ShadowPass::InterestRect(const mjrRect& viewport, const mjvScene& scn,
@@ -104,10 +116,7 @@ mjrRect ShadowPass::InterestRect(const mjrRect& viewport, const mjvScene& scn,
   double lo[2] = {2, 2}, hi[2] = {-2, -2};
   for (int j = 0; j < scn.ngeom; ++j) {
     const mjvGeom& g = scn.geoms[j];
-    if (g.objtype != mjOBJ_GEOM || g.objid < 0 || static_cast<size_t>(g.objid) >= interest.size() ||
-        interest[static_cast<size_t>(g.objid)] == 0) {
-      continue;
-    }
+    if (!OfInterest(g, interest)) continue;
     const double r = DrawnRadius(g, mesh_radius_);
     double v[3], depth = 0, along[2] = {0, 0};
     for (int k = 0; k < 3; ++k) v[k] = g.pos[k] - cam.pos[k];
@@ -157,11 +166,7 @@ void ShadowPass::Segment(const mjrRect& viewport, const mjvScene& scn, const mjr
   coarse_points_.clear();  // unlit: the pieces need only span little seen from the eye
   float cam_project[16], cam_view[16];
   BeginFrame(viewport, scn, con, cam_project, cam_view);
-  // As mjr_render's segmentation: constant colours, no lights, fog or multisampling.
-  gl.Disable(GL_LIGHTING);
-  gl.Disable(GL_COLOR_MATERIAL);
-  gl.Disable(GL_MULTISAMPLE);
-  gl.Disable(GL_TEXTURE_2D);
+  FlatColours(gl);
   std::array<float, 16> clip = Mul(cam_project, cam_view);
   if (part != nullptr) {
     gl.Scissor(part->left, part->bottom, part->width, part->height);
@@ -174,9 +179,7 @@ void ShadowPass::Segment(const mjrRect& viewport, const mjvScene& scn, const mjr
     if (g.segid < 0 || LeftOut(view_volume, g)) continue;
     DrawIdColour(gl, g, con, Coarse(g, head));
   }
-  gl.Disable(GL_SCISSOR_TEST);
-  gl.Enable(GL_LIGHTING);
-  gl.Enable(GL_COLOR_MATERIAL);
+  LitColours(gl);
 }
 
 }  // namespace mlspaces::sim

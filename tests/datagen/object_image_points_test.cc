@@ -152,6 +152,10 @@ class ObjectImagePointsTest : public ::testing::Test {
     robot.base_size.reset();
     return robot;
   }
+  // The tutorial's pick objects.
+  static std::vector<TrackedObject> GripperAndBlock() {
+    return {{"gripper", "robot_0/gripper/base"}, {"pickup_obj", "red_block"}};
+  }
   Env env_;
 };
 
@@ -194,8 +198,7 @@ TEST_F(ObjectImagePointsTest, TheRecorderDrawsThemFromTheObjectsPixels) {
   config.img_resolution = {320, 192};
   const mjModel* m = env_.model();
   mjData* d = env_.data();
-  const std::vector<TrackedObject> objects{{"gripper", "robot_0/gripper/base"},
-                                           {"pickup_obj", "red_block"}};
+  const std::vector<TrackedObject> objects = GripperAndBlock();
   auto capture = [&](uint64_t seed) {
     CameraRecorder rec(m, config, 15, sim::GlBackend::kOsMesa);
     std::map<std::string, Series> extra;
@@ -262,11 +265,7 @@ TEST_F(ObjectImagePointsTest, TheVideosAreTheSameWithAndWithoutPoints) {
     CameraRecorder rec(m, config, 15, sim::GlBackend::kOsMesa);
     std::map<std::string, Series> extra;
     mj_resetData(m, d);
-    rec.Begin(dir.path(), episode,
-              points ? std::vector<TrackedObject>{{"gripper", "robot_0/gripper/base"},
-                                                  {"pickup_obj", "red_block"}}
-                     : std::vector<TrackedObject>{},
-              3);
+    rec.Begin(dir.path(), episode, points ? GripperAndBlock() : std::vector<TrackedObject>{}, 3);
     for (int i = 0; i < 3; ++i) {
       for (int k = 0; k < 20; ++k) mj_step(m, d);
       mj_forward(m, d);

@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <initializer_list>
 #include <string_view>
+#include <vector>
 
 namespace mlspaces {
 
@@ -44,5 +45,10 @@ class MLSPACES_API Rng {
  private:
   uint64_t s_[4];
 };
+
+/// k distinct indices of [0, n) drawn by `rng` in a partial Fisher-Yates shuffle (step i swaps
+/// slot i with slot i + UniformInt(n - i) and takes slot i), in draw order; all of [0, n) in
+/// order, drawing nothing, when n <= k. O(k) memory for large n with small k.
+MLSPACES_API std::vector<size_t> SampleIndices(Rng& rng, size_t n, size_t k);
 
 }  // namespace mlspaces

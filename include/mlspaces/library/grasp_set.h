@@ -72,8 +72,8 @@ MLSPACES_API GraspSet LoadPackedGrasps(const PackedLibrary& library, const Packe
                                        const std::filesystem::path& source,
                                        const GraspRowChooser& choose);
 
-/// Indices drawn for subsampling: all of [0, n) when n <= k, else k distinct indices from a
-/// partial Fisher-Yates shuffle driven by Rng(seed), in draw order.
+/// Indices drawn for subsampling: SampleIndices(Rng(seed), n, k) (core/rng.h): all of [0, n)
+/// when n <= k, else k distinct indices from a partial Fisher-Yates shuffle, in draw order.
 MLSPACES_API std::vector<size_t> SubsampleIndices(size_t n, size_t k, uint64_t seed);
 
 /// World-frame grasps W_i = body_pose * G_i; with `include_flipped`, followed by the

@@ -116,6 +116,45 @@ class PyEvalEnv {
     return OwnedNumpy<uint8_t>(std::move(rgb), {height, width, 3});
   }
 
+  /// One observation's camera frames, as the datagen recorder renders them: (frames, points)
+  /// with frames a list per camera ((H, W, 3) uint8) and points the object_image_points,
+  /// {key: {camera: {"points": (10, 2) float32, "num_points": (1,) int32}}}, or None when
+  /// camera_config.object_image_points is off.
+  nb::tuple Observe() {
+    dg::EvalEnv& e = env();
+    const size_t height = static_cast<size_t>(e.image_height());
+    const size_t width = static_cast<size_t>(e.image_width());
+    const std::vector<std::string> cameras = e.camera_names();
+    std::vector<std::vector<uint8_t>> frames(cameras.size(),
+                                             std::vector<uint8_t>(height * width * 3));
+    std::vector<unsigned char*> rgb(frames.size());
+    for (size_t i = 0; i < frames.size(); ++i) rgb[i] = frames[i].data();
+    std::vector<std::vector<dg::ImagePoints>> points;
+    {
+      nb::gil_scoped_release no_gil;
+      e.Observe(rgb, &points);
+    }
+    nb::list images;
+    for (auto& f : frames) images.append(OwnedNumpy<uint8_t>(std::move(f), {height, width, 3}));
+    const std::vector<dg::TrackedObject> objects = e.image_point_objects();
+    if (objects.empty()) return nb::make_tuple(images, nb::none());
+    nb::dict out;
+    for (size_t k = 0; k < objects.size(); ++k) {
+      nb::dict per_camera;
+      for (size_t i = 0; i < cameras.size(); ++i) {
+        if (points[i].empty()) continue;  // a follower camera
+        const dg::ImagePoints& p = points[i][k];
+        nb::dict entry;
+        entry["points"] = OwnedNumpy<float>(std::vector<float>(p.points.begin(), p.points.end()),
+                                            {dg::kMaxImagePoints, 2});
+        entry["num_points"] = OwnedNumpy<int32_t>(std::vector<int32_t>{p.count}, {1});
+        per_camera[cameras[i].c_str()] = entry;
+      }
+      out[objects[k].key.c_str()] = per_camera;
+    }
+    return nb::make_tuple(images, out);
+  }
+
   nb::dict Task() const {
     const dg::Task& t = env().task();
     nb::dict out;
@@ -191,8 +230,16 @@ void BindEval(nb::module_& m) {
       .def("step", &PyEvalEnv::Step, nb::arg("arm").none(), nb::arg("gripper"))
       .def("observation", &PyEvalEnv::Observation)
       .def("render", &PyEvalEnv::Render, nb::arg("camera"))
+      .def("observe", &PyEvalEnv::Observe)
       .def("task", &PyEvalEnv::Task)
       .def_prop_ro("camera_names", [](PyEvalEnv& e) { return e.env().camera_names(); })
+      // The current episode's object_image_points keys (empty when it records none).
+      .def_prop_ro("image_point_keys",
+                   [](PyEvalEnv& e) {
+                     std::vector<std::string> keys;
+                     for (const auto& o : e.env().image_point_objects()) keys.push_back(o.key);
+                     return keys;
+                   })
       .def_prop_ro("image_size",
                    [](PyEvalEnv& e) {
                      return nb::make_tuple(e.env().image_height(), e.env().image_width());

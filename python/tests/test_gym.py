@@ -42,9 +42,10 @@ class TinySampler(PickTaskSampler):
         task_cfg.pickup_obj_goal_pose = start.tolist()
 
 
-def _small_cameras() -> CameraSystemConfig:
+def _small_cameras(object_image_points: bool = True) -> CameraSystemConfig:
     return CameraSystemConfig(
         img_resolution=(64, 48), shadows=False, reflections=False,
+        object_image_points=object_image_points,
         cameras=[CameraConfig(name="wrist_camera", type="mjcf",
                               mjcf_name="gripper/wrist_camera", robot_namespace="robot_0/",
                               fov=56.74)])
@@ -73,7 +74,11 @@ def test_registered_env_passes_the_checker_with_declared_spaces():
     assert env_id_for_config("GymTestConfig") == "MolmoSpaces/GymTestConfig-v0"
     assert "MolmoSpaces/GymTestConfig-v0" in register_configs() + list(gymnasium.registry)
     assert register_configs() == []  # idempotent
-    env = gymnasium.make("MolmoSpaces/GymTestConfig-v0", render_mode="rgb_array")
+    # gymnasium's checker compares observations with np.allclose, which holds NaN unequal to
+    # itself: object_image_points' NaN padding is checked in the next test.
+    env = gymnasium.make("MolmoSpaces/GymTestConfig-v0", render_mode="rgb_array",
+                         config_overrides={"camera_config": _small_cameras(False)})
+    assert "object_image_points" not in env.observation_space["extra"].spaces
     check_env(env.unwrapped, skip_render_check=False)
     obs, info = env.reset(seed=3)
     assert env.observation_space.contains(obs)
@@ -87,6 +92,42 @@ def test_registered_env_passes_the_checker_with_declared_spaces():
     obs2, reward, terminated, truncated, info = env.step(action)
     assert env.observation_space.contains(obs2)
     assert isinstance(reward, float) and not terminated and not truncated
+    env.close()
+
+
+def test_observations_carry_object_image_points_as_the_dataset():
+    env = GymEnv("GymTestConfig")
+    space = env.observation_space["extra"]["object_image_points"]
+    assert list(space.spaces) == ["gripper", "pickup_obj"]
+    a = env.reset(seed=3)[0]
+    points = a["extra"]["object_image_points"]
+    assert env.observation_space.contains(a)
+    for key in ("gripper", "pickup_obj"):
+        entry = points[key]["wrist_camera"]
+        assert entry["points"].shape == (10, 2) and entry["points"].dtype == np.float32
+        assert entry["num_points"].shape == (1,) and entry["num_points"].dtype == np.int32
+        n = int(entry["num_points"][0])
+        assert np.all(np.isnan(entry["points"][n:]))
+        assert np.all((entry["points"][:n] >= 0) & (entry["points"][:n] <= 1))
+    # The wrist camera sees the gripper's fingers from the first frame.
+    assert points["gripper"]["wrist_camera"]["num_points"][0] == 10
+    # The block's points lie on red pixels of the frame they come with.
+    frame = a["sensor_data"]["wrist_camera"].astype(int)
+    block = points["pickup_obj"]["wrist_camera"]
+    assert block["num_points"][0] == 10
+    cols = (block["points"][:, 0] * 64).round().astype(int)
+    rows = (block["points"][:, 1] * 48).round().astype(int)
+    rgb = frame[rows, cols]
+    assert np.all(rgb[:, 0] > rgb[:, 1] + 40), rgb
+    # Same seed, same points; render() draws none.
+    env.render_mode = "rgb_array"
+    env.render()
+    b = env.reset(seed=3)[0]
+    for key in ("gripper", "pickup_obj"):
+        np.testing.assert_array_equal(points[key]["wrist_camera"]["points"],
+                                      b["extra"]["object_image_points"][key]["wrist_camera"]["points"])
+    c = env.step(env.action_space.sample())[0]
+    assert env.observation_space.contains(c)
     env.close()
 
 
@@ -152,7 +193,6 @@ def test_replaying_a_recorded_episode_reaches_the_same_states_and_success(tmp_pa
     # Record one episode (float64 actions, so the replayed targets are exact).
     cfg = GymTestConfig(task_horizon=500)
     cfg.task_config.action_dtype = "float64"
-    cfg.camera_config.cameras = []
     monkeypatch.chdir(tmp_path)
     report = run_config(cfg, output_dir=tmp_path / "run", seed=5, progress=False)
     assert report["episodes_kept"] == 1
@@ -165,10 +205,21 @@ def test_replaying_a_recorded_episode_reaches_the_same_states_and_success(tmp_pa
         commanded = rows("actions/commanded_action")
         qpos = rows("obs/agent/qpos")
         success = traj["success"][()]
+        recorded_points = {k: traj[f"obs/extra/object_image_points/{k}/wrist_camera/points"][()]
+                           for k in ("gripper", "pickup_obj")}
     env = GymEnv(exp_config=cfg)
     obs, info = env.reset(seed=5, options={"episode": 0})
     # The dataset stores joint states rounded to float32.
     np.testing.assert_allclose(obs["agent"]["qpos"]["arm"], qpos[0]["arm"], rtol=0, atol=2e-6)
+
+    def same_points(obs, t):
+        # The replay's observations carry the dataset's object_image_points: the same pixels,
+        # drawn from the episode's own stream.
+        for key, rec in recorded_points.items():
+            got = obs["extra"]["object_image_points"][key]["wrist_camera"]["points"]
+            np.testing.assert_array_equal(got, rec[t], err_msg=f"{key} at step {t}")
+    same_points(obs, 0)
+    seen = 0
     last = None
     for t in range(1, len(commanded)):
         act = commanded[t]
@@ -180,5 +231,9 @@ def test_replaying_a_recorded_episode_reaches_the_same_states_and_success(tmp_pa
                                    atol=2e-6, err_msg=f"step {t}")
         np.testing.assert_allclose(obs["agent"]["qpos"]["gripper"], qpos[t]["gripper"],
                                    rtol=0, atol=2e-6, err_msg=f"step {t}")
+        same_points(obs, t)
+        seen += int(obs["extra"]["object_image_points"]["pickup_obj"]["wrist_camera"]
+                    ["num_points"][0] > 0)
         last = info["success"]
     assert last == bool(success[-1]) == True  # noqa: E712
+    assert seen > 0  # the block was in the wrist camera's view at some steps

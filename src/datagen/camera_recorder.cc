@@ -191,7 +191,7 @@ void CameraRecorder::Begin(const fs::path& dir, int64_t episode, std::vector<Tra
   points_.reset();
   if (config_.object_image_points && !objects.empty()) {
     points_ = std::make_unique<ObjectImagePoints>(renderer_->model(), std::move(objects));
-    points_rng_ = Rng(DeriveSeed(seed, {0x706f696e7473ULL}));  // "points"
+    points_rng_ = ImagePointsRng(seed);
   }
   for (size_t i = 0; i < system_.size(); ++i) {
     const std::string& name = system_.name(i);

@@ -41,6 +41,7 @@ void EvalEnv::LoadHouse(int64_t house) {
   }
   if (house != house_ || !env_) {
     task_episode_.reset();
+    points_.reset();
     renderer_.reset();
     cameras_.reset();
     robot_.reset();
@@ -57,6 +58,7 @@ void EvalEnv::LoadHouse(int64_t house) {
       // The GL context comes with the first Render (a process that only builds the env, e.g.
       // the parent of forked vector-env workers, makes none).
       cameras_ = std::make_unique<CameraSystem>(env_->model(), cameras);
+      camera_config_ = cameras;
     }
     house_ = house;
     task_ = Task{};
@@ -70,11 +72,20 @@ void EvalEnv::Reset(uint64_t seed, int64_t house, int64_t episode) {
   steps_ = 0;
   // Not started until the new episode is whole (a sampler or task error leaves none).
   task_episode_.reset();
+  points_.reset();
   task_ = Task{};
   task_.episode = -1;
   Task task = sampler_->SampleTask(*env_, episode);
-  task_episode_ =
+  std::unique_ptr<TaskEpisode> task_episode =
       TaskFamilyOf(config_.task_type).make_episode(*env_, config_, task, sampler_->name());
+  if (cameras_ && config_.camera_config.object_image_points) {
+    const robots::RobotSpec& robot = env_->robot();
+    points_ = std::make_unique<ObjectImagePoints>(
+        env_->model(), TaskObjects(env_->model(), task_episode->task(), config_.task_config,
+                                   robot.prefix + robot.gripper_body));
+    points_rng_ = ImagePointsRng(task.seed);
+  }
+  task_episode_ = std::move(task_episode);
   task_ = std::move(task);
   object_ = task_episode_->object();
   // The same noise stream as the datagen rollout of this episode.
@@ -127,23 +138,53 @@ std::vector<std::string> EvalEnv::camera_names() const {
   return out;
 }
 
-void EvalEnv::Render(size_t index, unsigned char* rgb) {
+std::vector<sim::CameraView> EvalEnv::PrepareViews() {
   if (!cameras_) {
     throw Error(env_ ? "rendering is off (no cameras configured, or render=false)"
                      : "render before reset: call reset first");
   }
   if (!renderer_) {
-    renderer_ = MakeCameraRenderer(env_->model(), config_.camera_config, options_.gl_backend);
-  }
-  if (index >= cameras_->size()) {
-    throw Error("camera index " + std::to_string(index) + " out of range (" +
-                std::to_string(cameras_->size()) + " cameras)");
+    renderer_ = MakeCameraRenderer(env_->model(), camera_config_, options_.gl_backend);
   }
   // Every camera's view, so that the cameras of one state share its shadow maps.
   std::vector<sim::CameraView> views;
   for (size_t i = 0; i < cameras_->size(); ++i) views.push_back(cameras_->View(i, env_->data()));
   renderer_->SetShadowViews(views);
+  return views;
+}
+
+void EvalEnv::Render(size_t index, unsigned char* rgb) {
+  if (cameras_ && index >= cameras_->size()) {
+    throw Error("camera index " + std::to_string(index) + " out of range (" +
+                std::to_string(cameras_->size()) + " cameras)");
+  }
+  const std::vector<sim::CameraView> views = PrepareViews();
   renderer_->Render(env_->data(), views[index], rgb, nullptr);
+}
+
+void EvalEnv::Observe(std::span<unsigned char* const> rgb,
+                      std::vector<std::vector<ImagePoints>>* points) {
+  if (!started()) throw Error("observe before reset: call reset first");
+  const std::vector<sim::CameraView> views = PrepareViews();
+  if (rgb.size() != views.size()) {
+    throw UsageError("EvalEnv::Observe: " + std::to_string(rgb.size()) + " frames for " +
+                     std::to_string(views.size()) + " cameras");
+  }
+  if (points != nullptr) points->assign(views.size(), {});
+  const mjData* d = env_->data();
+  const int w = cameras_->width(), h = cameras_->height();
+  for (size_t i = 0; i < views.size(); ++i) {
+    renderer_->Render(d, views[i], rgb[i], nullptr);
+    if (points == nullptr || points_ == nullptr || !TracksObjectsIn(cameras_->name(i))) continue;
+    segment_buf_.resize(static_cast<size_t>(w) * h);
+    renderer_->SegmentLastFrame(d, views[i], segment_buf_.data(), points_->tracked_geoms());
+    (*points)[i] = points_->Sample(segment_buf_.data(), w, h,
+                                   camera_config_.cameras[i].skip_erosion, points_rng_);
+  }
+}
+
+std::vector<TrackedObject> EvalEnv::image_point_objects() const {
+  return points_ ? points_->objects() : std::vector<TrackedObject>{};
 }
 
 }  // namespace mlspaces::datagen

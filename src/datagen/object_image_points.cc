@@ -33,6 +33,10 @@ void CheckMaskSize(const char* where, const std::vector<unsigned char>& mask, in
 
 }  // namespace
 
+Rng ImagePointsRng(uint64_t episode_seed) {
+  return Rng(DeriveSeed(episode_seed, {0x706f696e7473ULL}));  // "points"
+}
+
 std::vector<TrackedObject> TaskObjects(const mjModel* m, const Task& task, const TaskConfig& config,
                                        const std::string& gripper_body) {
   std::vector<TrackedObject> out{{"gripper", gripper_body}};
@@ -155,9 +159,8 @@ ObjectImagePoints::ObjectImagePoints(const mjModel* m, std::vector<TrackedObject
   }
 }
 
-void ObjectImagePoints::Append(const int* geom_ids, int width, int height,
-                               const std::string& camera, bool skip_erosion, Rng& rng,
-                               std::map<std::string, Series>& extra) const {
+std::vector<ImagePoints> ObjectImagePoints::Sample(const int* geom_ids, int width, int height,
+                                                   bool skip_erosion, Rng& rng) const {
   // Each object's pixels lie in its bounding box: erode and draw there (outside it nothing is
   // set, so the erosion and the row-major order are the whole image's).
   struct Box {
@@ -181,9 +184,9 @@ void ObjectImagePoints::Append(const int* geom_ids, int width, int height,
     }
   }
   std::vector<unsigned char> mask;
+  std::vector<ImagePoints> out(objects_.size());
   for (size_t k = 0; k < objects_.size(); ++k) {
     const Box& b = boxes[k];
-    ImagePoints p;
     if (b.x1 >= 0) {
       const int bw = b.x1 - b.x0 + 1, bh = b.y1 - b.y0 + 1;
       const std::vector<unsigned char>& owns = owns_[k];
@@ -197,8 +200,18 @@ void ObjectImagePoints::Append(const int* geom_ids, int width, int height,
         }
       }
       const bool erode = !skip_erosion && objects_[k].key.find("handle") == std::string::npos;
-      p = SampleImagePoints(mask, bw, bh, erode, rng, {b.x0, b.y0, width, height});
+      out[k] = SampleImagePoints(mask, bw, bh, erode, rng, {b.x0, b.y0, width, height});
     }
+  }
+  return out;
+}
+
+void ObjectImagePoints::Append(const int* geom_ids, int width, int height,
+                               const std::string& camera, bool skip_erosion, Rng& rng,
+                               std::map<std::string, Series>& extra) const {
+  const std::vector<ImagePoints> points = Sample(geom_ids, width, height, skip_erosion, rng);
+  for (size_t k = 0; k < objects_.size(); ++k) {
+    const ImagePoints& p = points[k];
     const std::string base = kGroup + objects_[k].key + "/" + camera + "/";
     extra.try_emplace(base + "points", DType::kFloat32, std::vector<size_t>{kMaxImagePoints, 2})
         .first->second.Append(std::vector<double>(p.points.begin(), p.points.end()));

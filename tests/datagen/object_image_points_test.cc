@@ -14,6 +14,7 @@
 #include "mlspaces/core/error.h"
 #include "mlspaces/datagen/camera_recorder.h"
 #include "mlspaces/datagen/env.h"
+#include "mlspaces/datagen/eval_env.h"
 #include "test_util.h"
 
 namespace mlspaces::datagen {
@@ -272,7 +273,9 @@ TEST_F(ObjectImagePointsTest, TheVideosAreTheSameWithAndWithoutPoints) {
       rec.Capture(d, &extra);
     }
     EXPECT_EQ(extra.size(), points ? 8u : 0u);
-    if (points) EXPECT_EQ(rec.renderer().frame_segmentations(), 6);
+    if (points) {
+      EXPECT_EQ(rec.renderer().frame_segmentations(), 6);
+    }
     return rec.End();
   };
   const std::vector<CameraRecord> with = record(0, true), without = record(1, false);
@@ -281,6 +284,48 @@ TEST_F(ObjectImagePointsTest, TheVideosAreTheSameWithAndWithoutPoints) {
     EXPECT_EQ(testing::Slurp(dir / with[c].video_file), testing::Slurp(dir / without[c].video_file))
         << with[c].name;
   }
+}
+
+// The evaluation env's observations carry the points as the recorder draws them (the Python
+// gym env's replay test compares them with a dataset's): every camera but followers, the
+// episode's objects, the frames' count checked.
+TEST(EvalEnvImagePoints, ObserveDrawsThePointsOfEachTrackedCamera) {
+  ExperimentConfig config =
+      LoadConfigFile(kExample / "datagen.yaml", ConfigRegistry::WithBuiltins());
+  config.camera_config.img_resolution = {96, 64};
+  ASSERT_EQ(config.camera_config.cameras.size(), 2u);
+  config.camera_config.cameras[1].name = "exo_Follower";
+  auto observe = [&](const ExperimentConfig& c, std::vector<std::vector<ImagePoints>>& points,
+                     std::vector<TrackedObject>& objects) {
+    EvalEnv eval(c, TaskSamplerRegistry::WithBuiltins().Create(c, 3));
+    std::vector<unsigned char> a(96 * 64 * 3), b(a.size());
+    std::vector<unsigned char*> frames{a.data(), b.data()};
+    testing::ExpectError([&] { eval.Observe(frames, &points); }, {"reset first"});
+    eval.Reset(3, 0, 0);
+    objects = eval.image_point_objects();
+    testing::ExpectError([&] { eval.Observe(std::span(frames).first(1), &points); },
+                         {"1 frames for 2 cameras"});
+    eval.Observe(frames, &points);
+    EXPECT_GT(std::count(a.begin(), a.end(), 0), 0);  // the frames are rendered
+    EXPECT_NE(a, b);
+  };
+  std::vector<std::vector<ImagePoints>> points;
+  std::vector<TrackedObject> objects;
+  observe(config, points, objects);
+  ASSERT_EQ(objects.size(), 2u);
+  EXPECT_EQ(objects[0].key, "gripper");
+  EXPECT_EQ(objects[1].key, "pickup_obj");
+  EXPECT_EQ(objects[1].body, "red_block");
+  ASSERT_EQ(points.size(), 2u);
+  ASSERT_EQ(points[0].size(), 2u);
+  EXPECT_EQ(points[0][0].count, kMaxImagePoints);  // the fingers fill the wrist camera
+  EXPECT_TRUE(points[1].empty());                  // a follower camera tracks nothing
+
+  config.camera_config.object_image_points = false;
+  observe(config, points, objects);
+  EXPECT_TRUE(objects.empty());
+  ASSERT_EQ(points.size(), 2u);
+  EXPECT_TRUE(points[0].empty() && points[1].empty());
 }
 
 }  // namespace

@@ -26,6 +26,7 @@
 #include "mlspaces/datagen/camera_recorder.h"
 #include "mlspaces/datagen/config.h"
 #include "mlspaces/datagen/env.h"
+#include "mlspaces/datagen/object_image_points.h"
 #include "mlspaces/datagen/task_sampler.h"
 #include "mlspaces/datagen/tasks/pick/success.h"
 #include "mlspaces/robots/robot_view.h"
@@ -100,8 +101,22 @@ class MLSPACES_API EvalEnv {
   /// Renders camera `index` at the current state into `rgb` (height*width*3 bytes, rows top
   /// to bottom). @throws Error for a bad index or when rendering is off.
   void Render(size_t index, unsigned char* rgb);
+  /// One observation's frames, as the datagen recorder renders them: every camera at the
+  /// current state, camera i into rgb[i] (as Render). With `points` (may be null) and
+  /// camera_config.object_image_points, (*points)[i] = the image points of
+  /// image_point_objects() in camera i (empty for "follower" cameras), drawn from the
+  /// episode's own stream in the recorder's order: the observations of a replayed episode
+  /// carry its dataset's points. Render calls draw none.
+  /// @throws Error before Reset, when rendering is off, or for rgb.size() != cameras.
+  void Observe(std::span<unsigned char* const> rgb, std::vector<std::vector<ImagePoints>>* points);
+  /// The objects whose image points Observe draws (TaskObjects of the episode; empty without
+  /// cameras or with camera_config.object_image_points off).
+  std::vector<TrackedObject> image_point_objects() const;
 
  private:
+  /// The renderer made (on first use) and shadow views set for the state's cameras.
+  std::vector<sim::CameraView> PrepareViews();
+
   ExperimentConfig config_;
   std::unique_ptr<TaskSampler> sampler_;
   EvalEnvOptions options_;
@@ -110,12 +125,16 @@ class MLSPACES_API EvalEnv {
   std::unique_ptr<Env> env_;
   std::unique_ptr<robots::RobotView> robot_;
   std::unique_ptr<CameraSystem> cameras_;
+  CameraSystemConfig camera_config_;  // the house's cameras (the config's or the robot's)
   std::unique_ptr<sim::Renderer> renderer_;
   Task task_;  // episode -1 until Reset (set in the constructor)
   int object_ = -1;
   Rng noise_rng_{0};
   PickSuccess verdict_;
   std::unique_ptr<TaskEpisode> task_episode_;  // the episode's, as its family judges it
+  std::unique_ptr<ObjectImagePoints> points_;  // the episode's tracked objects, or null
+  Rng points_rng_{0};
+  std::vector<int> segment_buf_;
   int64_t steps_ = 0;
 };
 

@@ -34,6 +34,10 @@ namespace mlspaces::datagen {
 inline constexpr int kMaxImagePoints = 10;
 inline constexpr int kImagePointErosions = 2;
 
+/// The generator an episode's image points are drawn from (the datagen recorder's and the
+/// evaluation env's), from the episode's seed.
+MLSPACES_API Rng ImagePointsRng(uint64_t episode_seed);
+
 /// One object whose image points an episode records: its key in the dataset and its body.
 struct MLSPACES_API TrackedObject {
   std::string key;   ///< "gripper", "pickup_obj", "place_receptacle", "added_<k>"
@@ -95,10 +99,13 @@ class MLSPACES_API ObjectImagePoints {
   /// Per model geom, 1 for the geoms of some object (sim::Renderer::RenderSegmentation's
   /// `interest`).
   const std::vector<unsigned char>& tracked_geoms() const { return tracked_; }
-  /// Appends one row of every object's points in the segmentation `geom_ids` (width*height,
-  /// as sim::Renderer::RenderSegmentation writes it) of camera `camera` to `extra`, creating
-  /// the series object_image_points/<key>/<camera>/{points,num_points} on first use. The
+  /// Every object's points (objects() order) in the segmentation `geom_ids` (width*height, as
+  /// sim::Renderer::RenderSegmentation writes it), drawn by `rng` object after object. The
   /// objects whose key holds "handle" are not eroded, nor any with `skip_erosion`.
+  std::vector<ImagePoints> Sample(const int* geom_ids, int width, int height, bool skip_erosion,
+                                  Rng& rng) const;
+  /// Sample's points of camera `camera` appended as one row to `extra`, creating the series
+  /// object_image_points/<key>/<camera>/{points,num_points} on first use.
   void Append(const int* geom_ids, int width, int height, const std::string& camera,
               bool skip_erosion, Rng& rng, std::map<std::string, Series>& extra) const;
 

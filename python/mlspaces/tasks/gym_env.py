@@ -10,8 +10,11 @@ env declares none):
   ``closed_ctrl`` (0 open .. 255 closed for franka_droid and xarm7)}`` -- the dataset's
   ``commanded_action`` layout; any robot (``robot_config.name``, docs/robots.md);
 - observation: the dataset's layout, ``{"agent": {"qpos": {"arm", "gripper"}, "qvel": {...}},
-  "extra": {"tcp_pose", "robot_base_pose", "obj_start", "obj_end"}, "sensor_data": {<camera>:
-  Box(H, W, 3) uint8}}`` (one dict, not MolmoSpaces' one-element list).
+  "extra": {"tcp_pose", "robot_base_pose", "obj_start", "obj_end", "object_image_points"},
+  "sensor_data": {<camera>: Box(H, W, 3) uint8}}`` (one dict, not MolmoSpaces' one-element
+  list). ``object_image_points`` (with cameras and ``camera_config.object_image_points``) is
+  ``{key: {camera: {"points": NanPaddedBox(10, 2) float32, "num_points": Box(1) int32}}}``,
+  drawn as the datagen recorder draws them; its keys are the first task's (docs/python.md).
 
 ``reset(seed=s)`` samples episode 0 of a datagen run with seed ``s``; later resets without a
 seed take the run's next episodes, so a seeded env is deterministic, and a recorded episode's
@@ -23,6 +26,7 @@ from __future__ import annotations
 
 import json
 import os
+import warnings
 from collections.abc import Mapping
 from typing import Any
 
@@ -82,6 +86,32 @@ def _options(options: Any, func: str) -> dict[str, Any]:
 
 def _box(shape: tuple[int, ...], low: float = -np.inf, high: float = np.inf) -> spaces.Box:
     return spaces.Box(low=low, high=high, shape=shape, dtype=np.float64)
+
+
+class NanPaddedBox(spaces.Box):
+    """A ``Box`` whose values may also be NaN: ``object_image_points``' ``points`` (x, y in
+    [0, 1]), NaN past ``num_points``, as the dataset and MolmoSpaces' sensor store them."""
+
+    def contains(self, x: Any) -> bool:
+        if not isinstance(x, np.ndarray):
+            try:
+                x = np.asarray(x, dtype=self.dtype)
+            except (ValueError, TypeError):
+                return False
+        if not np.can_cast(x.dtype, self.dtype) or x.shape != self.shape:
+            return False
+        known = ~np.isnan(x)
+        return bool(np.all(x[known] >= self.low[known]) and np.all(x[known] <= self.high[known]))
+
+
+def _points_space(keys: list[str], cameras: list[str]) -> spaces.Dict:
+    """``{key: {camera: {"points": (10, 2) float32, "num_points": (1,) int32}}}`` for the
+    cameras that track objects (not "follower" ones, as MolmoSpaces)."""
+    per_camera = {c: spaces.Dict({
+        "points": NanPaddedBox(0.0, 1.0, shape=(10, 2), dtype=np.float32),
+        "num_points": spaces.Box(0, 10, shape=(1,), dtype=np.int32),
+    }) for c in cameras if "follower" not in c.lower()}
+    return spaces.Dict({k: spaces.Dict(per_camera) for k in keys})
 
 
 class GymEnv(gym.Env):
@@ -145,19 +175,31 @@ class GymEnv(gym.Env):
             "arm": spaces.Box(low=lower, high=upper, shape=(n_arm,), dtype=np.float64),
             "gripper": spaces.Box(low=grip_low, high=grip_high, shape=(1,), dtype=np.float64),
         })
+        extra = {k: _box((7,)) for k in ("tcp_pose", "robot_base_pose", "obj_start", "obj_end")}
+        self._point_keys: list[str] = []
+        if self._cameras and cfg.camera_config.object_image_points:
+            self._point_keys = self._probe_point_keys()
+            extra["object_image_points"] = _points_space(self._point_keys, self._cameras)
         self.observation_space = spaces.Dict({
             "agent": spaces.Dict({
                 "qpos": spaces.Dict({"arm": _box((n_arm,)), "gripper": _box((n_grip,))}),
                 "qvel": spaces.Dict({"arm": _box((n_arm,)), "gripper": _box((n_grip,))}),
             }),
-            "extra": spaces.Dict({k: _box((7,)) for k in
-                                  ("tcp_pose", "robot_base_pose", "obj_start", "obj_end")}),
+            "extra": spaces.Dict(extra),
             "sensor_data": spaces.Dict({
                 c: spaces.Box(0, 255, shape=(h, w, 3), dtype=np.uint8) for c in self._cameras}),
         })
+        self._warned: set[tuple[str, ...]] = set()
         self._run_seed: int | None = None
         self._episode = -1
         self.task: dict[str, Any] | None = None
+
+    def _probe_point_keys(self) -> list[str]:
+        """The object_image_points keys of the space: those of the task the env samples first
+        (seed 0, episode 0), all but ``gripper`` and ``pickup_obj`` task-dependent
+        (``place_receptacle``, the ``added_<k>`` of config.added_objects)."""
+        self._env.reset(0, int(self._defaults.get("house_index", 0)), 0)
+        return list(self._env.image_point_keys)
 
     def _arm_limits(self) -> tuple[np.ndarray, np.ndarray]:
         """The arm's joint ranges, from the model of the first scene (loaded here)."""
@@ -243,8 +285,31 @@ class GymEnv(gym.Env):
 
     def _observation(self) -> dict[str, Any]:
         obs = self._env.observation()
-        obs["sensor_data"] = {c: self._env.render(i) for i, c in enumerate(self._cameras)}
+        frames, points = self._env.observe() if self._cameras else ([], None)
+        obs["sensor_data"] = dict(zip(self._cameras, frames))
+        if points is not None:
+            obs["extra"]["object_image_points"] = self._fit_points(points)
         return obs
+
+    def _fit_points(self, points: dict[str, Any]) -> dict[str, Any]:
+        """The episode's points on the space's keys: a key this task lacks (an added object
+        that is now the pickup object) has no points; one the space lacks is left out, with a
+        warning (gymnasium spaces have fixed keys)."""
+        extra = sorted(set(points) - set(self._point_keys))
+        if extra and tuple(extra) not in self._warned:
+            self._warned.add(tuple(extra))
+            warnings.warn(f"object_image_points of {extra} are left out of the observation: "
+                          f"the observation space has {self._point_keys} (from the first task)",
+                          stacklevel=3)
+        cameras = [c for c in self._cameras if "follower" not in c.lower()]
+        out = {}
+        for key in self._point_keys:
+            if key in points:
+                out[key] = points[key]
+            else:
+                out[key] = {c: {"points": np.full((10, 2), np.nan, dtype=np.float32),
+                                "num_points": np.zeros(1, dtype=np.int32)} for c in cameras}
+        return out
 
     def _info(self) -> dict[str, Any]:
         task = self._env.task()
@@ -252,4 +317,4 @@ class GymEnv(gym.Env):
                 "run_seed": self._run_seed}
 
 
-__all__ = ["GymEnv", "env_id_for_config", "register_configs"]
+__all__ = ["GymEnv", "NanPaddedBox", "env_id_for_config", "register_configs"]

@@ -78,9 +78,9 @@ class ShadowPass {
   /// Draws over the frame Render() last drew into `con`'s buffer (same `viewport` and `scn`,
   /// its depth buffer untouched since) the geoms whose model geom id `interest` marks, each
   /// in the colour segid + 1 where it is the frame's nearest surface, over a clear of 0 in
-  /// `part` alone: the segmentation of those geoms (Segment's, for opaque geoms) for the
-  /// price of drawing them. The frame must not be multisampled; a transparent geom, drawn
-  /// blended without depth, does not show.
+  /// `part` alone: the segmentation of those geoms (Segment's, where no transparent geom
+  /// outside `interest` is in front) for the price of drawing them. Transparent geoms of
+  /// interest write depth: the frame's depth is spent. The frame must not be multisampled.
   void SegmentFrame(const mjrRect& viewport, const mjvScene& scn, const mjrContext& con,
                     const std::vector<unsigned char>& interest, const mjrRect& part);
   /// The part of `viewport` where the geoms of `scn` whose model geom id `interest` marks

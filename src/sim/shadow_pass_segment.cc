@@ -93,12 +93,20 @@ void ShadowPass::SegmentFrame(const mjrRect& viewport, const mjvScene& scn, cons
   gl.DepthMask(GL_FALSE);
   const std::array<float, 16> clip = Mul(frame_project_.data(), frame_view_.data());
   const ViewVolume volume = ViewVolumeOf(PartClip(viewport, part, clip.data()).data());
-  for (int j = 0; j < scn.ngeom; ++j) {
-    const mjvGeom& g = scn.geoms[j];
-    if (g.segid < 0 || g.transparent || !OfInterest(g, interest) || LeftOut(volume, g)) continue;
-    DrawIdColour(gl, g, con, Coarse(g, head));
+  // The opaque geoms of interest first, then the transparent ones, which the frame drew
+  // without depth: where they are nearer than its surface, the nearest of them, as in a
+  // segmentation (which draws them opaque). Writing depth spends the frame (frame_in_buffer).
+  for (const bool transparent : {false, true}) {
+    if (transparent) gl.DepthMask(GL_TRUE);
+    for (int j = 0; j < scn.ngeom; ++j) {
+      const mjvGeom& g = scn.geoms[j];
+      if (g.segid < 0 || static_cast<bool>(g.transparent) != transparent ||
+          !OfInterest(g, interest) || LeftOut(volume, g)) {
+        continue;
+      }
+      DrawIdColour(gl, g, con, Coarse(g, head));
+    }
   }
-  gl.DepthMask(GL_TRUE);
   LitColours(gl);
 }
 

@@ -219,19 +219,25 @@ TEST(Segmentation, GeomsOfInterestKeepTheirPixelsInLessWork) {
 // the segmentation is rendered.
 TEST(Segmentation, TheLastFramesDepthShowsTheGeomsOfInterestAsASegmentation) {
   World w = Load();
-  std::vector<unsigned char> interest(static_cast<size_t>(w.m->ngeom), 0);
-  for (const char* name : {"pair_box", "pair_ball", "capsule", "floor"}) {
-    interest[static_cast<size_t>(mj_name2id(w.m.get(), mjOBJ_GEOM, name))] = 1;
-  }
+  const int glass = mj_name2id(w.m.get(), mjOBJ_GEOM, "glass");
+  ASSERT_LT(w.m->geom_rgba[4 * glass + 3], 1);
   struct Case {
     RenderOptions options;
     bool shadows;
+    bool glass_of_interest = false;
   };
   RenderOptions multisampled = Options(true);
   multisampled.multisamples = 4;
-  for (const Case& c : {Case{Options(true), true}, Case{Options(true), false},
-                        Case{Options(false), true}, Case{multisampled, true}}) {
+  for (const Case& c :
+       {Case{Options(true), true}, Case{Options(true), true, true}, Case{Options(true), false},
+        Case{Options(false), true}, Case{multisampled, true}}) {
     const bool from_depth = c.options.one_pass_shadows && c.shadows && c.options.multisamples < 1;
+    std::vector<unsigned char> interest(static_cast<size_t>(w.m->ngeom), 0);
+    for (const char* name : {"pair_box", "pair_ball", "capsule", "floor"}) {
+      interest[static_cast<size_t>(mj_name2id(w.m.get(), mjOBJ_GEOM, name))] = 1;
+    }
+    // A transparent geom of interest shows where it is in front, as in a segmentation.
+    interest[static_cast<size_t>(glass)] = c.glass_of_interest ? 1 : 0;
     for (const CameraView& view : {kView, LookAt({-0.8, 0.6, 0.3}, {0, 0, 0.1}, 60)}) {
       Renderer r(w.m.get(), c.options);
       r.scene().flags[mjRND_SHADOW] = c.shadows ? 1 : 0;
@@ -242,18 +248,25 @@ TEST(Segmentation, TheLastFramesDepthShowsTheGeomsOfInterestAsASegmentation) {
       std::vector<int> last(n, -7);
       r.SegmentLastFrame(w.d.get(), view, last.data(), interest);
       // Other geoms' pixels are -1, or theirs.
-      size_t wanted = 0, same = 0, others_shown = 0;
+      size_t wanted = 0, same = 0, others_shown = 0, glass_wanted = 0, glass_same = 0;
       for (size_t i = 0; i < n; ++i) {
         if (full[i] < 0 || interest[static_cast<size_t>(full[i])] == 0) {
-          // A transparent geom hides nothing in the frame: what is behind it shows.
+          // A transparent geom not of interest hides nothing: what is behind it shows.
           const bool transparent = full[i] >= 0 && w.m->geom_rgba[4 * full[i] + 3] < 1;
           others_shown += !transparent && last[i] != -1 && last[i] != full[i];
           continue;
         }
         ++wanted;
         same += last[i] == full[i];
+        glass_wanted += full[i] == glass;
+        glass_same += full[i] == glass && last[i] == glass;
       }
       EXPECT_LT(others_shown, n / 1000);
+      if (c.glass_of_interest) {
+        EXPECT_GT(glass_wanted, n / 100);
+        EXPECT_GT(static_cast<double>(glass_same), 0.999 * static_cast<double>(glass_wanted))
+            << glass_same << " of " << glass_wanted << " pixels of the glass";
+      }
       EXPECT_EQ(r.frame_segmentations(), from_depth ? 1 : 0);
       EXPECT_GT(wanted, n / 4);
       EXPECT_GT(static_cast<double>(same), 0.999 * static_cast<double>(wanted))

@@ -175,8 +175,9 @@ class MLSPACES_API Renderer {
 
   /// As RenderSegmentation(d, view, geom_ids, &interest) right after Render(d, view, ...),
   /// from that frame's depth: only the geoms of interest are drawn, each where it is the
-  /// frame's nearest surface, for about the price of drawing them alone. Transparent geoms
-  /// (drawn blended, without depth) then neither show nor hide others. A frame not drawn by
+  /// frame's nearest surface, for about the price of drawing them alone. Transparent geoms of
+  /// interest show as in a segmentation; other transparent geoms (drawn blended, without
+  /// depth) hide nothing, where a segmentation shows them in front. A frame not drawn by
   /// one pass (one_pass_shadows off, no shadows, a scene it cannot draw) or multisampled, or
   /// any other render since, takes RenderSegmentation instead. Only the pixels of the geoms
   /// of interest are meant (others may be -1).

@@ -21,7 +21,7 @@ void Validator::Cameras(const Traj& t) {
     const auto names = g.get() >= 0 ? ListLinks(g.get(), false) : std::nullopt;
     if (!names) Add(param_base, HdfMessage("expected a readable group"));
     for (const std::string& cam : names.value_or(std::vector<std::string>{})) {
-      const std::string rel = std::string(schema::kSensorParam) + "/" + cam;
+      const std::string rel = std::string(schema::kSensorParam).append("/").append(cam);
       Handle obj(H5Oopen(t.g, rel.c_str(), H5P_DEFAULT), H5Oclose);
       if (obj.get() < 0 || H5Iget_type(obj.get()) != H5I_GROUP) {
         Add(param_base + "/" + cam,

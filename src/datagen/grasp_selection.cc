@@ -165,8 +165,11 @@ GraspCollisionChecker::GraspCollisionChecker(const sim::MjcfComposer& scene, con
   const std::vector<std::string> geoms = options.shape == ProbeShape::kGripperGeoms
                                              ? GripperProbeGeoms(sim, options, common)
                                              : ProxyProbeGeoms(common);
-  std::string body = std::string("<body name=\"") + kProbeName + "\" pos=\"0 0 -10\">" +
-                     "<freejoint name=\"" + kProbeName + "/joint\"/>";
+  // Appended piece by piece: GCC 12 warns falsely on `std::string(literal) + literal`
+  // (-Warray-bounds, GCC bug 105651).
+  std::string body = "<body name=\"";
+  body.append(kProbeName).append("\" pos=\"0 0 -10\"><freejoint name=\"");
+  body.append(kProbeName).append("/joint\"/>");
   for (const std::string& g : geoms) body += g;
   body += "</body>";
 
@@ -184,7 +187,8 @@ GraspCollisionChecker::GraspCollisionChecker(const sim::MjcfComposer& scene, con
   first_probe_geom_ = sim->ngeom;
   num_probe_geoms_ = static_cast<int>(geoms.size());
   const int probe_body = mj_name2id(m, mjOBJ_BODY, kProbeName);
-  const int probe_joint = mj_name2id(m, mjOBJ_JOINT, (std::string(kProbeName) + "/joint").c_str());
+  const int probe_joint =
+      mj_name2id(m, mjOBJ_JOINT, std::string(kProbeName).append("/joint").c_str());
   if (m->nq != sim->nq + 7 || m->nmocap != sim->nmocap || m->nbody != sim->nbody + 1 ||
       m->ngeom != sim->ngeom + num_probe_geoms_ || probe_body != sim->nbody || probe_joint < 0 ||
       m->jnt_qposadr[probe_joint] != sim->nq || m->body_geomadr[probe_body] != first_probe_geom_) {

@@ -48,7 +48,9 @@ TEST(ParallelTest, LowestFailedIndexWinsAndNewItemsStop) {
     // One thread: nothing starts after the failure (the stop flag every worker checks before
     // it takes an item). With several, the others may finish every item while the failing
     // thread is descheduled (a 2-core machine running 4 threads): no count is certain there.
-    if (threads == 1) EXPECT_EQ(ran.load(), 8u);
+    if (threads == 1) {
+      EXPECT_EQ(ran.load(), 8u);
+    }
   }
 }
 

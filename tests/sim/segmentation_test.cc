@@ -200,7 +200,9 @@ TEST(Segmentation, GeomsOfInterestKeepTheirPixelsInLessWork) {
     for (size_t i = 0; i < full.size(); ++i) {
       const bool wanted = full[i] >= 0 && interest[static_cast<size_t>(full[i])] != 0;
       of_interest += wanted;
-      if (wanted) ASSERT_EQ(part[i], full[i]) << "view " << v << " pixel " << i;
+      if (wanted) {
+        ASSERT_EQ(part[i], full[i]) << "view " << v << " pixel " << i;
+      }
       if (part[i] != full[i]) {
         ASSERT_EQ(part[i], -1) << "view " << v << " pixel " << i;
         ++dropped;
@@ -210,7 +212,9 @@ TEST(Segmentation, GeomsOfInterestKeepTheirPixelsInLessWork) {
       EXPECT_GT(of_interest, 100u);
       EXPECT_GT(dropped, full.size() / 2) << "most of the image is not drawn";
     }
-    if (v == 1) EXPECT_EQ(dropped, full.size() - std::count(full.begin(), full.end(), -1));
+    if (v == 1) {
+      EXPECT_EQ(dropped, full.size() - std::count(full.begin(), full.end(), -1));
+    }
   }
 }
 

@@ -181,7 +181,7 @@ TEST(ShadowFitTest, LeavesTheSceneWithoutShadowsOrShadowCastingDirectionalLights
 }
 
 TEST(ShadowFitTest, TheViewsLeaveOutTheCastersWhoseShadowsNoViewSees) {
-  Scene s(false, std::string(kHigh) + kParked);
+  Scene s(false, std::string(kHigh).append(kParked));
   // The high ball is out of the view: above its top edge.
   const CameraView cam =
       Renderer::ModelCamera(s.m.get(), s.d.get(), mj_name2id(s.m.get(), mjOBJ_CAMERA, "view"));
@@ -321,7 +321,7 @@ TEST(ShadowFitTest, DrawsTheShadowsWhereTheGeometryPutsThemWithASmallerMap) {
 
 // The shadow of a ball out of view stays; a ball parked far away is left out.
 TEST(ShadowFitTest, DrawsTheShadowsOfCastersOutOfViewAndNotThoseNoViewSees) {
-  Scene s(false, std::string(kHigh) + kParked);
+  Scene s(false, std::string(kHigh).append(kParked));
   const Shots shots = ShootAndCompare(s, ", a ball out of view, a ball parked 35 m up");
   // The high ball's shadow: in view, and drawn.
   const int high = mj_name2id(s.m.get(), mjOBJ_GEOM, "high");
@@ -336,7 +336,7 @@ TEST(ShadowFitTest, DrawsTheShadowsOfCastersOutOfViewAndNotThoseNoViewSees) {
 }
 
 TEST(ShadowFitTest, TheCamerasOfAStateShareTheirMapsWhenTheRendererKnowsThem) {
-  Scene s(false, std::string(kHigh) + kParked);
+  Scene s(false, std::string(kHigh).append(kParked));
   RenderOptions o;
   o.width = 160;
   o.height = 120;

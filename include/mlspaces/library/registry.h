@@ -88,10 +88,10 @@ using GraspLibraryFilter = std::span<const std::string>;
 struct MLSPACES_API GraspQuery {
   std::string uid;
   /// The joint name in the asset MJCF; empty for pickup grasps.
-  std::string joint;
+  std::string joint{};
   /// Grasp libraries the lookup may use, in priority order; empty = all that serve the UID
   /// (see GraspLibraryFilter). Names are "<root>/<robot>" for user libraries.
-  std::vector<std::string> libraries;
+  std::vector<std::string> libraries{};
 };
 
 class MLSPACES_API Registry {

@@ -10,6 +10,7 @@
 #include <parquet/arrow/reader.h>
 
 #include <cmath>
+#include <iterator>
 #include <tuple>
 
 #include "mlspaces/core/error.h"
@@ -299,9 +300,8 @@ TEST(LeRobotExport, BadInputIsOneLineNamingTheFile) {
   // A failure half-way leaves neither the dataset nor a temp folder.
   for (const char* name : {"a", "c", "d", "e", "f", "g"})
     EXPECT_FALSE(fs::exists(tmp / name)) << name;
-  size_t entries = 0;
-  for (const auto& _ : fs::directory_iterator(tmp.path())) ++entries;
-  EXPECT_EQ(entries, 6u);  // run, b, fps, cams, video, failed: nothing else
+  const auto entries = std::distance(fs::directory_iterator(tmp.path()), fs::directory_iterator());
+  EXPECT_EQ(entries, 6);  // run, b, fps, cams, video, failed: nothing else
 }
 
 // A run killed after any durable step leaves no dataset or a complete one, never a partial one

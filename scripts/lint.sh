@@ -39,9 +39,15 @@ case "${1:-}" in
     else
       mapfile -t files < <(git ls-files 'src/*.cc' 'apps/*.cc' 'tests/*.cc' ':!tests/install/*')
     fi
+    # clang-tidy cannot read GCC's precompiled headers (target_precompile_headers): a copy of
+    # the database without them, so each file is also checked for the includes it needs.
+    db="$(mktemp -d)"
+    trap 'rm -rf "$db"' EXIT
+    sed -E 's# -Winvalid-pch##g; s# -include [^ ]*/cmake_pch\.hxx##g' \
+      "$build/compile_commands.json" > "$db/compile_commands.json"
     # One process per core; --quiet prints only diagnostics; any warning fails.
     printf '%s\n' "${files[@]}" | xargs -P "$(nproc)" -n 4 \
-      clang-tidy --quiet -p "$build" --warnings-as-errors='*' 2>/dev/null
+      clang-tidy --quiet -p "$db" --warnings-as-errors='*' 2>/dev/null
     echo "tidy: ${#files[@]} files pass .clang-tidy"
     ;;
   *)

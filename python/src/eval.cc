@@ -233,6 +233,15 @@ void BindEval(nb::module_& m) {
       .def("observe", &PyEvalEnv::Observe)
       .def("task", &PyEvalEnv::Task)
       .def_prop_ro("camera_names", [](PyEvalEnv& e) { return e.env().camera_names(); })
+      // The cameras object_image_points are drawn in (datagen::TracksObjectsIn: not followers).
+      .def_prop_ro("image_point_cameras",
+                   [](PyEvalEnv& e) {
+                     std::vector<std::string> out;
+                     for (const std::string& c : e.env().camera_names()) {
+                       if (dg::TracksObjectsIn(c)) out.push_back(c);
+                     }
+                     return out;
+                   })
       // The current episode's object_image_points keys (empty when it records none).
       .def_prop_ro("image_point_keys",
                    [](PyEvalEnv& e) {

@@ -106,11 +106,11 @@ class NanPaddedBox(spaces.Box):
 
 def _points_space(keys: list[str], cameras: list[str]) -> spaces.Dict:
     """``{key: {camera: {"points": (10, 2) float32, "num_points": (1,) int32}}}`` for the
-    cameras that track objects (not "follower" ones, as MolmoSpaces)."""
+    cameras that track objects."""
     per_camera = {c: spaces.Dict({
         "points": NanPaddedBox(0.0, 1.0, shape=(10, 2), dtype=np.float32),
         "num_points": spaces.Box(0, 10, shape=(1,), dtype=np.int32),
-    }) for c in cameras if "follower" not in c.lower()}
+    }) for c in cameras}
     return spaces.Dict({k: spaces.Dict(per_camera) for k in keys})
 
 
@@ -179,7 +179,8 @@ class GymEnv(gym.Env):
         self._point_keys: list[str] = []
         if self._cameras and cfg.camera_config.object_image_points:
             self._point_keys = self._probe_point_keys()
-            extra["object_image_points"] = _points_space(self._point_keys, self._cameras)
+            extra["object_image_points"] = _points_space(self._point_keys,
+                                                         self._env.image_point_cameras)
         self.observation_space = spaces.Dict({
             "agent": spaces.Dict({
                 "qpos": spaces.Dict({"arm": _box((n_arm,)), "gripper": _box((n_grip,))}),
@@ -301,7 +302,7 @@ class GymEnv(gym.Env):
             warnings.warn(f"object_image_points of {extra} are left out of the observation: "
                           f"the observation space has {self._point_keys} (from the first task)",
                           stacklevel=3)
-        cameras = [c for c in self._cameras if "follower" not in c.lower()]
+        cameras = self._env.image_point_cameras
         out = {}
         for key in self._point_keys:
             if key in points:

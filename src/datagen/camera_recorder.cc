@@ -231,10 +231,9 @@ void CameraRecorder::Capture(const mjData* d, std::map<std::string, Series>* ext
     encode_seconds_ += Since(t0);
     if (points_ != nullptr && extra != nullptr && TracksObjectsIn(system_.name(i))) {
       t0 = Clock::now();
-      segment_buf_.resize(rgb_buf_.size() / 3);
-      renderer_->SegmentLastFrame(d, view, segment_buf_.data(), points_->tracked_geoms());
-      points_->Append(segment_buf_.data(), system_.width(), system_.height(), system_.name(i),
-                      config_.cameras[i].skip_erosion, points_rng_, *extra);
+      points_->Append(points_->SampleLastFrame(*renderer_, d, view, config_.cameras[i].skip_erosion,
+                                               points_rng_),
+                      system_.name(i), *extra);
       points_seconds_ += Since(t0);
     }
   }

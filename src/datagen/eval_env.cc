@@ -172,14 +172,11 @@ void EvalEnv::Observe(std::span<unsigned char* const> rgb,
   }
   if (points != nullptr) points->assign(views.size(), {});
   const mjData* d = env_->data();
-  const int w = cameras_->width(), h = cameras_->height();
   for (size_t i = 0; i < views.size(); ++i) {
     renderer_->Render(d, views[i], rgb[i], nullptr);
     if (points == nullptr || points_ == nullptr || !TracksObjectsIn(cameras_->name(i))) continue;
-    segment_buf_.resize(static_cast<size_t>(w) * h);
-    renderer_->SegmentLastFrame(d, views[i], segment_buf_.data(), points_->tracked_geoms());
-    (*points)[i] = points_->Sample(segment_buf_.data(), w, h,
-                                   camera_config_.cameras[i].skip_erosion, points_rng_);
+    (*points)[i] = points_->SampleLastFrame(*renderer_, d, views[i],
+                                            camera_config_.cameras[i].skip_erosion, points_rng_);
   }
 }
 

@@ -206,10 +206,18 @@ std::vector<ImagePoints> ObjectImagePoints::Sample(const int* geom_ids, int widt
   return out;
 }
 
-void ObjectImagePoints::Append(const int* geom_ids, int width, int height,
-                               const std::string& camera, bool skip_erosion, Rng& rng,
+std::vector<ImagePoints> ObjectImagePoints::SampleLastFrame(sim::Renderer& renderer,
+                                                            const mjData* d,
+                                                            const sim::CameraView& view,
+                                                            bool skip_erosion, Rng& rng) {
+  const int w = renderer.width(), h = renderer.height();
+  segment_.resize(static_cast<size_t>(w) * static_cast<size_t>(h));
+  renderer.SegmentLastFrame(d, view, segment_.data(), tracked_);
+  return Sample(segment_.data(), w, h, skip_erosion, rng);
+}
+
+void ObjectImagePoints::Append(const std::vector<ImagePoints>& points, const std::string& camera,
                                std::map<std::string, Series>& extra) const {
-  const std::vector<ImagePoints> points = Sample(geom_ids, width, height, skip_erosion, rng);
   for (size_t k = 0; k < objects_.size(); ++k) {
     const ImagePoints& p = points[k];
     const std::string base = kGroup + objects_[k].key + "/" + camera + "/";

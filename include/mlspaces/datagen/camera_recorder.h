@@ -144,7 +144,6 @@ class MLSPACES_API CameraRecorder {
   std::vector<float> depth_buf_;
   std::unique_ptr<ObjectImagePoints> points_;  // this episode's tracked objects; null: none
   Rng points_rng_{0};
-  std::vector<int> segment_buf_;
   double render_seconds_ = 0, encode_seconds_ = 0, points_seconds_ = 0;
 };
 

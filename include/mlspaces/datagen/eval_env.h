@@ -134,7 +134,6 @@ class MLSPACES_API EvalEnv {
   std::unique_ptr<TaskEpisode> task_episode_;  // the episode's, as its family judges it
   std::unique_ptr<ObjectImagePoints> points_;  // the episode's tracked objects, or null
   Rng points_rng_{0};
-  std::vector<int> segment_buf_;
   int64_t steps_ = 0;
 };
 

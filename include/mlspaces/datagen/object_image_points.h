@@ -22,6 +22,7 @@
 #include "mlspaces/datagen/config.h"
 #include "mlspaces/datagen/episode_record.h"
 #include "mlspaces/datagen/task_sampler.h"
+#include "mlspaces/sim/renderer.h"
 
 // NOLINTBEGIN(modernize-use-using): MuJoCo's own form of this declaration
 struct mjModel_;
@@ -104,16 +105,22 @@ class MLSPACES_API ObjectImagePoints {
   /// objects whose key holds "handle" are not eroded, nor any with `skip_erosion`.
   std::vector<ImagePoints> Sample(const int* geom_ids, int width, int height, bool skip_erosion,
                                   Rng& rng) const;
-  /// Sample's points of camera `camera` appended as one row to `extra`, creating the series
-  /// object_image_points/<key>/<camera>/{points,num_points} on first use.
-  void Append(const int* geom_ids, int width, int height, const std::string& camera,
-              bool skip_erosion, Rng& rng, std::map<std::string, Series>& extra) const;
+  /// Sample's points in the frame `renderer` drew last, of `d` from `view`
+  /// (Renderer::SegmentLastFrame of tracked_geoms(), into a buffer the object keeps).
+  std::vector<ImagePoints> SampleLastFrame(sim::Renderer& renderer, const mjData* d,
+                                           const sim::CameraView& view, bool skip_erosion,
+                                           Rng& rng);
+  /// One row of `points` (Sample's, of camera `camera`) appended to `extra`, creating the
+  /// series object_image_points/<key>/<camera>/{points,num_points} on first use.
+  void Append(const std::vector<ImagePoints>& points, const std::string& camera,
+              std::map<std::string, Series>& extra) const;
 
  private:
   std::vector<TrackedObject> objects_;
   std::vector<std::vector<unsigned char>> owns_;  // [object][geom]: the geom is the object's
   std::vector<std::vector<int>> owner_;           // [geom]: the objects owning it
   std::vector<unsigned char> tracked_;            // [geom]: some object owns it
+  std::vector<int> segment_;                      // SampleLastFrame's segmentation
 };
 
 }  // namespace mlspaces::datagen

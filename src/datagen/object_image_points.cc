@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstddef>
 #include <limits>
+#include <numeric>
 #include <utility>
 
 #include "mlspaces/core/error.h"
@@ -29,6 +30,36 @@ void CheckMaskSize(const char* where, const std::vector<unsigned char>& mask, in
     throw UsageError(std::string(where) + ": the mask holds " + std::to_string(mask.size()) +
                      " pixels, not " + std::to_string(width) + "x" + std::to_string(height));
   }
+}
+
+// The positions of the set (non-zero) bytes of `mask` whose ordinals in row-major order are
+// `ordinals` (each below the number of set bytes), in the order given.
+std::vector<uint32_t> NthSetPixels(const std::vector<unsigned char>& mask,
+                                   const std::vector<size_t>& ordinals) {
+  std::vector<size_t> order(ordinals.size());
+  std::iota(order.begin(), order.end(), size_t{0});
+  std::sort(order.begin(), order.end(),
+            [&](size_t a, size_t b) { return ordinals[a] < ordinals[b]; });
+  std::vector<uint32_t> out(ordinals.size());
+  constexpr size_t kBlock = 256;  // counted at once, walked only where an ordinal falls
+  size_t seen = 0, next = 0;
+  for (size_t start = 0; start < mask.size() && next < order.size(); start += kBlock) {
+    const size_t end = std::min(mask.size(), start + kBlock);
+    size_t in_block = 0;
+    for (size_t i = start; i < end; ++i) in_block += mask[i] != 0 ? 1 : 0;
+    if (ordinals[order[next]] >= seen + in_block) {
+      seen += in_block;
+      continue;
+    }
+    for (size_t i = start; i < end && next < order.size(); ++i) {
+      if (mask[i] == 0) continue;
+      while (next < order.size() && ordinals[order[next]] == seen) {
+        out[order[next++]] = static_cast<uint32_t>(i);
+      }
+      ++seen;
+    }
+  }
+  return out;
 }
 
 }  // namespace
@@ -108,17 +139,17 @@ ImagePoints SampleImagePoints(const std::vector<unsigned char>& mask, int width,
   } else {
     CheckMaskSize("SampleImagePoints", mask, width, height);
   }
-  std::vector<uint32_t> pixels;
-  for (size_t i = 0; i < use->size(); ++i) {
-    if ((*use)[i] != 0) pixels.push_back(static_cast<uint32_t>(i));
-  }
+  // The drawn pixels are the set pixels of the drawn ordinals, in row-major order.
+  size_t count = 0;
+  for (const unsigned char v : *use) count += v != 0 ? 1 : 0;
   ImagePoints out;
-  const std::vector<size_t> drawn = SampleIndices(rng, pixels.size(), kMaxImagePoints);
+  const std::vector<size_t> drawn = SampleIndices(rng, count, kMaxImagePoints);
+  const std::vector<uint32_t> pixels = NthSetPixels(*use, drawn);
   const int image_w = window.image_width > 0 ? window.image_width : width;
   const int image_h = window.image_height > 0 ? window.image_height : height;
   const auto w = static_cast<float>(image_w), h = static_cast<float>(image_h);
   for (size_t k = 0; k < drawn.size(); ++k) {
-    const uint32_t pixel = pixels[drawn[k]];
+    const uint32_t pixel = pixels[k];
     const uint32_t row = pixel / static_cast<uint32_t>(width) + window.y;
     const uint32_t col = pixel % static_cast<uint32_t>(width) + window.x;
     out.points[2 * k] = Round4(static_cast<float>(col) / w);
@@ -150,37 +181,67 @@ ObjectImagePoints::ObjectImagePoints(const mjModel* m, std::vector<TrackedObject
   }
   owner_.resize(static_cast<size_t>(m->ngeom));
   tracked_.assign(static_cast<size_t>(m->ngeom), 0);
+  solo_owner_.assign(static_cast<size_t>(m->ngeom), kNoOwner);
   for (size_t k = 0; k < owns_.size(); ++k) {
     for (int g = 0; g < m->ngeom; ++g) {
       if (owns_[k][g] == 0) continue;
       owner_[g].push_back(static_cast<int>(k));
       tracked_[g] = 1;
+      solo_owner_[g] = owner_[g].size() == 1 ? static_cast<int>(k) : kSeveralOwners;
     }
   }
 }
 
 std::vector<ImagePoints> ObjectImagePoints::Sample(const int* geom_ids, int width, int height,
                                                    bool skip_erosion, Rng& rng) const {
+  return Sample(geom_ids, width, height, {0, 0, width, height}, skip_erosion, rng);
+}
+
+std::vector<ImagePoints> ObjectImagePoints::Sample(const int* geom_ids, int width, int height,
+                                                   const sim::PixelRect& part, bool skip_erosion,
+                                                   Rng& rng) const {
+  if (part.x < 0 || part.y < 0 || part.width < 0 || part.height < 0 ||
+      part.x + part.width > width || part.y + part.height > height) {
+    throw UsageError("ObjectImagePoints::Sample: part " + std::to_string(part.width) + "x" +
+                     std::to_string(part.height) + " at (" + std::to_string(part.x) + ", " +
+                     std::to_string(part.y) + ") is not inside the " + std::to_string(width) + "x" +
+                     std::to_string(height) + " image");
+  }
   // Each object's pixels lie in its bounding box: erode and draw there (outside it nothing is
   // set, so the erosion and the row-major order are the whole image's).
   struct Box {
     int x0 = std::numeric_limits<int>::max(), y0 = std::numeric_limits<int>::max();
     int x1 = -1, y1 = -1;
+    void Add(int from, int to, int y) {
+      x0 = std::min(x0, from);
+      x1 = std::max(x1, to);
+      y0 = std::min(y0, y);
+      y1 = std::max(y1, y);
+    }
   };
   std::vector<Box> boxes(objects_.size());
-  const size_t ngeom = tracked_.size();
-  for (int y = 0; y < height; ++y) {
+  const size_t ngeom = solo_owner_.size();
+  // The owner of pixel `x` of `row`, kNoOwner for none (-1 wraps past ngeom).
+  auto owner = [&](const int* row, int x) {
+    const auto g = static_cast<size_t>(row[x]);
+    return g < ngeom ? solo_owner_[g] : kNoOwner;
+  };
+  const int x_end = part.x + part.width;
+  for (int y = part.y; y < part.y + part.height; ++y) {
     const int* row = geom_ids + static_cast<size_t>(y) * width;
-    for (int x = 0; x < width; ++x) {
-      const auto g = static_cast<size_t>(row[x]);  // -1 wraps past ngeom
-      if (g >= ngeom || tracked_[g] == 0) continue;
-      for (const int k : owner_[g]) {
-        Box& b = boxes[k];
-        b.x0 = std::min(b.x0, x);
-        b.x1 = std::max(b.x1, x);
-        b.y0 = std::min(b.y0, y);
-        b.y1 = std::max(b.y1, y);
+    for (int x = part.x; x < x_end; ++x) {
+      const int k = owner(row, x);
+      if (k == kNoOwner) continue;
+      if (k == kSeveralOwners) {
+        for (const int o : owner_[static_cast<size_t>(row[x])]) {
+          boxes[static_cast<size_t>(o)].Add(x, x, y);
+        }
+        continue;
       }
+      int last = x;  // a run of one object's pixels counts once
+      while (last + 1 < x_end && owner(row, last + 1) == k) ++last;
+      boxes[static_cast<size_t>(k)].Add(x, last, y);
+      x = last;
     }
   }
   std::vector<unsigned char> mask;
@@ -212,8 +273,8 @@ std::vector<ImagePoints> ObjectImagePoints::SampleLastFrame(sim::Renderer& rende
                                                             bool skip_erosion, Rng& rng) {
   const int w = renderer.width(), h = renderer.height();
   segment_.resize(static_cast<size_t>(w) * static_cast<size_t>(h));
-  renderer.SegmentLastFrame(d, view, segment_.data(), tracked_);
-  return Sample(segment_.data(), w, h, skip_erosion, rng);
+  const sim::PixelRect part = renderer.SegmentLastFrame(d, view, segment_.data(), tracked_);
+  return Sample(segment_.data(), w, h, part, skip_erosion, rng);
 }
 
 void ObjectImagePoints::Append(const std::vector<ImagePoints>& points, const std::string& camera,

@@ -249,8 +249,8 @@ void Renderer::Render(const mjData* d, const CameraView& view, unsigned char* rg
 namespace {
 
 // Reads the segmentation colours of `part` of the offscreen buffer into geom_ids (width x
-// height, top down; -1 outside `part`).
-void ReadSegmentation(Renderer::Impl& s, const mjrRect& part, int* geom_ids) {
+// height, top down; -1 outside `part`). Returns `part` top down.
+PixelRect ReadSegmentation(Renderer::Impl& s, const mjrRect& part, int* geom_ids) {
   const int w = s.options.width, h = s.options.height;
   std::vector<unsigned char>& rgb = s.segment_rgb;
   rgb.resize(static_cast<size_t>(3) * part.width * part.height);
@@ -280,12 +280,13 @@ void ReadSegmentation(Renderer::Impl& s, const mjrRect& part, int* geom_ids) {
       out[col] = colour < table.size() ? table[colour] : -1;
     }
   }
+  return {part.left, top, part.width, part.height};
 }
 
 }  // namespace
 
-void Renderer::RenderSegmentation(const mjData* d, const CameraView& view, int* geom_ids,
-                                  const std::vector<unsigned char>* interest) {
+PixelRect Renderer::RenderSegmentation(const mjData* d, const CameraView& view, int* geom_ids,
+                                       const std::vector<unsigned char>* interest) {
   Impl& s = *impl_;
   if (d == nullptr || geom_ids == nullptr) {
     throw UsageError("Renderer::RenderSegmentation: null data or geom_ids");
@@ -305,7 +306,7 @@ void Renderer::RenderSegmentation(const mjData* d, const CameraView& view, int* 
     if (interest != nullptr) part = s.shadow_pass->InterestRect(viewport, s.scn, *interest);
     if (part.width == 0) {
       std::fill(geom_ids, geom_ids + static_cast<size_t>(w) * h, -1);
-      return;
+      return {};
     }
     s.shadow_pass->Segment(viewport, s.scn, s.con, &part);
   } else {
@@ -316,15 +317,14 @@ void Renderer::RenderSegmentation(const mjData* d, const CameraView& view, int* 
     flags[mjRND_SEGMENT] = segment;
     flags[mjRND_IDCOLOR] = idcolor;
   }
-  ReadSegmentation(s, part, geom_ids);
+  return ReadSegmentation(s, part, geom_ids);
 }
 
-void Renderer::SegmentLastFrame(const mjData* d, const CameraView& view, int* geom_ids,
-                                const std::vector<unsigned char>& interest) {
+PixelRect Renderer::SegmentLastFrame(const mjData* d, const CameraView& view, int* geom_ids,
+                                     const std::vector<unsigned char>& interest) {
   Impl& s = *impl_;
   if (!s.frame_in_buffer || s.con.offSamples > 0) {
-    RenderSegmentation(d, view, geom_ids, &interest);
-    return;
+    return RenderSegmentation(d, view, geom_ids, &interest);
   }
   if (geom_ids == nullptr) throw UsageError("Renderer::SegmentLastFrame: null geom_ids");
   s.gl->MakeCurrent();
@@ -335,11 +335,11 @@ void Renderer::SegmentLastFrame(const mjData* d, const CameraView& view, int* ge
   if (part.width == 0) {
     ++s.frame_segmentations;
     std::fill(geom_ids, geom_ids + static_cast<size_t>(w) * h, -1);
-    return;
+    return {};
   }
   s.shadow_pass->SegmentFrame(viewport, s.scn, s.con, interest, part);
   ++s.frame_segmentations;
-  ReadSegmentation(s, part, geom_ids);
+  return ReadSegmentation(s, part, geom_ids);
 }
 
 void Renderer::UpdateScene(const mjData* d, const CameraView& view) {

@@ -12,6 +12,7 @@
 #include <gtest/gtest.h>
 
 #include "mlspaces/core/error.h"
+#include "mlspaces/core/rng.h"
 #include "mlspaces/datagen/camera_recorder.h"
 #include "mlspaces/datagen/env.h"
 #include "mlspaces/datagen/eval_env.h"
@@ -138,6 +139,36 @@ TEST(SampleImagePoints, AWindowHoldingTheMaskDrawsTheWholeImagesPoints) {
   EXPECT_FALSE(SamePoints(p, r));
 }
 
+// The points are the mask's set pixels, listed in row-major order, at the ordinals
+// SampleIndices draws: on masks from empty to full, sparse and dense (the draw's two paths).
+TEST(SampleImagePoints, DrawsTheSetPixelsAtTheOrdinalsSampleIndicesDraws) {
+  Rng masks(21);
+  for (const int w : {1, 7, 300}) {
+    for (const double density : {0.0, 0.001, 0.05, 0.5, 1.0}) {
+      const int h = 97;
+      Mask m(static_cast<size_t>(w) * h, 0);
+      for (unsigned char& v : m) v = masks.Uniform01() < density ? 3 : 0;  // any non-zero is set
+      std::vector<uint32_t> listed;
+      for (size_t i = 0; i < m.size(); ++i) {
+        if (m[i] != 0) listed.push_back(static_cast<uint32_t>(i));
+      }
+      Rng a(5), b(5);
+      const ImagePoints p = SampleImagePoints(m, w, h, false, a);
+      const std::vector<size_t> drawn = SampleIndices(b, listed.size(), kMaxImagePoints);
+      ASSERT_EQ(p.count, static_cast<int32_t>(drawn.size())) << w << " " << density;
+      for (size_t k = 0; k < drawn.size(); ++k) {
+        const uint32_t pixel = listed[drawn[k]];
+        const uint32_t column = pixel % w, line = pixel / w;  // the pixel's column and row
+        const auto col = static_cast<float>(column), row = static_cast<float>(line);
+        EXPECT_EQ(p.points[2 * k], std::nearbyint(col / w * 1e4f) / 1e4f)
+            << w << " " << density << " point " << k;
+        EXPECT_EQ(p.points[2 * k + 1], std::nearbyint(row / h * 1e4f) / 1e4f);
+      }
+      EXPECT_EQ(a.NextU64(), b.NextU64());
+    }
+  }
+}
+
 TEST(TracksObjectsIn, LeavesOutFollowerCameras) {
   EXPECT_TRUE(TracksObjectsIn("wrist_camera"));
   EXPECT_FALSE(TracksObjectsIn("exo_Follower_camera"));
@@ -253,6 +284,93 @@ TEST_F(ObjectImagePointsTest, TheRecorderDrawsThemFromTheObjectsPixels) {
   // Switched off: nothing recorded.
   config.object_image_points = false;
   EXPECT_TRUE(capture(11).empty());
+}
+
+// Sampling inside the part a segmentation returns draws the whole image's points.
+TEST_F(ObjectImagePointsTest, ThePartASegmentationReturnsHoldsThePoints) {
+  const mjModel* m = env_.model();
+  mjData* d = env_.data();
+  mj_forward(m, d);
+  const ObjectImagePoints points(m, GripperAndBlock());
+  sim::RenderOptions options;
+  options.width = 320;
+  options.height = 192;
+  options.one_pass_shadows = true;
+  sim::Renderer r(m, options);
+  const CameraSystemConfig config;
+  const CameraSystem cams(m, config);
+  std::vector<int> ids(320 * 192);
+  int smaller = 0;  // the exo camera's part is smaller; the wrist camera's gripper fills it
+  for (size_t c = 0; c < cams.size(); ++c) {
+    const sim::PixelRect part =
+        r.RenderSegmentation(d, cams.View(c, d), ids.data(), &points.tracked_geoms());
+    smaller += part.width * part.height < 320 * 192;
+    Rng whole_rng(7), part_rng(7);
+    const std::vector<ImagePoints> whole = points.Sample(ids.data(), 320, 192, false, whole_rng);
+    const std::vector<ImagePoints> inside =
+        points.Sample(ids.data(), 320, 192, part, false, part_rng);
+    ASSERT_EQ(whole.size(), inside.size());
+    for (size_t k = 0; k < whole.size(); ++k) {
+      EXPECT_EQ(whole[k].count, 10) << cams.name(c) << " object " << k;
+      EXPECT_EQ(inside[k].count, whole[k].count);
+      EXPECT_TRUE(SamePoints(inside[k], whole[k])) << cams.name(c) << " object " << k;
+    }
+    EXPECT_EQ(whole_rng.NextU64(), part_rng.NextU64());
+  }
+  EXPECT_GT(smaller, 0);
+  Rng rng(7);
+  testing::ExpectError(
+      [&] {
+        points.Sample(ids.data(), 320, 192, {300, 0, 21, 5}, false, rng);
+      },
+      {"part 21x5 at (300, 0)", "320x192"});
+}
+
+// An object inside another (the world's subtree holds the block) gets the pixels of its own
+// subtree, and the outer one all of them, as masks made by hand give.
+TEST_F(ObjectImagePointsTest, NestedObjectsEachGetTheirSubtreesPixels) {
+  const mjModel* m = env_.model();
+  mjData* d = env_.data();
+  mj_forward(m, d);
+  const ObjectImagePoints points(m, {{"added_0", "world"}, {"pickup_obj", "red_block"}});
+  const int w = 320, h = 192;
+  sim::RenderOptions options;
+  options.width = w;
+  options.height = h;
+  sim::Renderer r(m, options);
+  const CameraSystemConfig config;
+  const CameraSystem cams(m, config);
+  const int block = mj_name2id(m, mjOBJ_BODY, "red_block");
+  std::vector<int> ids(static_cast<size_t>(w) * h);
+  for (size_t c = 0; c < cams.size(); ++c) {
+    r.RenderSegmentation(d, cams.View(c, d), ids.data());
+    Rng rng(3), reference(3);
+    const std::vector<ImagePoints> got = points.Sample(ids.data(), w, h, false, rng);
+    ASSERT_EQ(got.size(), 2u);
+    for (const bool block_only : {false, true}) {
+      auto of = [&](int x, int y) {
+        const int g = ids[static_cast<size_t>(y) * w + x];
+        return g >= 0 && (!block_only || m->geom_bodyid[g] == block);
+      };
+      int x0 = w, y0 = h, x1 = -1, y1 = -1;
+      for (int y = 0; y < h; ++y) {
+        for (int x = 0; x < w; ++x) {
+          if (!of(x, y)) continue;
+          x0 = std::min(x0, x), x1 = std::max(x1, x), y0 = std::min(y0, y), y1 = std::max(y1, y);
+        }
+      }
+      ASSERT_GE(x1, 0) << "seen in " << cams.name(c);
+      Mask mask;
+      for (int y = y0; y <= y1; ++y) {
+        for (int x = x0; x <= x1; ++x) mask.push_back(of(x, y) ? 1 : 0);
+      }
+      const ImagePoints want =
+          SampleImagePoints(mask, x1 - x0 + 1, y1 - y0 + 1, true, reference, {x0, y0, w, h});
+      EXPECT_EQ(got[block_only ? 1 : 0].count, 10) << cams.name(c);
+      EXPECT_TRUE(SamePoints(got[block_only ? 1 : 0], want))
+          << cams.name(c) << (block_only ? ": the block" : ": the world");
+    }
+  }
 }
 
 // Drawing the points over a frame after it is read leaves the videos' bytes as they were.

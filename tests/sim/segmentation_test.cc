@@ -195,7 +195,28 @@ TEST(Segmentation, GeomsOfInterestKeepTheirPixelsInLessWork) {
   };
   for (size_t v = 0; v < views.size(); ++v) {
     const std::vector<int> full = Segment(r, w.d.get(), views[v]);
-    const std::vector<int> part = Segment(r, w.d.get(), views[v], &interest);
+    std::vector<int> part(full.size(), -7);
+    const PixelRect rect = r.RenderSegmentation(w.d.get(), views[v], part.data(), &interest);
+    // Outside the part it returns, every pixel is -1.
+    ASSERT_GE(rect.x, 0);
+    ASSERT_GE(rect.y, 0);
+    ASSERT_LE(rect.x + rect.width, r.width());
+    ASSERT_LE(rect.y + rect.height, r.height());
+    for (int y = 0; y < r.height(); ++y) {
+      for (int x = 0; x < r.width(); ++x) {
+        const bool inside =
+            x >= rect.x && x < rect.x + rect.width && y >= rect.y && y < rect.y + rect.height;
+        if (!inside) {
+          ASSERT_EQ(part[static_cast<size_t>(y) * r.width() + x], -1) << x << "," << y;
+        }
+      }
+    }
+    if (v == 0) {
+      EXPECT_LT(rect.width * rect.height, r.width() * r.height() / 2);
+    }
+    if (v == 1) {
+      EXPECT_EQ(rect.width * rect.height, 0);
+    }
     size_t of_interest = 0, dropped = 0;
     for (size_t i = 0; i < full.size(); ++i) {
       const bool wanted = full[i] >= 0 && interest[static_cast<size_t>(full[i])] != 0;
@@ -250,7 +271,15 @@ TEST(Segmentation, TheLastFramesDepthShowsTheGeomsOfInterestAsASegmentation) {
       const std::vector<int> full = Segment(r, w.d.get(), view);
       r.Render(w.d.get(), view, rgb.data());
       std::vector<int> last(n, -7);
-      r.SegmentLastFrame(w.d.get(), view, last.data(), interest);
+      const PixelRect rect = r.SegmentLastFrame(w.d.get(), view, last.data(), interest);
+      EXPECT_GT(rect.width * rect.height, 0);
+      for (size_t i = 0; i < n; ++i) {
+        const int x = static_cast<int>(i % static_cast<size_t>(r.width()));
+        const int y = static_cast<int>(i / static_cast<size_t>(r.width()));
+        if (x < rect.x || x >= rect.x + rect.width || y < rect.y || y >= rect.y + rect.height) {
+          ASSERT_EQ(last[i], -1) << "outside the part returned: " << x << "," << y;
+        }
+      }
       // Other geoms' pixels are -1, or theirs.
       size_t wanted = 0, same = 0, others_shown = 0, glass_wanted = 0, glass_same = 0;
       for (size_t i = 0; i < n; ++i) {

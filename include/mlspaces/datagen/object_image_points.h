@@ -105,6 +105,11 @@ class MLSPACES_API ObjectImagePoints {
   /// objects whose key holds "handle" are not eroded, nor any with `skip_erosion`.
   std::vector<ImagePoints> Sample(const int* geom_ids, int width, int height, bool skip_erosion,
                                   Rng& rng) const;
+  /// As Sample, looking only inside `part` of the segmentation (every pixel outside it -1, as
+  /// RenderSegmentation returns it): the same points for less work.
+  /// @throws UsageError when `part` is not inside the image.
+  std::vector<ImagePoints> Sample(const int* geom_ids, int width, int height,
+                                  const sim::PixelRect& part, bool skip_erosion, Rng& rng) const;
   /// Sample's points in the frame `renderer` drew last, of `d` from `view`
   /// (Renderer::SegmentLastFrame of tracked_geoms(), into a buffer the object keeps).
   std::vector<ImagePoints> SampleLastFrame(sim::Renderer& renderer, const mjData* d,
@@ -120,7 +125,9 @@ class MLSPACES_API ObjectImagePoints {
   std::vector<std::vector<unsigned char>> owns_;  // [object][geom]: the geom is the object's
   std::vector<std::vector<int>> owner_;           // [geom]: the objects owning it
   std::vector<unsigned char> tracked_;            // [geom]: some object owns it
-  std::vector<int> segment_;                      // SampleLastFrame's segmentation
+  static constexpr int kNoOwner = -1, kSeveralOwners = -2;
+  std::vector<int> solo_owner_;  // [geom]: its one owner, or kNoOwner / kSeveralOwners
+  std::vector<int> segment_;     // SampleLastFrame's segmentation
 };
 
 }  // namespace mlspaces::datagen

@@ -122,6 +122,11 @@ struct MLSPACES_API CameraView {
   double fovy_deg = 45;
 };
 
+/// A part of an image: `width` x `height` pixels from column `x`, row `y` (rows top down).
+struct MLSPACES_API PixelRect {
+  int x = 0, y = 0, width = 0, height = 0;
+};
+
 /// A camera at `eye` looking at `target`, world +z up in the image (when the view is
 /// vertical, world +y is up in the image). @throws UsageError when eye == target.
 MLSPACES_API CameraView LookAt(const std::array<double, 3>& eye,
@@ -169,9 +174,11 @@ class MLSPACES_API Renderer {
   /// with one_pass_shadows only the part of the image where they may be seen is then drawn
   /// and read (every geom drawn there: what hides them still does) and the pixels outside it
   /// are -1 (none at all is drawn when they cannot be seen). Their pixels are always right.
+  /// Returns the part drawn and read (the whole image, or empty when nothing was drawn):
+  /// every pixel outside it is -1, so a reader may look inside it only.
   /// @throws UsageError for a null d or geom_ids, or fovy_deg outside (0, 180).
-  void RenderSegmentation(const mjData* d, const CameraView& view, int* geom_ids,
-                          const std::vector<unsigned char>* interest = nullptr);
+  PixelRect RenderSegmentation(const mjData* d, const CameraView& view, int* geom_ids,
+                               const std::vector<unsigned char>* interest = nullptr);
 
   /// As RenderSegmentation(d, view, geom_ids, &interest) right after Render(d, view, ...),
   /// from that frame's depth: only the geoms of interest are drawn, each where it is the
@@ -180,10 +187,10 @@ class MLSPACES_API Renderer {
   /// depth) hide nothing, where a segmentation shows them in front. A frame not drawn by
   /// one pass (one_pass_shadows off, no shadows, a scene it cannot draw) or multisampled, or
   /// any other render since, takes RenderSegmentation instead. Only the pixels of the geoms
-  /// of interest are meant (others may be -1).
+  /// of interest are meant (others may be -1). Returns the part read, as RenderSegmentation.
   /// @throws UsageError as RenderSegmentation.
-  void SegmentLastFrame(const mjData* d, const CameraView& view, int* geom_ids,
-                        const std::vector<unsigned char>& interest);
+  PixelRect SegmentLastFrame(const mjData* d, const CameraView& view, int* geom_ids,
+                             const std::vector<unsigned char>& interest);
 
   /// The views the renders to come show each state from (a camera system's cameras), for
   /// fit_shadows: each state's maps then hold the shadows any of them sees, and its renders

@@ -57,7 +57,7 @@ run() {
   awk -v n="$name" -v w="$WORKERS" -v t0="$t0" -v t1="$t1" -v ok="$ok" 'BEGIN {
     d = t1 - t0
     printf "%-12s workers %d  %6.1f s  %d successful  %8.0f successful episodes/h (%.0f per worker)\n",
-           n, w, d, ok, 3600 * ok / d, 3600 * ok / d / w }'
+           n, w, d, ok, 3600 * ok / d, 3600 * ok / d / w }' | tee -a "$TMP/rates"
 }
 
 echo "== mlspaces datagen, tutorial, $RUN_EPISODES episodes, $WORKERS workers ($GL)"
@@ -70,3 +70,15 @@ run unfitted --set camera_config.one_pass_shadows=false --set camera_config.fit_
 run full --set camera_config.shadow_size=0 --set camera_config.multisamples=-1 \
   --set camera_config.fit_shadows=false --set camera_config.one_pass_shadows=false
 run no_cameras --set task_config.enable_rendering=false
+
+# Within one run the machine's speed cancels: each setting's rate against full quality's (the
+# original's settings), the figure to compare across machines and hours.
+if [[ -s $TMP/rates ]] && grep -q '^full ' "$TMP/rates"; then
+  # A rate line: NAME workers W SECONDS s OK successful RATE successful episodes/h (...).
+  awk '{ name[NR] = $1; rate[$1] = $8 } END {
+    printf "== episodes/h against full quality, in this run:"
+    for (i = 1; i <= NR; ++i) {
+      if (name[i] != "full" && rate["full"] > 0) printf " %s %.1fx", name[i], rate[name[i]] / rate["full"]
+    }
+    printf "\n" }' "$TMP/rates"
+fi

@@ -92,6 +92,28 @@ std::vector<int> Segment(Renderer& r, const mjData* d, const CameraView& view,
   return ids;
 }
 
+// Whether `part` lies inside the width x height image and every pixel of `ids` outside it is
+// -1 (what RenderSegmentation and SegmentLastFrame return).
+::testing::AssertionResult MinusOneOutside(const std::vector<int>& ids, int width, int height,
+                                           const PixelRect& part) {
+  if (part.x < 0 || part.y < 0 || part.x + part.width > width || part.y + part.height > height) {
+    return ::testing::AssertionFailure()
+           << "the part " << part.width << "x" << part.height << " at (" << part.x << ", " << part.y
+           << ") is not inside the image";
+  }
+  for (int y = 0; y < height; ++y) {
+    for (int x = 0; x < width; ++x) {
+      const bool inside =
+          x >= part.x && x < part.x + part.width && y >= part.y && y < part.y + part.height;
+      if (!inside && ids[static_cast<size_t>(y) * width + x] != -1) {
+        return ::testing::AssertionFailure() << "pixel " << x << "," << y << " outside the part is "
+                                             << ids[static_cast<size_t>(y) * width + x];
+      }
+    }
+  }
+  return ::testing::AssertionSuccess();
+}
+
 class SegmentationTest : public ::testing::TestWithParam<bool> {};
 
 TEST_P(SegmentationTest, EachPixelShowsTheGeomAMujocoRayHits) {
@@ -197,20 +219,7 @@ TEST(Segmentation, GeomsOfInterestKeepTheirPixelsInLessWork) {
     const std::vector<int> full = Segment(r, w.d.get(), views[v]);
     std::vector<int> part(full.size(), -7);
     const PixelRect rect = r.RenderSegmentation(w.d.get(), views[v], part.data(), &interest);
-    // Outside the part it returns, every pixel is -1.
-    ASSERT_GE(rect.x, 0);
-    ASSERT_GE(rect.y, 0);
-    ASSERT_LE(rect.x + rect.width, r.width());
-    ASSERT_LE(rect.y + rect.height, r.height());
-    for (int y = 0; y < r.height(); ++y) {
-      for (int x = 0; x < r.width(); ++x) {
-        const bool inside =
-            x >= rect.x && x < rect.x + rect.width && y >= rect.y && y < rect.y + rect.height;
-        if (!inside) {
-          ASSERT_EQ(part[static_cast<size_t>(y) * r.width() + x], -1) << x << "," << y;
-        }
-      }
-    }
+    ASSERT_TRUE(MinusOneOutside(part, r.width(), r.height(), rect)) << "view " << v;
     if (v == 0) {
       EXPECT_LT(rect.width * rect.height, r.width() * r.height() / 2);
     }
@@ -273,13 +282,7 @@ TEST(Segmentation, TheLastFramesDepthShowsTheGeomsOfInterestAsASegmentation) {
       std::vector<int> last(n, -7);
       const PixelRect rect = r.SegmentLastFrame(w.d.get(), view, last.data(), interest);
       EXPECT_GT(rect.width * rect.height, 0);
-      for (size_t i = 0; i < n; ++i) {
-        const int x = static_cast<int>(i % static_cast<size_t>(r.width()));
-        const int y = static_cast<int>(i / static_cast<size_t>(r.width()));
-        if (x < rect.x || x >= rect.x + rect.width || y < rect.y || y >= rect.y + rect.height) {
-          ASSERT_EQ(last[i], -1) << "outside the part returned: " << x << "," << y;
-        }
-      }
+      ASSERT_TRUE(MinusOneOutside(last, r.width(), r.height(), rect));
       // Other geoms' pixels are -1, or theirs.
       size_t wanted = 0, same = 0, others_shown = 0, glass_wanted = 0, glass_same = 0;
       for (size_t i = 0; i < n; ++i) {

@@ -1,12 +1,17 @@
 // The CLI's shared set-up and error mapping (main.cc, and python/src/index.cc for the
 // Python modules that run index-assets / index-grasps): the help formatter, the misspelled-flag
-// hint, the exception -> exit-code mapping with escaped error lines, Warn, PositiveInteger.
+// hint, the exception -> exit-code mapping with escaped error lines, Warn, the shared flag checks
+// (PositiveInteger, NonNegativeInteger, --seed).
 #include <algorithm>
 #include <cctype>
+#include <charconv>
+#include <cstdint>
 #include <cstdio>
 #include <memory>
 #include <string>
 #include <string_view>
+#include <system_error>
+#include <utility>
 #include <vector>
 
 #include "commands.h"
@@ -21,15 +26,42 @@ void Warn(const std::string& text) {
   std::fprintf(stderr, "mlspaces: warning: %s\n", Printable(text).c_str());
 }
 
-CLI::Validator PositiveInteger() {
+namespace {
+
+// A whole number of at most 18 digits (no sign) that is at least `minimum`.
+CLI::Validator WholeNumberAtLeast(long long minimum) {
   return CLI::Validator(
-      [](std::string& value) -> std::string {
-        bool digits = !value.empty() && value.size() <= 18 &&
-                      value.find_first_not_of("0123456789") == std::string::npos;
-        if (digits && std::stoll(value) >= 1) return {};
-        return "expected a whole number >= 1, got '" + value + "'";
+      [minimum](std::string& value) -> std::string {
+        const bool digits = !value.empty() && value.size() <= 18 &&
+                            value.find_first_not_of("0123456789") == std::string::npos;
+        if (digits && std::stoll(value) >= minimum) return {};
+        return "expected a whole number >= " + std::to_string(minimum) + ", got '" + value + "'";
       },
       "");  // no description: the help shows the option's type name alone (`--episodes N`)
+}
+
+}  // namespace
+
+CLI::Validator PositiveInteger() { return WholeNumberAtLeast(1); }
+
+CLI::Validator NonNegativeInteger() { return WholeNumberAtLeast(0); }
+
+CLI::Option* AddSeedOption(CLI::App& app, std::function<void(uint64_t)> store,
+                           const std::string& help) {
+  return app
+      .add_option_function<std::string>(
+          "--seed",
+          [store = std::move(store)](const std::string& text) {
+            uint64_t value = 0;
+            const auto [ptr, ec] = std::from_chars(text.data(), text.data() + text.size(), value);
+            if (text.empty() || ec != std::errc() || ptr != text.data() + text.size()) {
+              throw CLI::ValidationError("--seed",
+                                         "expected a whole number >= 0, got '" + text + "'");
+            }
+            store(value);
+          },
+          help)
+      ->type_name("S");
 }
 
 namespace {
@@ -112,19 +144,24 @@ class HelpFormatter : public CLI::Formatter {
 };
 
 // The first flag typed (argv order) that the chosen command does not know, as
-// "--epsiodes: unknown flag of datagen (did you mean '--episodes'?)"; empty when every flag
+// "--epsiodes: unknown flag of datagen (did you mean '--episodes'?)" ("of render scene" for a
+// nested command); empty when every flag
 // is known (CLI11's message then says what is wrong). As for CLI11, a word starting with '-'
 // is a flag unless it is a number, and nothing after "--" is.
 std::string UnknownFlag(CLI::App& app, int argc, char** argv) {
+  // The command the leading words name, nested ones included ("render scene").
   CLI::App* scope = &app;
+  std::string command;
   int first = 1;
-  if (argc >= 2 && argv[1][0] != '-') {
-    for (CLI::App* sub : app.get_subcommands([](CLI::App*) { return true; })) {
-      if (sub->get_name() == argv[1]) {
-        scope = sub;
-        first = 2;
-      }
+  while (first < argc && argv[first][0] != '-') {
+    CLI::App* next = nullptr;
+    for (CLI::App* sub : scope->get_subcommands([](CLI::App*) { return true; })) {
+      if (sub->get_name() == argv[first]) next = sub;
     }
+    if (next == nullptr) break;
+    scope = next;
+    command += (command.empty() ? "" : " ") + next->get_name();
+    ++first;
   }
   std::vector<std::string> longs, shorts;
   for (const CLI::Option* opt : scope->get_options()) {
@@ -158,7 +195,7 @@ std::string UnknownFlag(CLI::App& app, int argc, char** argv) {
                                  ? mlspaces::DidYouMean(typed, shorts)
                                  : mlspaces::DidYouMean("--" + typed.substr(dashes), longs);
     std::string out = typed + ": unknown flag";
-    if (scope != &app) out += " of " + scope->get_name();
+    if (!command.empty()) out += " of " + command;
     return out + (hint.empty() ? "" : " (" + hint + ")");
   }
   return {};

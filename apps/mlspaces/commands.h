@@ -151,6 +151,14 @@ int ParseAndRun(CLI::App& app, const Action& action, int argc, char** argv);
 /// Checks a flag value is a whole number >= 1, with a short message ("expected a whole
 /// number >= 1, got '-3'") instead of CLI11's range dump.
 CLI::Validator PositiveInteger();
+/// As PositiveInteger, for a whole number >= 0 ("expected a whole number >= 0, got '-1'").
+CLI::Validator NonNegativeInteger();
+
+/// Adds `--seed S` to `app`: a whole number in [0, 2^64), given to `store` when typed; anything
+/// else ("-3", "1e3", "abc") is a usage error naming the flag, where CLI11's own conversion
+/// would wrap a negative number around. `help` is the flag's line in --help.
+CLI::Option* AddSeedOption(CLI::App& app, std::function<void(uint64_t)> store,
+                           const std::string& help);
 
 /// Prints "mlspaces: warning: <text>" to stderr.
 void Warn(const std::string& text);

@@ -1,7 +1,7 @@
 // mlspaces config CONFIG [--set KEY=VALUE]... [--seed S] [--episodes N] [--output DIR]:
 // loads a datagen config, applies the overrides, validates it and prints the resolved config
 // (canonical YAML) with its hash. A dry run of `mlspaces datagen`, which shares the flags.
-#include <charconv>
+#include <cstdint>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
@@ -23,19 +23,8 @@ void DatagenConfigFlags::AddTo(CLI::App& app) {
                  "(e.g. task_sampler_config.samples_per_house=4); repeatable, applied in order")
       ->type_name("KEY=VALUE")
       ->allow_extra_args(false);
-  app.add_option_function<std::string>(
-         "--seed",
-         [this](const std::string& text) {
-           uint64_t value = 0;
-           const auto [ptr, ec] = std::from_chars(text.data(), text.data() + text.size(), value);
-           if (text.empty() || ec != std::errc() || ptr != text.data() + text.size()) {
-             throw CLI::ValidationError("--seed",
-                                        "expected a whole number >= 0, got '" + text + "'");
-           }
-           seed = value;
-         },
-         "Run seed (sets `seed`)")
-      ->type_name("S");
+  AddSeedOption(
+      app, [this](uint64_t value) { seed = value; }, "Run seed (sets `seed`)");
   app.add_option_function<int64_t>(
          "--episodes", [this](const int64_t& n) { episodes = n; },
          "Episodes per scene (sets task_sampler_config.samples_per_house)")

@@ -72,7 +72,9 @@ void AddGenerateGrasps(CLI::App& app, Action& action) {
                 "Joint grasps of each hinge/slide joint instead of pickup grasps");
   sub->add_option("--max-grasps", flags->max_grasps, "Grasps kept per object or joint (1000)")
       ->check(PositiveInteger());
-  sub->add_option("--seed", flags->options.seed, "Seed (default 0); same seed, same files");
+  AddSeedOption(
+      *sub, [flags](uint64_t seed) { flags->options.seed = seed; },
+      "Seed (default 0); same seed, same files");
   sub->add_option("-j,--threads", flags->threads, "Threads (default: all cores)")
       ->check(PositiveInteger());
   sub->add_flag("--overwrite", flags->options.overwrite,

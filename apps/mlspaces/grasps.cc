@@ -116,7 +116,8 @@ void AddGrasps(CLI::App& app, Action& action) {
   sub->add_option("--joint", flags->joint, "Joint grasps for this joint (name in the asset MJCF)");
   sub->add_option("--num", flags->num, "Subsample N distinct grasps (default: all)")
       ->check(PositiveInteger());
-  sub->add_option("--seed", flags->seed, "Seed of the subsampling (default 0)");
+  AddSeedOption(
+      *sub, [flags](uint64_t seed) { flags->seed = seed; }, "Seed of the subsampling (default 0)");
   sub->add_option("--out", flags->out, "Write the grasps as an (n,4,4) float64 NPZ")
       ->type_name("FILE.npz");
   flags->libraries.AddTo(*sub);

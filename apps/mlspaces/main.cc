@@ -59,20 +59,37 @@ int Run(int argc, char** argv) {
   cli::AddExportLeRobot(app, action);
   cli::AddImportLeRobot(app, action);
 #endif
-  if (argc >= 2 && argv[1][0] != '-') {
+  // The command the leading words name, nested ones included ("render scene"): an unknown
+  // word, or none where a nested command needs one, is one line with the commands there are.
+  CLI::App* scope = &app;
+  std::string path;  // the words matched so far
+  for (int i = 1;; ++i) {
     std::vector<std::string> names;
-    bool known = false;
-    for (CLI::App* sub : app.get_subcommands([](CLI::App*) { return true; })) {
+    CLI::App* next = nullptr;
+    for (CLI::App* sub : scope->get_subcommands([](CLI::App*) { return true; })) {
       names.push_back(sub->get_name());
-      known = known || sub->get_name() == argv[1];
+      if (i < argc && sub->get_name() == argv[i]) next = sub;
     }
-    if (!known) {
-      std::string hint = DidYouMean(argv[1], names);
+    if (names.empty()) break;
+    const std::string of = path.empty() ? "" : " of " + path;
+    if (i >= argc || argv[i][0] == '-') {
+      if (i >= argc && scope != &app) {
+        std::fprintf(stderr, "mlspaces: error: %s needs a command (%s)\n", path.c_str(),
+                     JoinNames(names).c_str());
+        return 2;
+      }
+      break;
+    }
+    if (next == nullptr) {
+      std::string hint = DidYouMean(argv[i], names);
       if (!hint.empty()) hint += " ";
-      std::fprintf(stderr, "mlspaces: error: unknown command '%s' (%scommands: %s)\n",
-                   Printable(argv[1]).c_str(), hint.c_str(), JoinNames(names).c_str());
+      std::fprintf(stderr, "mlspaces: error: unknown command '%s'%s (%scommands%s: %s)\n",
+                   Printable(argv[i]).c_str(), of.c_str(), hint.c_str(), of.c_str(),
+                   JoinNames(names).c_str());
       return 2;
     }
+    scope = next;
+    path += (path.empty() ? "" : " ") + next->get_name();
   }
   return cli::ParseAndRun(app, action, argc, argv);
 }

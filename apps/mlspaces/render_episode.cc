@@ -41,7 +41,8 @@ void AddRenderEpisode(CLI::App& render, Action& action) {
   sub->add_option("DATASET", flags->dataset, "Run folder, house folder or batch file (.h5)")
       ->required();
   sub->add_option("--episode", flags->episode,
-                  "Episode index in reading order (houses, batches, traj_<k>; default 0)");
+                  "Episode index in reading order (houses, batches, traj_<k>; default 0)")
+      ->check(NonNegativeInteger());
   sub->add_option("--camera", flags->camera, "Camera (default: the first by name)");
   sub->add_option("--width", flags->width, "Width of each frame in pixels (default 320)")
       ->check(PositiveInteger());

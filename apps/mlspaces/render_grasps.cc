@@ -60,7 +60,8 @@ void AddRenderGrasps(CLI::App& render, Action& action) {
                   "franka_droid)");
   sub->add_option("--num", flags->num, "Draw N grasps, subsampled (default 20)")
       ->check(PositiveInteger());
-  sub->add_option("--seed", flags->seed, "Seed of the subsampling (default 0)");
+  AddSeedOption(
+      *sub, [flags](uint64_t seed) { flags->seed = seed; }, "Seed of the subsampling (default 0)");
   sub->add_option("--views", flags->views, "Views around the asset (default 4)")
       ->check(PositiveInteger());
   flags->libraries.AddTo(*sub);

@@ -47,12 +47,16 @@ void AddRenderScene(CLI::App& render, Action& action) {
       ->required();
   sub->add_option("--set", flags->config.sets, "Override a config key (repeatable)")
       ->type_name("KEY=VALUE");
-  sub->add_option("--seed", flags->config.seed, "Run seed (default: the config's, else 0)");
-  sub->add_option("--house", flags->house, "Scene index into scene_xml_paths (default 0)");
+  AddSeedOption(
+      *sub, [flags](uint64_t seed) { flags->config.seed = seed; },
+      "Run seed (default: the config's, else 0)");
+  sub->add_option("--house", flags->house, "Scene index into scene_xml_paths (default 0)")
+      ->check(NonNegativeInteger());
   sub->add_option("--episode", flags->episode,
-                  "Episode number whose task is shown (default 0; the next while rejected)");
-  sub->add_option("--overviews", flags->overviews,
-                  "Overview views besides the cameras (default 1)");
+                  "Episode number whose task is shown (default 0; the next while rejected)")
+      ->check(NonNegativeInteger());
+  sub->add_option("--overviews", flags->overviews, "Overview views besides the cameras (default 1)")
+      ->check(NonNegativeInteger());
   flags->render.AddTo(*sub, "320x240");
   sub->callback([&action, flags] { action = [flags] { return Run(*flags); }; });
 }

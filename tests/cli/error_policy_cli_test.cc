@@ -140,6 +140,66 @@ TEST(UsageCli, MisspelledFlagsGetDidYouMeanForTheFirstTyped) {
                   "unknown command 'locaet' (did you mean 'locate'?");
 }
 
+// A nested command ("render scene") is named in full: its misspelled flags, a misspelled or
+// missing command under "render".
+TEST(UsageCli, NestedCommandsAreNamedInTheirErrors) {
+  if (RunCli({"render", "--help"}).exit_code != 0) GTEST_SKIP() << "built without datagen";
+  const std::string config =
+      (fs::path(MLSPACES_EXAMPLES_DIR) / "custom_assets/datagen.yaml").string();
+  TempDir tmp;  // where a picture would go, were a flag wrongly accepted
+  const std::string png = (tmp / "x.png").string();
+  ExpectUsageLine(RunCli({"render", "scene", config, "--episdoe", "3", "-o", png}),
+                  "--episdoe: unknown flag of render scene (did you mean '--episode'?)");
+  ExpectUsageLine(RunCli({"render", "assets", "--colums", "3", "-o", png}),
+                  "--colums: unknown flag of render assets (did you mean '--columns'?)");
+  ExpectUsageLine(RunCli({"render", "episdoe", "run"}),
+                  "unknown command 'episdoe' of render (did you mean 'episode'? commands of "
+                  "render: assets, grasps, scene, episode)");
+  ExpectUsageLine(RunCli({"render"}), "render needs a command (assets, grasps, scene, episode)");
+  // A known flag with a bad value is that value's error, not an unknown flag.
+  ExpectUsageLine(RunCli({"render", "scene", config, "--house", "x", "-o", png}), "--house");
+  EXPECT_THAT(RunCli({"render", "scene", config, "--house", "x", "-o", png}).err,
+              Not(HasSubstr("unknown flag")));
+}
+
+// Every --seed is a whole number in [0, 2^64): CLI11 alone would wrap "-3" around to
+// 2^64 - 3. Episode, house and view counts are whole numbers >= 0.
+TEST(UsageCli, SeedsAndIndicesAreWholeNumbers) {
+  std::vector<std::vector<std::string>> commands = {{"grasps", "red_block"}};
+  const std::string config =
+      (fs::path(MLSPACES_EXAMPLES_DIR) / "custom_assets/datagen.yaml").string();
+  TempDir tmp;  // where a picture would go, were a flag wrongly accepted
+  const std::string png = (tmp / "x.png").string();
+  if (RunCli({"generate-grasps", "--help"}).exit_code == 0) {
+    commands.push_back({"generate-grasps", "lib"});
+  }
+  const bool datagen = RunCli({"render", "--help"}).exit_code == 0;
+  if (datagen) {
+    commands.push_back({"render", "grasps", "red_block", "-o", png});
+    commands.push_back({"render", "scene", config, "-o", png});
+    commands.push_back({"datagen", config});
+    commands.push_back({"config", config});
+  }
+  for (const std::vector<std::string>& command : commands) {
+    for (const std::string seed : {"-3", "1e3", "abc", "18446744073709551616", "+1", ""}) {
+      std::vector<std::string> args = command;
+      args.insert(args.end(), {"--seed", seed});
+      ExpectUsageLine(RunCli(args), "--seed: expected a whole number >= 0, got '" + seed + "'");
+    }
+  }
+  if (!datagen) return;
+  // The largest seed is a seed.
+  const CliResult largest = RunCli({"config", config, "--seed", "18446744073709551615"});
+  EXPECT_EQ(largest.exit_code, 0) << largest.err;
+  EXPECT_THAT(largest.out, HasSubstr("seed: 18446744073709551615"));
+  for (const std::string flag : {"--episode", "--house", "--overviews"}) {
+    ExpectUsageLine(RunCli({"render", "scene", config, flag, "-1", "-o", png}),
+                    flag + ": expected a whole number >= 0, got '-1'");
+  }
+  ExpectUsageLine(RunCli({"render", "episode", "run", "--episode", "-1", "-o", png}),
+                  "--episode: expected a whole number >= 0, got '-1'");
+}
+
 // The commands, from the unknown-command error's list.
 std::vector<std::string> Commands() {
   const std::string err = RunCli({"no-such-command"}).err;

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cctype>
 #include <charconv>
+#include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <memory>
@@ -45,6 +46,20 @@ CLI::Validator WholeNumberAtLeast(long long minimum) {
 CLI::Validator PositiveInteger() { return WholeNumberAtLeast(1); }
 
 CLI::Validator NonNegativeInteger() { return WholeNumberAtLeast(0); }
+
+CLI::Validator PositiveNumber() {
+  return CLI::Validator(
+      [](std::string& value) -> std::string {
+        double number = 0;
+        const auto [ptr, ec] = std::from_chars(value.data(), value.data() + value.size(), number);
+        if (!value.empty() && ec == std::errc() && ptr == value.data() + value.size() &&
+            std::isfinite(number) && number > 0) {
+          return {};
+        }
+        return "expected a number > 0, got '" + value + "'";
+      },
+      "");
+}
 
 CLI::Option* AddSeedOption(CLI::App& app, std::function<void(uint64_t)> store,
                            const std::string& help) {

@@ -153,6 +153,9 @@ int ParseAndRun(CLI::App& app, const Action& action, int argc, char** argv);
 CLI::Validator PositiveInteger();
 /// As PositiveInteger, for a whole number >= 0 ("expected a whole number >= 0, got '-1'").
 CLI::Validator NonNegativeInteger();
+/// Checks a flag value is a finite number > 0 ("expected a number > 0, got 'nan'"): CLI11's
+/// PositiveNumber and Range let NaN through.
+CLI::Validator PositiveNumber();
 
 /// Adds `--seed S` to `app`: a whole number in [0, 2^64), given to `store` when typed; anything
 /// else ("-3", "1e3", "abc") is a usage error naming the flag, where CLI11's own conversion

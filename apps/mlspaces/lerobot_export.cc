@@ -157,7 +157,8 @@ void AddExportLeRobot(CLI::App& app, Action& action) {
       ->required();
   sub->add_option("--fps", flags->fps,
                   "Check the dataset's frame rate is this (1000 / policy_dt_ms); error if not")
-      ->type_name("F");
+      ->type_name("F")
+      ->check(PositiveNumber());
   sub->add_option("--repo-id", flags->repo_id,
                   "The repo_id to load it with (printed; LeRobot takes it from the caller)")
       ->type_name("NAME");

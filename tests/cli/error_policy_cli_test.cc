@@ -200,6 +200,23 @@ TEST(UsageCli, SeedsAndIndicesAreWholeNumbers) {
                   "--episode: expected a whole number >= 0, got '-1'");
 }
 
+// export-lerobot --fps checks the dataset's rate: a value that can be no rate is an error, not
+// a check left out (any value <= 0 was).
+TEST(UsageCli, ARateToCheckIsAPositiveNumber) {
+  if (RunCli({"export-lerobot", "--help"}).exit_code != 0) GTEST_SKIP() << "built without lerobot";
+  TempDir tmp;
+  for (const std::string fps : {"-5", "0", "nan", "inf", "15fps", ""}) {
+    ExpectUsageLine(
+        RunCli({"export-lerobot", tmp.path().string(), (tmp / "out").string(), "--fps", fps}),
+        "--fps: expected a number > 0, got '" + fps + "'");
+  }
+  // A rate passes the flag: the error is then the dataset's.
+  const CliResult r =
+      RunCli({"export-lerobot", (tmp / "nope").string(), (tmp / "out").string(), "--fps", "15"});
+  EXPECT_EQ(r.exit_code, 1) << r.err;
+  EXPECT_THAT(r.err, HasSubstr("nope"));
+}
+
 // The commands, from the unknown-command error's list.
 std::vector<std::string> Commands() {
   const std::string err = RunCli({"no-such-command"}).err;

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <limits>
 #include <memory>
 #include <string>
 #include <string_view>
@@ -29,37 +30,57 @@ void Warn(const std::string& text) {
 
 namespace {
 
-// A whole number of at most 18 digits (no sign) that is at least `minimum`.
-CLI::Validator WholeNumberAtLeast(long long minimum) {
+// A whole number of at most 18 digits (no sign) in [minimum, maximum].
+CLI::Validator WholeNumber(long long minimum, long long maximum) {
   return CLI::Validator(
-      [minimum](std::string& value) -> std::string {
+      [minimum, maximum](std::string& value) -> std::string {
         const bool digits = !value.empty() && value.size() <= 18 &&
                             value.find_first_not_of("0123456789") == std::string::npos;
-        if (digits && std::stoll(value) >= minimum) return {};
-        return "expected a whole number >= " + std::to_string(minimum) + ", got '" + value + "'";
+        if (digits && std::stoll(value) >= minimum && std::stoll(value) <= maximum) return {};
+        const std::string range =
+            maximum == std::numeric_limits<long long>::max()
+                ? ">= " + std::to_string(minimum)
+                : "in [" + std::to_string(minimum) + ", " + std::to_string(maximum) + "]";
+        return "expected a whole number " + range + ", got '" + value + "'";
       },
       "");  // no description: the help shows the option's type name alone (`--episodes N`)
 }
 
 }  // namespace
 
-CLI::Validator PositiveInteger() { return WholeNumberAtLeast(1); }
+CLI::Validator PositiveInteger() { return WholeNumber(1, std::numeric_limits<long long>::max()); }
 
-CLI::Validator NonNegativeInteger() { return WholeNumberAtLeast(0); }
+CLI::Validator NonNegativeInteger() {
+  return WholeNumber(0, std::numeric_limits<long long>::max());
+}
 
-CLI::Validator PositiveNumber() {
+CLI::Validator WholeNumberIn(long long minimum, long long maximum) {
+  return WholeNumber(minimum, maximum);
+}
+
+namespace {
+
+// A finite number (from_chars' syntax: no sign '+', hex or blanks), > 0 when `positive`.
+CLI::Validator Number(bool positive) {
   return CLI::Validator(
-      [](std::string& value) -> std::string {
+      [positive](std::string& value) -> std::string {
         double number = 0;
         const auto [ptr, ec] = std::from_chars(value.data(), value.data() + value.size(), number);
         if (!value.empty() && ec == std::errc() && ptr == value.data() + value.size() &&
-            std::isfinite(number) && number > 0) {
+            std::isfinite(number) && (!positive || number > 0)) {
           return {};
         }
-        return "expected a number > 0, got '" + value + "'";
+        return std::string(positive ? "expected a number > 0" : "expected a finite number") +
+               ", got '" + value + "'";
       },
       "");
 }
+
+}  // namespace
+
+CLI::Validator PositiveNumber() { return Number(true); }
+
+CLI::Validator FiniteNumber() { return Number(false); }
 
 CLI::Option* AddSeedOption(CLI::App& app, std::function<void(uint64_t)> store,
                            const std::string& help) {
@@ -216,6 +237,23 @@ std::string UnknownFlag(CLI::App& app, int argc, char** argv) {
   return {};
 }
 
+// The first flag or positional of the chosen commands given an empty value ("--out ''"), as
+// "--out: empty value"; empty when there is none. No value here means "not given": a file,
+// name, number or choice is never the empty string.
+std::string EmptyValue(CLI::App& app) {
+  for (CLI::App* scope = &app; scope != nullptr;) {
+    for (const CLI::Option* opt : scope->get_options()) {
+      if (opt->get_expected_min() == 0 || opt->count() == 0) continue;  // a flag, or not given
+      for (const std::string& value : opt->results()) {
+        if (value.empty()) return opt->get_name() + ": empty value";
+      }
+    }
+    const std::vector<CLI::App*> chosen = scope->get_subcommands();
+    scope = chosen.empty() ? nullptr : chosen.front();
+  }
+  return {};
+}
+
 }  // namespace
 
 std::shared_ptr<CLI::Formatter> MakeHelpFormatter() { return std::make_shared<HelpFormatter>(); }
@@ -223,6 +261,10 @@ std::shared_ptr<CLI::Formatter> MakeHelpFormatter() { return std::make_shared<He
 int ParseAndRun(CLI::App& app, const Action& action, int argc, char** argv) {
   try {
     app.parse(argc, argv);
+    if (const std::string empty = EmptyValue(app); !empty.empty()) {
+      std::fprintf(stderr, "mlspaces: error: %s (see --help)\n", empty.c_str());
+      return 2;
+    }
   } catch (const CLI::CallForHelp& e) {
     return app.exit(e);
   } catch (const CLI::CallForAllHelp& e) {

@@ -153,9 +153,14 @@ int ParseAndRun(CLI::App& app, const Action& action, int argc, char** argv);
 CLI::Validator PositiveInteger();
 /// As PositiveInteger, for a whole number >= 0 ("expected a whole number >= 0, got '-1'").
 CLI::Validator NonNegativeInteger();
+/// As PositiveInteger, for a whole number in [minimum, maximum] ("expected a whole number in
+/// [1, 64], got '2000'"): a bound on what one run can be asked to draw.
+CLI::Validator WholeNumberIn(long long minimum, long long maximum);
 /// Checks a flag value is a finite number > 0 ("expected a number > 0, got 'nan'"): CLI11's
 /// PositiveNumber and Range let NaN through.
 CLI::Validator PositiveNumber();
+/// Checks a flag value is a finite number ("expected a finite number, got 'nan'").
+CLI::Validator FiniteNumber();
 
 /// Adds `--seed S` to `app`: a whole number in [0, 2^64), given to `store` when typed; anything
 /// else ("-3", "1e3", "abc") is a usage error naming the flag, where CLI11's own conversion

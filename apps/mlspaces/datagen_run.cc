@@ -82,7 +82,11 @@ int Run(const DatagenConfigFlags& flags, const RunFlags& run) {
     const char* env = std::getenv("MLSPACES_GL");
     gl = env != nullptr && *env != 0 ? env : "osmesa";
   }
-  options.gl_backend = sim::ParseGlBackend(gl);
+  try {
+    options.gl_backend = sim::ParseGlBackend(gl);
+  } catch (const UsageError& e) {
+    throw UsageError(std::string(run.gl.empty() ? "MLSPACES_GL" : "--gl") + ": " + e.message());
+  }
   options.log = [&](datagen::LogLevel level, const std::string& line) {
     if (quiet && level < datagen::LogLevel::kWarning) return;
     // On a terminal the progress bar shows the per-episode progress.

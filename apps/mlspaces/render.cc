@@ -2,9 +2,12 @@
 // (docs/render.md). This file holds the shared flags; each command is render_<command>.cc.
 #include "render.h"
 
+#include <charconv>
 #include <cstdio>
 #include <cstdlib>
 #include <string>
+#include <string_view>
+#include <system_error>
 
 #include "mlspaces/core/error.h"
 #include "mlspaces/core/strings.h"
@@ -25,10 +28,16 @@ void RenderFlags::AddTo(CLI::App& app, const std::string& default_size) {
 
 sim::PictureOptions RenderFlags::Options() const {
   sim::PictureOptions o;
+  // Digits, 'x', digits: no sign, space or suffix, and no number past int (sscanf wrapped
+  // "4294967328" around to 32).
   int w = 0, h = 0;
-  char tail = 0;
-  if (std::sscanf(size.c_str(), "%dx%d%c", &w, &h, &tail) != 2 || w < 8 || h < 8 || w > 8192 ||
-      h > 8192) {
+  auto number = [](std::string_view text, int* out) {
+    const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), *out);
+    return !text.empty() && text[0] != '-' && ec == std::errc() && end == text.data() + text.size();
+  };
+  const size_t x = size.find('x');
+  if (x == std::string::npos || !number(std::string_view(size).substr(0, x), &w) ||
+      !number(std::string_view(size).substr(x + 1), &h) || w < 8 || h < 8 || w > 8192 || h > 8192) {
     throw UsageError("--size: expected WxH with each in [8, 8192], got '" + size + "'");
   }
   o.width = w;

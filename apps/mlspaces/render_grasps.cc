@@ -62,8 +62,8 @@ void AddRenderGrasps(CLI::App& render, Action& action) {
       ->check(PositiveInteger());
   AddSeedOption(
       *sub, [flags](uint64_t seed) { flags->seed = seed; }, "Seed of the subsampling (default 0)");
-  sub->add_option("--views", flags->views, "Views around the asset (default 4)")
-      ->check(PositiveInteger());
+  sub->add_option("--views", flags->views, "Views around the asset (default 4, at most 64)")
+      ->check(WholeNumberIn(1, 64));
   flags->libraries.AddTo(*sub);
   flags->render.AddTo(*sub, "320x320");
   sub->callback([&action, flags] { action = [flags] { return Run(*flags); }; });

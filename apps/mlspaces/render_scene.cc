@@ -55,8 +55,9 @@ void AddRenderScene(CLI::App& render, Action& action) {
   sub->add_option("--episode", flags->episode,
                   "Episode number whose task is shown (default 0; the next while rejected)")
       ->check(NonNegativeInteger());
-  sub->add_option("--overviews", flags->overviews, "Overview views besides the cameras (default 1)")
-      ->check(NonNegativeInteger());
+  sub->add_option("--overviews", flags->overviews,
+                  "Overview views besides the cameras (default 1, at most 16)")
+      ->check(WholeNumberIn(0, 16));
   flags->render.AddTo(*sub, "320x240");
   sub->callback([&action, flags] { action = [flags] { return Run(*flags); }; });
 }

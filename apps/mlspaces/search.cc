@@ -111,9 +111,11 @@ void AddSearch(CLI::App& app, Action& action) {
   uid->excludes(emb)->excludes(text);
   emb->excludes(text);
   sub->add_option("--top-k", flags->top_k, "At most this many results (max_results)")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(PositiveInteger());
   sub->add_option("--threshold", flags->threshold, "CLIP searches keep scores >= this (sim_thres)")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(FiniteNumber());
   sub->add_flag("--approx", flags->approx,
                 "Approximate CLIP search: int8 first pass, exact re-rank of the best candidates");
   sub->add_option("--threads", flags->threads, "Threads for the exact scan (<= 0: all cores)")

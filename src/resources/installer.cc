@@ -15,6 +15,7 @@
 #include "mlspaces/resources/installer.h"
 
 #include "installer_impl.h"
+#include "mlspaces/core/yaml_archive.h"
 
 namespace mlspaces {
 namespace fs = std::filesystem;
@@ -208,6 +209,30 @@ std::vector<Installer::Problem> Installer::Verify(const std::vector<std::string>
   for (const auto& [type, srcs] : impl.settings.versions) types.insert(type);
   const Json installed = ReadVersionsManifest(impl.settings.assets_dir / kVersionsManifestFile);
   for (auto it = installed.begin(); it != installed.end(); ++it) types.insert(it.key());
+  if (!names.empty()) {
+    // A name that is no installed source is a typo, not a source with nothing to check.
+    std::set<std::string> known;
+    for (const std::string& type : types) {
+      for (const auto& entry : fs::directory_iterator(impl.settings.assets_dir / type, ec)) {
+        if (entry.is_symlink()) known.insert(entry.path().filename().string());
+      }
+      ec.clear();
+    }
+    for (auto t = installed.begin(); t != installed.end(); ++t) {
+      if (!t->is_object()) continue;
+      for (auto src = t->begin(); src != t->end(); ++src) known.insert(src.key());
+    }
+    for (const std::string& name : names) {
+      if (known.count(name) != 0) continue;
+      const std::vector<std::string> list(known.begin(), known.end());
+      const std::string hint = DidYouMean(name, list);
+      std::string all;
+      for (const std::string& k : list) all += (all.empty() ? "" : ", ") + k;
+      throw Error("no installed source named '" + name + "' (" + (hint.empty() ? "" : hint + " ") +
+                      "installed: " + (all.empty() ? "none" : all) + ")",
+                  impl.settings.assets_dir.string());
+    }
+  }
   for (const std::string& type : types) {
     const fs::path type_dir = impl.settings.assets_dir / type;
     if (!fs::is_directory(type_dir, ec)) continue;

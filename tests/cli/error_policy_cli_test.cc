@@ -192,12 +192,57 @@ TEST(UsageCli, SeedsAndIndicesAreWholeNumbers) {
   const CliResult largest = RunCli({"config", config, "--seed", "18446744073709551615"});
   EXPECT_EQ(largest.exit_code, 0) << largest.err;
   EXPECT_THAT(largest.out, HasSubstr("seed: 18446744073709551615"));
-  for (const std::string flag : {"--episode", "--house", "--overviews"}) {
+  for (const std::string flag : {"--episode", "--house"}) {
     ExpectUsageLine(RunCli({"render", "scene", config, flag, "-1", "-o", png}),
                     flag + ": expected a whole number >= 0, got '-1'");
   }
+  ExpectUsageLine(RunCli({"render", "scene", config, "--overviews", "-1", "-o", png}),
+                  "--overviews: expected a whole number in [0, 16], got '-1'");
   ExpectUsageLine(RunCli({"render", "episode", "run", "--episode", "-1", "-o", png}),
                   "--episode: expected a whole number >= 0, got '-1'");
+}
+
+// A value no flag can mean is refused at the flag, before any work: an empty value (a file,
+// name or choice is never ""; "--gl ''" meant the default, "-o ''" failed after rendering,
+// an empty OUT_DIR was an internal error), counts that wrapped around or meant "none", NaN, and
+// more views than a picture sheet holds.
+TEST(UsageCli, ValuesNoFlagCanMeanAreRefusedAtTheFlag) {
+  TempDir tmp;
+  const std::string png = (tmp / "x.png").string();
+  ExpectUsageLine(RunCli({"locate", ""}), "UID: empty value");
+  ExpectUsageLine(RunCli({"grasps", "red_block", "--out", ""}), "--out: empty value");
+  ExpectUsageLine(RunCli({"search", "--text", "block", "--top-k", "-1"}),
+                  "--top-k: expected a whole number >= 1, got '-1'");
+  ExpectUsageLine(RunCli({"search", "--text", "block", "--top-k", "0"}),
+                  "--top-k: expected a whole number >= 1, got '0'");
+  for (const std::string bad : {"nan", "inf", "0.5x"}) {
+    ExpectUsageLine(RunCli({"search", "--text", "block", "--threshold", bad}),
+                    "--threshold: expected a finite number, got '" + bad + "'");
+  }
+  if (RunCli({"render", "--help"}).exit_code != 0) return;  // built without datagen
+  const std::string config =
+      (fs::path(MLSPACES_EXAMPLES_DIR) / "custom_assets/datagen.yaml").string();
+  ExpectUsageLine(RunCli({"render", "assets", "-o", ""}), "--out: empty value");
+  ExpectUsageLine(RunCli({"datagen", config, "--gl", ""}), "--gl: empty value");
+  ExpectUsageLine(RunCli({"datagen", config, "--gl", "vulkan", "--output", tmp.path().string()}),
+                  "--gl: unknown GL backend 'vulkan' (expected osmesa or egl)");
+  ExpectUsageLine(RunCli({"config", config, "--output", ""}), "--output: empty value");
+  ExpectUsageLine(RunCli({"config", ""}), "CONFIG: empty value");
+  for (const std::string size : {"4294967328x64", "64x 64", "+64x64", "64x64x", "7x64"}) {
+    const CliResult r = RunCli({"render", "assets", "-o", png, "--size", size});
+    EXPECT_EQ(r.exit_code, 2) << size << ": " << r.err;
+    EXPECT_EQ(r.err,
+              "mlspaces: error: --size: expected WxH with each in [8, 8192], got '" + size + "'\n");
+  }
+  ExpectUsageLine(RunCli({"render", "grasps", "red_block", "--views", "65", "-o", png}),
+                  "--views: expected a whole number in [1, 64], got '65'");
+  ExpectUsageLine(RunCli({"render", "scene", config, "--overviews", "17", "-o", png}),
+                  "--overviews: expected a whole number in [0, 16], got '17'");
+  for (const std::string width : {"1", "100000"}) {
+    ExpectUsageLine(RunCli({"render", "episode", "run", "--width", width, "-o", png}),
+                    "--width: expected a whole number in [8, 8192], got '" + width + "'");
+  }
+  EXPECT_FALSE(fs::exists(png));
 }
 
 // export-lerobot --fps checks the dataset's rate: a value that can be no rate is an error, not

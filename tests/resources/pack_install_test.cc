@@ -327,6 +327,16 @@ TEST_F(PackInstallTest, InstallLibraryWhereWithSizeEstimateAndVerify) {
   const auto verify = RunCli({"verify"}, Env(server.url()));
   EXPECT_EQ(verify.exit_code, 0) << verify.out << verify.err;
   EXPECT_THAT(verify.out, HasSubstr(": ok"));
+  // By name: the same files; a name that is no installed source is an error (it was "checked
+  // 0 files: ok").
+  const auto named = RunCli({"verify", "fixlib"}, Env(server.url()));
+  EXPECT_EQ(named.exit_code, 0) << named.err;
+  EXPECT_EQ(named.out, verify.out);
+  const auto typo = RunCli({"verify", "fixlb"}, Env(server.url()));
+  EXPECT_EQ(typo.exit_code, 1) << typo.out;
+  EXPECT_THAT(typo.err, HasSubstr("no installed source named 'fixlb' (did you mean 'fixlib'? "
+                                  "installed: fixlib)"));
+  EXPECT_EQ(typo.err.find('\n'), typo.err.size() - 1) << typo.err;
 
   // Damage one installed file: verify names it; --repair unflags its archive; install again.
   const fs::path mesh =

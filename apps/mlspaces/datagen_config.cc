@@ -53,7 +53,23 @@ datagen::ExperimentConfig DatagenConfigFlags::Resolve(
   if (seed) resolved.seed = *seed;
   if (episodes) resolved.task_sampler_config.samples_per_house = *episodes;
   if (!output.empty()) resolved.output_dir = fs::absolute(output).lexically_normal();
-  datagen::Validate(resolved, origin);
+  try {
+    datagen::Validate(resolved, origin);
+  } catch (const UsageError&) {
+    throw;
+  } catch (const Error& e) {
+    // A bad value that a --set gave is named by the flag, not the file (still bad input,
+    // exit 1): the last --set of that field or of one above it ("camera_config.cameras" for
+    // "camera_config.cameras[0].fov").
+    const std::string& field = e.field();
+    for (auto it = sets.rbegin(); it != sets.rend(); ++it) {
+      const std::string key = it->substr(0, it->find('='));
+      const bool above = field.size() > key.size() && field.compare(0, key.size(), key) == 0 &&
+                         (field[key.size()] == '.' || field[key.size()] == '[');
+      if (field == key || above) throw Error(e.message(), "--set " + *it, above ? field : "");
+    }
+    throw;
+  }
   return resolved;
 }
 

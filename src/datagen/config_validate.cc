@@ -18,7 +18,7 @@ class Checker {
   explicit Checker(const fs::path& origin) : origin_(origin.string()) {}
 
   void Check(bool ok, const std::string& key, const std::string& message) const {
-    if (!ok) throw Error(key + ": " + message, origin_);
+    if (!ok) throw Error(message, origin_, key);  // what(): "<origin>: <key>: <message>"
   }
   void Positive(int64_t v, const std::string& key) const {
     Check(v >= 1, key, "must be >= 1, got " + std::to_string(v));

@@ -536,6 +536,26 @@ TEST_F(ConfigTest, CliExitCodes) {
   r = RunCli({"config", kExample.string(), "--set", "policy_dt_ms=65"});
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_THAT(r.err, HasSubstr("policy_dt_ms / ctrl_dt_ms must be a whole number"));
+  // A value a --set gave is named by the --set (it was the file, which holds another value);
+  // one in a list by the list's --set, with the element.
+  r = RunCli({"config", kExample.string(), "--set", "task_config.succ_pos_threshold=0.1", "--set",
+              "task_config.succ_pos_threshold=-1"});
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_EQ(r.err,
+            "mlspaces: error: --set task_config.succ_pos_threshold=-1: must be a finite number > "
+            "0, got -1\n");
+  r = RunCli({"config", kExample.string(), "--set", "camera_config.cameras=[{name: a, fov: -3}]"});
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(r.err, HasSubstr("--set camera_config.cameras=[{name: a, fov: -3}]: "
+                               "camera_config.cameras[0].fov: must be in (0, 180) degrees"));
+  // The file's own bad value is still the file's.
+  const fs::path bad = tmp_ / "bad_threshold.yaml";
+  ::mlspaces::testing::WriteText(bad,
+                                 "base: CustomAssetsDataGenConfig\ntask_config:\n  "
+                                 "succ_pos_threshold: -1\n");
+  r = RunCli({"config", bad.string(), "--set", "seed=3"});
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(r.err, HasSubstr(bad.string() + ": task_config.succ_pos_threshold: must be"));
   // Bad usage: 2.
   r = RunCli({"config"});
   EXPECT_EQ(r.exit_code, 2);

@@ -57,7 +57,10 @@ def _uid(uid: Any, func: str) -> str:
 
 
 def _joint(joint_name: Any, func: str) -> str:
-    return joint_name if type(joint_name) is str else _v.string(joint_name, "joint_name", func)
+    # "" is no joint (it read as the pickup grasps).
+    if type(joint_name) is str and joint_name:
+        return joint_name
+    return _v.string(joint_name, "joint_name", func, empty=False)
 
 
 def _libraries_arg(grasp_libraries: Any, func: str) -> list[str] | None:

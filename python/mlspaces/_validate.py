@@ -84,9 +84,16 @@ def optional_path(value: Any, name: str, func: str) -> str | None:
     return None if value is None else path(value, name, func)
 
 
+INT64_MAX = 2**63 - 1
+UINT64_MAX = 2**64 - 1
+INT32_MAX = 2**31 - 1
+
+
 def integer(value: Any, name: str, func: str, *, minimum: int | None = None,
-            maximum: int | None = None) -> int:
-    """An ``int`` (numpy integers too; not ``bool``) within ``[minimum, maximum]``."""
+            maximum: int | None = INT64_MAX) -> int:
+    """An ``int`` (numpy integers too; not ``bool``) within ``[minimum, maximum]``; the
+    maximum defaults to the int64 the engine takes (beyond it nanobind would raise its
+    multi-line "incompatible function arguments")."""
     if type(value) is int:
         n = value
     elif isinstance(value, (bool, np.bool_)) or not hasattr(type(value), "__index__"):
@@ -94,7 +101,9 @@ def integer(value: Any, name: str, func: str, *, minimum: int | None = None,
     else:
         n = operator.index(value)
     if minimum is not None and n < minimum:
-        bound = f"an int >= {minimum}" if maximum is None else f"an int in [{minimum}, {maximum}]"
+        # The word-size bounds go unsaid below them: "an int >= 0".
+        bound = (f"an int >= {minimum}" if maximum is None or maximum >= INT64_MAX
+                 else f"an int in [{minimum}, {maximum}]")
         raise value_error(func, name, f"expected {bound}, got {n}")
     if maximum is not None and n > maximum:
         bound = f"an int <= {maximum}" if minimum is None else f"an int in [{minimum}, {maximum}]"
@@ -103,14 +112,15 @@ def integer(value: Any, name: str, func: str, *, minimum: int | None = None,
 
 
 def count(value: Any, name: str, func: str, *, minimum: int = 0) -> int:
-    """A count: an ``int >= minimum`` (0 by default)."""
-    if type(value) is int and value >= minimum:
+    """A count: an ``int`` in ``[minimum, INT64_MAX]`` (``minimum`` 0 by default)."""
+    if type(value) is int and minimum <= value <= INT64_MAX:
         return value
     return integer(value, name, func, minimum=minimum)
 
 
-def optional_integer(value: Any, name: str, func: str, *, minimum: int | None = None) -> int | None:
-    return None if value is None else integer(value, name, func, minimum=minimum)
+def optional_integer(value: Any, name: str, func: str, *, minimum: int | None = None,
+                     maximum: int | None = INT64_MAX) -> int | None:
+    return None if value is None else integer(value, name, func, minimum=minimum, maximum=maximum)
 
 
 def boolean(value: Any, name: str, func: str) -> bool:

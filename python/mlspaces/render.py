@@ -38,8 +38,8 @@ def _gl(gl: Any, func: str) -> str:
 def _size(size: Any, func: str) -> tuple[int, int]:
     if not isinstance(size, (tuple, list)) or len(size) != 2:
         raise _v.type_error(func, "size", "a (width, height) pair", size)
-    return (_v.integer(size[0], "size[0]", func, minimum=8),
-            _v.integer(size[1], "size[1]", func, minimum=8))
+    return (_v.integer(size[0], "size[0]", func, minimum=8, maximum=8192),
+            _v.integer(size[1], "size[1]", func, minimum=8, maximum=8192))
 
 
 def _registry(registry: Any) -> Any:
@@ -59,7 +59,8 @@ def asset_sheet(uids: Sequence[str] | None = None, *, registry: Any = None,
     r = _registry(registry)
     names = _core.render_user_uids(r) if uids is None else _v.strings(uids, "uids", func)
     w, h = _size(size, func)
-    cols = 0 if columns is None else _v.integer(columns, "columns", func, minimum=1)
+    cols = 0 if columns is None else _v.integer(columns, "columns", func, minimum=1,
+                                                maximum=_v.INT32_MAX)
     return _core.render_asset_sheet(r, names, w, h, cols, _gl(gl, func))
 
 
@@ -87,7 +88,11 @@ def grasps(uid: str, *, joint: str | None = None, transforms: Any = None, regist
     func = "grasps"
     name = _v.string(uid, "uid", func, empty=False)
     r = _registry(registry)
-    joint_name = _v.optional_string(joint, "joint", func) or ""
+    joint_name = "" if joint is None else _v.string(joint, "joint", func, empty=False)
+    gripper = _v.string(gripper, "gripper", func, empty=False)
+    views = _v.integer(views, "views", func, minimum=1, maximum=64)
+    w, h = _size(size, func)
+    gl = _gl(gl, func)
     if transforms is None:
         libs = None if grasp_libraries is None else _v.strings(grasp_libraries,
                                                                "grasp_libraries", func)
@@ -96,10 +101,7 @@ def grasps(uid: str, *, joint: str | None = None, transforms: Any = None, regist
                                    rng.getrandbits)
     poses = np.ascontiguousarray(_v.array(transforms, "transforms", func, (None, 4, 4)),
                                  dtype=np.float64)
-    w, h = _size(size, func)
-    return _core.render_grasps(r, name, poses, joint_name,
-                               _v.string(gripper, "gripper", func, empty=False),
-                               _v.integer(views, "views", func, minimum=1), w, h, _gl(gl, func))
+    return _core.render_grasps(r, name, poses, joint_name, gripper, views, w, h, gl)
 
 
 def scene(config: Any, *, house: int = 0, episode: int = 0, seed: int | None = None,
@@ -112,6 +114,13 @@ def scene(config: Any, *, house: int = 0, episode: int = 0, seed: int | None = N
     :class:`mlspaces.tasks.gym_env.GymEnv` runs it); ``seed`` defaults to the config's, else
     0."""
     func = "scene"
+    # The numbers first: a bad one is named before the config is read or its sampler made.
+    house = _v.integer(house, "house", func, minimum=0)
+    episode = _v.integer(episode, "episode", func, minimum=0)
+    seed = _v.optional_integer(seed, "seed", func, minimum=0, maximum=_v.UINT64_MAX)
+    overviews = _v.integer(overviews, "overviews", func, minimum=0, maximum=16)
+    w, h = _size(size, func)
+    gl = _gl(gl, func)
     if isinstance(config, (str, os.PathLike)):
         path = Path(_v.path(config, "config", func))
         try:
@@ -131,12 +140,8 @@ def scene(config: Any, *, house: int = 0, episode: int = 0, seed: int | None = N
         # samplers go by name.
         cls = config.task_sampler_config.task_sampler_class
         sampler = cls(config) if runs_in_python(cls) else None
-    w, h = _size(size, func)
-    return _core.render_scene(text, origin, base, _v.integer(house, "house", func, minimum=0),
-                              _v.integer(episode, "episode", func, minimum=0),
-                              _v.optional_integer(seed, "seed", func, minimum=0),
-                              _v.integer(overviews, "overviews", func, minimum=0), w, h,
-                              _gl(gl, func), sampler)
+    return _core.render_scene(text, origin, base, house, episode, seed, overviews, w, h, gl,
+                              sampler)
 
 
 def episode_phases(dataset: str | os.PathLike[str], episode: int = 0, *,
@@ -149,11 +154,13 @@ def episode_phases(dataset: str | os.PathLike[str], episode: int = 0, *,
     ``frames=True`` returns ``(sheet, [frame, ...], info)``, the frames at their recorded size
     and ``info`` a dict (file, traj, camera, num_steps, steps, phases, phase_names)."""
     func = "episode_phases"
+    frames = _v.boolean(frames, "frames", func)
     sheet, images, info = _core.render_episode_phases(
         _v.path(dataset, "dataset", func), _v.integer(episode, "episode", func, minimum=0),
-        _v.optional_string(camera, "camera", func) or "",
-        0 if columns is None else _v.integer(columns, "columns", func, minimum=1),
-        _v.integer(width, "width", func, minimum=8))
+        "" if camera is None else _v.string(camera, "camera", func, empty=False),
+        0 if columns is None else _v.integer(columns, "columns", func, minimum=1,
+                                             maximum=_v.INT32_MAX),
+        _v.integer(width, "width", func, minimum=8, maximum=8192))
     return (sheet, images, info) if frames else sheet
 
 

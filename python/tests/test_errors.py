@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 import mlspaces
-from mlspaces import errors
+from mlspaces import errors, render
 from mlspaces.configs import PickBaseConfig
 from mlspaces.datagen import get_config_class, register_config, run_config
 from mlspaces.env import CPUMujocoEnv, create_mlspaces_body
@@ -157,6 +157,13 @@ def _cases(data: mujoco.MjData):
         (lambda: mlspaces.load_pickup_grasps("a", num_grasps="5"), T, "num_grasps"),
         (lambda: mlspaces.load_joint_grasps("a", None), T, "joint_name"),
         (lambda: mlspaces.load_joint_grasps("a", "j", num_grasps=-1), V, "num_grasps"),
+        # "" is no joint (it read as the pickup grasps); past int64 is no count (nanobind's
+        # multi-line "incompatible function arguments" before)
+        (lambda: mlspaces.load_joint_grasps("a", ""), V, "joint_name"),
+        (lambda: mlspaces.has_joint_grasp_path("a", ""), V, "joint_name"),
+        (lambda: mlspaces.load_pickup_grasps("a", num_grasps=2**63), V, "num_grasps"),
+        (lambda: mlspaces.load_pickup_grasps("a", num_grasps=np.uint64(2**64 - 1)), V,
+         "num_grasps"),
         (lambda: mlspaces.get_scene_metadata(None), T, "mj_base_scene_path"),
         (lambda: SceneMeta.get_scene_metadata(5), T, "mj_base_scene_path"),
         (lambda: mlspaces.Registry(assets_dir=5), T, "assets_dir"),
@@ -223,6 +230,19 @@ def _cases(data: mujoco.MjData):
         (lambda: run_config(None), T, "config"),
         (lambda: run_config(PickBaseConfig(), workers=0), V, "workers"),
         (lambda: run_config(PickBaseConfig(), seed=-1), V, "seed"),
+        (lambda: run_config(PickBaseConfig(), seed=2**64), V, "seed"),
+        # pictures: past what the engine's ints hold, more than a sheet's views, no camera
+        (lambda: render.asset_sheet(["a"], columns=2**31), V, "columns"),
+        (lambda: render.asset_sheet(["a"], size=(9000, 8)), V, "size[0]"),
+        (lambda: render.grasps("a", views=65), V, "views"),
+        (lambda: render.grasps("a", joint=""), V, "joint"),
+        (lambda: render.scene("c.yaml", house=2**63), V, "house"),
+        (lambda: render.scene("c.yaml", seed=2**64), V, "seed"),
+        (lambda: render.scene("c.yaml", overviews=17), V, "overviews"),
+        (lambda: render.episode_phases("run", episode=2**63), V, "episode"),
+        (lambda: render.episode_phases("run", camera=""), V, "camera"),
+        (lambda: render.episode_phases("run", width=9000), V, "width"),
+        (lambda: render.episode_phases("run", frames="no"), T, "frames"),
         (lambda: run_config(PickBaseConfig(), log_level="loud"), V, "log_level"),
         (lambda: run_config(PickBaseConfig(), resume="yes"), T, "resume"),
     ]
@@ -238,6 +258,7 @@ _GYM_CASES = [
     ("GymEnv", lambda g: g.GymEnv("X", config_overrides=[1]), TypeError, "config_overrides"),
     ("GymEnv", lambda g: g.GymEnv("X", render_camera=5), TypeError, "render_camera"),
     ("GymEnv", lambda g: g.GymEnv("X", episode=-1), ValueError, "episode"),
+    ("GymEnv", lambda g: g.GymEnv("X", house_index=2**63), ValueError, "house_index"),
 ]
 
 

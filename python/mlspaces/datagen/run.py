@@ -55,7 +55,7 @@ def run_config(config: Any, *, output_dir: str | os.PathLike[str] | None = None,
     resume = _v.boolean(resume, "resume", func)
     shard = _v.optional_string(shard, "shard", func)
     workers = _v.optional_integer(workers, "workers", func, minimum=1)
-    seed = _v.optional_integer(seed, "seed", func, minimum=0)
+    seed = _v.optional_integer(seed, "seed", func, minimum=0, maximum=_v.UINT64_MAX)
     progress = _v.boolean(progress, "progress", func)
     log_level = _v.choice(log_level, "log_level", func, ("debug", "info", "warning", "error"))
     gl = _v.optional_string(gl, "gl", func)

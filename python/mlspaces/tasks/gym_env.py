@@ -212,7 +212,7 @@ class GymEnv(gym.Env):
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
         func = "GymEnv.reset"
         if seed is not None:
-            seed = _v.integer(seed, "seed", func, minimum=0, maximum=2**64 - 1)
+            seed = _v.integer(seed, "seed", func, minimum=0, maximum=_v.UINT64_MAX)
         options = _v.optional_mapping(options, "options", func)
         options = _options({**self._defaults, **(options or {})}, func)
         self._open(func)

@@ -43,7 +43,8 @@ class BaseMujocoTaskSampler:
 
     def seed_task_sampling(self, seed: int) -> None:
         """Seeds ``random``, ``np.random``, ``torch`` (when imported) and ``self.rng``."""
-        seed = _v.integer(seed, "seed", "seed_task_sampling", minimum=0)
+        # Any int, as random.seed takes it (np.random gets it mod 2**32).
+        seed = _v.integer(seed, "seed", "seed_task_sampling", minimum=0, maximum=None)
         random.seed(seed)
         np.random.seed(seed % 2**32)
         torch = sys.modules.get("torch")

@@ -33,7 +33,9 @@ GraspQuery Query(std::string uid, std::string joint, std::optional<std::vector<s
   GraspQuery q;
   q.uid = std::move(uid);
   q.joint = std::move(joint);
-  if (libs) q.libraries = std::move(*libs);
+  // MolmoSpaces keeps the object's grasp libraries that the list names, so [] keeps none; the
+  // engine's empty filter means all, so [] becomes a name that no library has.
+  if (libs) q.libraries = libs->empty() ? std::vector<std::string>{""} : std::move(*libs);
   return q;
 }
 

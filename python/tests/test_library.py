@@ -131,6 +131,12 @@ def test_grasp_library_priority_newest_first_robots_sorted(tmp_path):
         reg.load_pickup_grasps("x", grasp_libraries=("old/zeta",)),
         np.load(lib_a / "x" / "zeta" / "grasps.npz")["transforms"])
     assert reg.get_pickup_grasp_path("x", ["nope"]) is None
+    # As MolmoSpaces filters the object's libraries by the list, [] keeps none (None is all).
+    assert reg.get_pickup_grasp_path("x", []) is None
+    assert not reg.has_pickup_grasp_path("x", grasp_libraries=[])
+    with pytest.raises(ValueError, match="No grasp file found for x"):
+        reg.load_pickup_grasps("x", grasp_libraries=[])
+    assert reg.get_pickup_grasp_path("x", None) is not None
 
 
 def test_joint_grasps(tmp_path):

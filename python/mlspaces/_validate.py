@@ -24,14 +24,18 @@ from .errors import MlspacesError, MlspacesFileError, MlspacesTypeError, UsageEr
 
 
 def describe(value: Any) -> str:
-    """A value for a message: ``None``, or its repr (shortened, control characters escaped by
-    repr) and type."""
+    """A value for a message: ``None``, an array's dtype and shape, or its repr (shortened, on
+    one line, control characters escaped by repr) and type."""
     if value is None:
         return "None"
+    if isinstance(value, np.ndarray):
+        return f"a {value.dtype} array of shape {value.shape}"
     try:
         text = repr(value)
     except Exception:  # noqa: BLE001 - a broken __repr__ must not hide the real error
         text = object.__repr__(value)
+    if "\n" in text:  # a repr over several lines (a str's escapes its newlines)
+        text = " ".join(text.split())
     if len(text) > 60:
         text = text[:57] + "..."
     return f"{text} ({type(value).__name__})"
@@ -195,7 +199,11 @@ def array(value: Any, name: str, func: str, shape: tuple[int | None, ...] | None
     if value is None or isinstance(value, (str, bytes, Mapping)):
         raise type_error(func, name, _array_what(shape), value)
     try:
-        a = np.asarray(value, dtype=np.float64)
+        a = np.asarray(value)
+        # Numbers only: numpy would also read "1", True and 1+0j (with a warning) as floats.
+        if a.dtype.kind not in "iuf":
+            raise TypeError
+        a = a.astype(np.float64, copy=False)
     except (TypeError, ValueError):
         raise type_error(func, name, _array_what(shape), value) from None
     if shape is not None and (a.ndim != len(shape) or

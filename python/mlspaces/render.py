@@ -14,6 +14,7 @@ Bad input raises :class:`mlspaces.errors.MlspacesError` (a ``ValueError``) with 
 
 from __future__ import annotations
 
+import errno
 import json
 import os
 import random
@@ -40,6 +41,15 @@ def _size(size: Any, func: str) -> tuple[int, int]:
         raise _v.type_error(func, "size", "a (width, height) pair", size)
     return (_v.integer(size[0], "size[0]", func, minimum=8, maximum=8192),
             _v.integer(size[1], "size[1]", func, minimum=8, maximum=8192))
+
+
+def _existing(path: Any, name: str, func: str) -> str:
+    """A path that exists: a missing one is Python's FileNotFoundError naming it (as
+    docs/python.md promises), not the engine's error."""
+    text = _v.path(path, name, func)
+    if not os.path.exists(text):
+        raise FileNotFoundError(errno.ENOENT, f"{func}: {name}: no such file or folder", text)
+    return text
 
 
 def _registry(registry: Any) -> Any:
@@ -155,12 +165,13 @@ def episode_phases(dataset: str | os.PathLike[str], episode: int = 0, *,
     and ``info`` a dict (file, traj, camera, num_steps, steps, phases, phase_names)."""
     func = "episode_phases"
     frames = _v.boolean(frames, "frames", func)
-    sheet, images, info = _core.render_episode_phases(
-        _v.path(dataset, "dataset", func), _v.integer(episode, "episode", func, minimum=0),
-        "" if camera is None else _v.string(camera, "camera", func, empty=False),
-        0 if columns is None else _v.integer(columns, "columns", func, minimum=1,
-                                             maximum=_v.INT32_MAX),
-        _v.integer(width, "width", func, minimum=8, maximum=8192))
+    episode = _v.integer(episode, "episode", func, minimum=0)
+    camera = "" if camera is None else _v.string(camera, "camera", func, empty=False)
+    columns = 0 if columns is None else _v.integer(columns, "columns", func, minimum=1,
+                                                   maximum=_v.INT32_MAX)
+    width = _v.integer(width, "width", func, minimum=8, maximum=8192)
+    sheet, images, info = _core.render_episode_phases(_existing(dataset, "dataset", func),
+                                                      episode, camera, columns, width)
     return (sheet, images, info) if frames else sheet
 
 
@@ -175,4 +186,4 @@ def write_png(path: str | os.PathLike[str], image: Any) -> None:
 
 def read_png(path: str | os.PathLike[str]) -> np.ndarray:
     """A PNG as a fresh ``uint8`` ``(H, W, 3)`` array (alpha dropped)."""
-    return _core.read_png(_v.path(path, "path", "read_png"))
+    return _core.read_png(_existing(path, "path", "read_png"))

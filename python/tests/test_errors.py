@@ -172,6 +172,10 @@ def _cases(data: mujoco.MjData):
         (lambda: mlspaces.flip_grasps(None), T, "grasps"),
         (lambda: mlspaces.flip_grasps("abc"), T, "grasps"),
         (lambda: mlspaces.flip_grasps(np.full((4, 4), np.nan)), V, "grasps"),
+        # numbers only: numpy reads "1", True and 1+0j as floats
+        (lambda: mlspaces.flip_grasps(np.ones((1, 4, 4), bool)), T, "grasps"),
+        (lambda: mlspaces.flip_grasps(np.eye(4).astype(str)), T, "grasps"),
+        (lambda: mlspaces.flip_grasps(np.eye(4) + 0j), T, "grasps"),
         (lambda: mlspaces.pose_mat_to_7d(None), T, "pose_matrix"),
         (lambda: mlspaces.pose_mat_to_7d(np.full((4, 4), np.inf)), V, "pose_matrix"),
         (lambda: mlspaces.pos_quat_to_pose_mat(None), T, "pos"),
@@ -243,6 +247,8 @@ def _cases(data: mujoco.MjData):
         (lambda: render.episode_phases("run", camera=""), V, "camera"),
         (lambda: render.episode_phases("run", width=9000), V, "width"),
         (lambda: render.episode_phases("run", frames="no"), T, "frames"),
+        (lambda: render.episode_phases("no_such_run"), FileNotFoundError, "no_such_run"),
+        (lambda: render.read_png("no_such.png"), FileNotFoundError, "no_such.png"),
         (lambda: run_config(PickBaseConfig(), log_level="loud"), V, "log_level"),
         (lambda: run_config(PickBaseConfig(), resume="yes"), T, "resume"),
     ]
@@ -270,7 +276,7 @@ def test_every_public_function_names_a_bad_argument(data):
         except kind as e:
             text = str(e)
             if name not in text or "\n" in text or "incompatible function" in text \
-                    or not isinstance(e, ValueError):
+                    or not isinstance(e, OSError if kind is FileNotFoundError else ValueError):
                 failures.append(f"case {i} ({name}): {type(e).__name__}: {text}")
         except Exception as e:  # noqa: BLE001 - collected, reported together
             failures.append(f"case {i} ({name}): {type(e).__name__} instead of "

@@ -139,8 +139,12 @@ def test_png_round_trip_and_type_errors(tmp_path):
     assert np.array_equal(render.read_png(tmp_path / "a.png"), image)
     with pytest.raises(MlspacesTypeError, match="uint8"):
         render.write_png(tmp_path / "b.png", image.astype(np.float32))
-    with pytest.raises(MlspacesError, match="b.png"):
+    # A missing file is Python's FileNotFoundError (docs/python.md), not the engine's error.
+    with pytest.raises(FileNotFoundError, match="b.png"):
         render.read_png(tmp_path / "b.png")
+    (tmp_path / "c.png").write_bytes(b"not a PNG")
+    with pytest.raises(MlspacesError, match="c.png"):
+        render.read_png(tmp_path / "c.png")
     with pytest.raises(UsageError, match="gl"):
         render.asset("red_block", gl="vulkan")
 

@@ -1,7 +1,7 @@
 // The CLI's shared set-up and error mapping (main.cc, and python/src/index.cc for the
 // Python modules that run index-assets / index-grasps): the help formatter, the misspelled-flag
-// hint, the exception -> exit-code mapping with escaped error lines, Warn, the shared flag checks
-// (PositiveInteger, NonNegativeInteger, --seed).
+// hint, the exception -> exit-code mapping with escaped error lines, Warn, the shared flag
+// checks (whole numbers, finite numbers, --seed).
 #include <algorithm>
 #include <cctype>
 #include <charconv>
@@ -28,10 +28,8 @@ void Warn(const std::string& text) {
   std::fprintf(stderr, "mlspaces: warning: %s\n", Printable(text).c_str());
 }
 
-namespace {
-
-// A whole number of at most 18 digits (no sign) in [minimum, maximum].
-CLI::Validator WholeNumber(long long minimum, long long maximum) {
+CLI::Validator WholeNumberIn(long long minimum, long long maximum) {
+  // At most 18 digits and no sign: std::stoll cannot overflow.
   return CLI::Validator(
       [minimum, maximum](std::string& value) -> std::string {
         const bool digits = !value.empty() && value.size() <= 18 &&
@@ -46,16 +44,10 @@ CLI::Validator WholeNumber(long long minimum, long long maximum) {
       "");  // no description: the help shows the option's type name alone (`--episodes N`)
 }
 
-}  // namespace
-
-CLI::Validator PositiveInteger() { return WholeNumber(1, std::numeric_limits<long long>::max()); }
+CLI::Validator PositiveInteger() { return WholeNumberIn(1, std::numeric_limits<long long>::max()); }
 
 CLI::Validator NonNegativeInteger() {
-  return WholeNumber(0, std::numeric_limits<long long>::max());
-}
-
-CLI::Validator WholeNumberIn(long long minimum, long long maximum) {
-  return WholeNumber(minimum, maximum);
+  return WholeNumberIn(0, std::numeric_limits<long long>::max());
 }
 
 namespace {
@@ -181,9 +173,9 @@ class HelpFormatter : public CLI::Formatter {
 
 // The first flag typed (argv order) that the chosen command does not know, as
 // "--epsiodes: unknown flag of datagen (did you mean '--episodes'?)" ("of render scene" for a
-// nested command); empty when every flag
-// is known (CLI11's message then says what is wrong). As for CLI11, a word starting with '-'
-// is a flag unless it is a number, and nothing after "--" is.
+// nested command); empty when every flag is known (CLI11's message then says what is wrong).
+// As for CLI11, a word starting with '-' is a flag unless it is a number, and nothing after
+// "--" is.
 std::string UnknownFlag(CLI::App& app, int argc, char** argv) {
   // The command the leading words name, nested ones included ("render scene").
   CLI::App* scope = &app;

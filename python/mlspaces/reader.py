@@ -258,7 +258,9 @@ class Dataset:
     def __init__(self, folder: str | os.PathLike[str]) -> None:
         self.folder = Path(_v.path(folder, "folder", "read_dataset"))
         if not self.folder.is_dir():
-            raise FileNotFoundError(f"dataset folder not found: {self.folder}")
+            why = (" (a file: read_dataset takes a run folder or a house_<i> folder)"
+                   if self.folder.exists() else "")
+            raise FileNotFoundError(f"dataset folder not found: {self.folder}{why}")
         houses = sorted(((n, p) for p in self.folder.iterdir()
                          if p.is_dir() and (n := _number(_HOUSE, p.name)) is not None),
                         key=lambda x: x[0])

@@ -92,6 +92,9 @@ def test_order_is_numeric_house_batch_traj(run_folder, tmp_path):
 def test_missing_or_empty_folder_is_a_clear_error(tmp_path):
     with pytest.raises(FileNotFoundError, match="dataset folder not found: .*nope"):
         read_dataset(tmp_path / "nope")
+    (tmp_path / "batch.h5").write_bytes(b"")
+    with pytest.raises(FileNotFoundError, match="a file: read_dataset takes a run folder"):
+        read_dataset(tmp_path / "batch.h5")
     (tmp_path / "empty").mkdir()
     with pytest.raises(ValueError, match="not a dataset folder"):
         read_dataset(tmp_path / "empty")

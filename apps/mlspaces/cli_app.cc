@@ -52,27 +52,45 @@ CLI::Validator NonNegativeInteger() {
 
 namespace {
 
-// A finite number (from_chars' syntax: no sign '+', hex or blanks), > 0 when `positive`.
-CLI::Validator Number(bool positive) {
+// A finite number (from_chars' syntax: no sign '+', hex or blanks) that `fits`; otherwise
+// "expected <what>, got '<value>'". `description` shows in --help.
+template <typename Fits>
+CLI::Validator Number(Fits fits, const std::string& what, const std::string& description = "") {
   return CLI::Validator(
-      [positive](std::string& value) -> std::string {
+      [fits, what](std::string& value) -> std::string {
         double number = 0;
         const auto [ptr, ec] = std::from_chars(value.data(), value.data() + value.size(), number);
         if (!value.empty() && ec == std::errc() && ptr == value.data() + value.size() &&
-            std::isfinite(number) && (!positive || number > 0)) {
+            std::isfinite(number) && fits(number)) {
           return {};
         }
-        return std::string(positive ? "expected a number > 0" : "expected a finite number") +
-               ", got '" + value + "'";
+        return "expected " + what + ", got '" + value + "'";
       },
-      "");
+      description);
+}
+
+// %g: 0.001, 60, 1e-06.
+std::string Short(double x) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%g", x);
+  return text;
 }
 
 }  // namespace
 
-CLI::Validator PositiveNumber() { return Number(true); }
+CLI::Validator PositiveNumber() {
+  return Number([](double x) { return x > 0; }, "a number > 0");
+}
 
-CLI::Validator FiniteNumber() { return Number(false); }
+CLI::Validator FiniteNumber() {
+  return Number([](double) { return true; }, "a finite number");
+}
+
+CLI::Validator NumberIn(double minimum, double maximum) {
+  const std::string range = "[" + Short(minimum) + ", " + Short(maximum) + "]";
+  return Number([minimum, maximum](double x) { return x >= minimum && x <= maximum; },
+                "a number in " + range, "NUMBER in " + range);
+}
 
 CLI::Option* AddSeedOption(CLI::App& app, std::function<void(uint64_t)> store,
                            const std::string& help) {

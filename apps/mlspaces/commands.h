@@ -161,6 +161,9 @@ CLI::Validator WholeNumberIn(long long minimum, long long maximum);
 CLI::Validator PositiveNumber();
 /// Checks a flag value is a finite number ("expected a finite number, got 'nan'").
 CLI::Validator FiniteNumber();
+/// Checks a flag value is a number in [minimum, maximum] ("expected a number in [0, 1], got
+/// 'nan'"; CLI11's Range lets NaN through); --help shows the range.
+CLI::Validator NumberIn(double minimum, double maximum);
 
 /// Adds `--seed S` to `app`: a whole number in [0, 2^64), given to `store` when typed; anything
 /// else ("-3", "1e3", "abc") is a usage error naming the flag, where CLI11's own conversion

@@ -71,15 +71,18 @@ void AddInspectRobot(CLI::App& app, Action& action) {
   sub->add_flag("--json", flags->json, "Print JSON for scripts");
   sub->add_option("--settle-time", flags->options.settle_time,
                   "Seconds simulated after opening and after closing the gripper")
-      ->check(CLI::Range(1e-3, 60.0))
+      ->type_name("S")
+      ->check(NumberIn(1e-3, 60.0))
       ->capture_default_str();
   sub->add_option("--finger-tolerance", flags->options.finger_tolerance,
                   "Largest difference between the measured gap and finger_range (m)")
-      ->check(CLI::Range(0.0, 1.0))
+      ->type_name("M")
+      ->check(NumberIn(0.0, 1.0))
       ->capture_default_str();
   sub->add_option("--tcp-tolerance", flags->options.tcp_tolerance_deg,
                   "Largest angle of the TCP axes from the gripper's geometry (degrees)")
-      ->check(CLI::Range(0.0, 180.0))
+      ->type_name("DEG")
+      ->check(NumberIn(0.0, 180.0))
       ->capture_default_str();
   sub->add_option("--grid-x", flags->grid_x,
                   "Reachability grid: x range in the base frame, m (default 0.3 0.8)")
@@ -92,7 +95,8 @@ void AddInspectRobot(CLI::App& app, Action& action) {
       ->expected(2)
       ->option_text("MIN MAX");
   sub->add_option("--grid-step", flags->options.grid_step, "Reachability grid: spacing, m")
-      ->check(CLI::PositiveNumber)
+      ->type_name("M")
+      ->check(PositiveNumber())
       ->capture_default_str();
   sub->add_flag("--no-ik", flags->no_ik, "Skip the reachability grid");
   sub->callback([&action, flags] { action = [flags] { return Run(*flags); }; });

@@ -4,6 +4,7 @@
 // names and bad flags are usage errors. Reachability grids are kept small (a few targets).
 #include "mlspaces/robots/inspect.h"
 
+#include <array>
 #include <cmath>
 #include <filesystem>
 #include <string>
@@ -230,6 +231,19 @@ TEST(InspectRobotTest, UnknownRobotIsOneUsageLine) {
 
 TEST(InspectRobotTest, BadOptionsAreUsageErrors) {
   EXPECT_EQ(testing::RunCli({"inspect-robot", "franka_droid", "--settle-time", "0"}).exit_code, 2);
+  // NaN and infinity are refused at the flag, which the line names (CLI11's Range let NaN
+  // through to the check of settle_time; inf printed a 300-digit range).
+  for (const auto& [flag, value, says] : std::vector<std::array<std::string, 3>>{
+           {"--settle-time", "nan", "--settle-time: expected a number in [0.001, 60], got 'nan'"},
+           {"--finger-tolerance", "2", "--finger-tolerance: expected a number in [0, 1], got '2'"},
+           {"--tcp-tolerance", "inf", "--tcp-tolerance: expected a number in [0, 180], got 'inf'"},
+           {"--grid-step", "inf", "--grid-step: expected a number > 0, got 'inf'"}}) {
+    const testing::CliResult r = testing::RunCli({"inspect-robot", "franka_droid", flag, value});
+    EXPECT_EQ(r.exit_code, 2) << r.err;
+    EXPECT_EQ(r.err, "mlspaces: error: " + says + " (see --help)\n");
+  }
+  EXPECT_THAT(testing::RunCli({"inspect-robot", "--help"}).out,
+              HasSubstr("--settle-time S in [0.001, 60]=1"));
   EXPECT_EQ(testing::RunCli({"inspect-robot", "franka_droid", "--grid-x", "0.5"}).exit_code, 2);
   const testing::CliResult reversed =
       testing::RunCli({"inspect-robot", "franka_droid", "--grid-x", "0.8", "0.3"});

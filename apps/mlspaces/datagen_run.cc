@@ -6,7 +6,6 @@
 
 #include <algorithm>
 #include <cstdio>
-#include <cstdlib>
 #include <memory>
 #include <set>
 #include <string>
@@ -77,16 +76,7 @@ int Run(const DatagenConfigFlags& flags, const RunFlags& run) {
   options.resume = run.resume;
   options.workers = run.workers;
   if (!run.shard.empty()) options.shard = datagen::ParseShard(run.shard);
-  std::string gl = run.gl;
-  if (gl.empty()) {
-    const char* env = std::getenv("MLSPACES_GL");
-    gl = env != nullptr && *env != 0 ? env : "osmesa";
-  }
-  try {
-    options.gl_backend = sim::ParseGlBackend(gl);
-  } catch (const UsageError& e) {
-    throw UsageError(std::string(run.gl.empty() ? "MLSPACES_GL" : "--gl") + ": " + e.message());
-  }
+  options.gl_backend = sim::ResolveGlBackend(run.gl, "--gl");
   options.log = [&](datagen::LogLevel level, const std::string& line) {
     if (quiet && level < datagen::LogLevel::kWarning) return;
     // On a terminal the progress bar shows the per-episode progress.

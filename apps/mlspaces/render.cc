@@ -4,7 +4,6 @@
 
 #include <charconv>
 #include <cstdio>
-#include <cstdlib>
 #include <string>
 #include <string_view>
 #include <system_error>
@@ -28,12 +27,12 @@ void RenderFlags::AddTo(CLI::App& app, const std::string& default_size) {
 
 sim::PictureOptions RenderFlags::Options() const {
   sim::PictureOptions o;
-  // Digits, 'x', digits: no sign, space or suffix, and no number past int (sscanf wrapped
-  // "4294967328" around to 32).
+  // Two whole numbers around 'x', nothing else: no space, '+' or suffix, and no number past
+  // int (sscanf wrapped "4294967328" around to 32); a negative one is below 8.
   int w = 0, h = 0;
   auto number = [](std::string_view text, int* out) {
     const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), *out);
-    return !text.empty() && text[0] != '-' && ec == std::errc() && end == text.data() + text.size();
+    return !text.empty() && ec == std::errc() && end == text.data() + text.size();
   };
   const size_t x = size.find('x');
   if (x == std::string::npos || !number(std::string_view(size).substr(0, x), &w) ||
@@ -42,16 +41,7 @@ sim::PictureOptions RenderFlags::Options() const {
   }
   o.width = w;
   o.height = h;
-  std::string g = gl;
-  if (g.empty()) {
-    const char* env = std::getenv("MLSPACES_GL");
-    g = env != nullptr && *env != 0 ? env : "osmesa";
-  }
-  try {
-    o.backend = sim::ParseGlBackend(g);
-  } catch (const UsageError& e) {
-    throw UsageError(std::string(gl.empty() ? "MLSPACES_GL" : "--gl") + ": " + e.message());
-  }
+  o.backend = sim::ResolveGlBackend(gl, "--gl");
   return o;
 }
 

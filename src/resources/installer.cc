@@ -226,10 +226,8 @@ std::vector<Installer::Problem> Installer::Verify(const std::vector<std::string>
       if (known.count(name) != 0) continue;
       const std::vector<std::string> list(known.begin(), known.end());
       const std::string hint = DidYouMean(name, list);
-      std::string all;
-      for (const std::string& k : list) all += (all.empty() ? "" : ", ") + k;
       throw Error("no installed source named '" + name + "' (" + (hint.empty() ? "" : hint + " ") +
-                      "installed: " + (all.empty() ? "none" : all) + ")",
+                      "installed: " + (list.empty() ? "none" : JoinNames(list)) + ")",
                   impl.settings.assets_dir.string());
     }
   }

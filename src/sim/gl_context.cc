@@ -478,6 +478,21 @@ GlBackend ParseGlBackend(std::string_view name) {
   throw UsageError("unknown GL backend '" + std::string(name) + "' (expected osmesa or egl)");
 }
 
+GlBackend ResolveGlBackend(std::string_view value, std::string_view flag) {
+  std::string_view from = flag;
+  if (value.empty()) {
+    const char* env = std::getenv("MLSPACES_GL");
+    if (env == nullptr || *env == 0) return GlBackend::kOsMesa;
+    value = env;
+    from = "MLSPACES_GL";
+  }
+  try {
+    return ParseGlBackend(value);
+  } catch (const UsageError& e) {
+    throw UsageError(std::string(from) + ": " + e.message());
+  }
+}
+
 std::string_view GlBackendName(GlBackend backend) {
   return backend == GlBackend::kEgl ? "egl" : "osmesa";
 }

@@ -326,6 +326,27 @@ class ScopedEnv {
   std::optional<std::string> old_;
 };
 
+TEST(GlBackendNames, AFlagThenMlspacesGlThenOsMesaAndTheErrorSaysWhichGaveIt) {
+  {
+    const ScopedEnv none("MLSPACES_GL", nullptr);
+    EXPECT_EQ(ResolveGlBackend("", "--gl"), GlBackend::kOsMesa);
+  }
+  {
+    const ScopedEnv empty("MLSPACES_GL", "");
+    EXPECT_EQ(ResolveGlBackend("", "--gl"), GlBackend::kOsMesa);
+  }
+  {
+    const ScopedEnv egl("MLSPACES_GL", "egl");
+    EXPECT_EQ(ResolveGlBackend("", "--gl"), GlBackend::kEgl);
+    EXPECT_EQ(ResolveGlBackend("osmesa", "--gl"), GlBackend::kOsMesa);  // the flag wins
+  }
+  const ScopedEnv bad("MLSPACES_GL", "vk");
+  mlspaces::testing::ExpectError([] { ResolveGlBackend("", "--gl"); },
+                                 {"MLSPACES_GL: unknown GL backend 'vk'"});
+  mlspaces::testing::ExpectError([] { ResolveGlBackend("glfw", "--gl"); },
+                                 {"--gl: unknown GL backend 'glfw'"});
+}
+
 // The device list, or a skip reason when EGL has no device platform here.
 std::vector<EglDevice> DevicesOrSkip(std::string* skip) {
   try {

@@ -36,6 +36,10 @@ enum class GlBackend { kOsMesa, kEgl };
 
 /// "osmesa" -> kOsMesa, "egl" -> kEgl. @throws mlspaces::UsageError for any other name.
 MLSPACES_API GlBackend ParseGlBackend(std::string_view name);
+/// The backend a `flag` (e.g. "--gl") names with `value`, or when `value` is empty the
+/// MLSPACES_GL environment variable's, else kOsMesa. @throws mlspaces::UsageError for a bad
+/// name, prefixed with where it came from ("--gl: unknown GL backend ...", "MLSPACES_GL: ...").
+MLSPACES_API GlBackend ResolveGlBackend(std::string_view value, std::string_view flag);
 /// "osmesa" or "egl" (a static string: never dangles).
 MLSPACES_API std::string_view GlBackendName(GlBackend backend);
 

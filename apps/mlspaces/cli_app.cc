@@ -195,20 +195,7 @@ class HelpFormatter : public CLI::Formatter {
 // As for CLI11, a word starting with '-' is a flag unless it is a number, and nothing after
 // "--" is.
 std::string UnknownFlag(CLI::App& app, int argc, char** argv) {
-  // The command the leading words name, nested ones included ("render scene").
-  CLI::App* scope = &app;
-  std::string command;
-  int first = 1;
-  while (first < argc && argv[first][0] != '-') {
-    CLI::App* next = nullptr;
-    for (CLI::App* sub : scope->get_subcommands([](CLI::App*) { return true; })) {
-      if (sub->get_name() == argv[first]) next = sub;
-    }
-    if (next == nullptr) break;
-    scope = next;
-    command += (command.empty() ? "" : " ") + next->get_name();
-    ++first;
-  }
+  const auto [scope, command, first] = FindCommand(app, argc, argv);
   std::vector<std::string> longs, shorts;
   for (const CLI::Option* opt : scope->get_options()) {
     for (const std::string& n : opt->get_lnames()) longs.push_back("--" + n);
@@ -267,6 +254,20 @@ std::string EmptyValue(CLI::App& app) {
 }  // namespace
 
 std::shared_ptr<CLI::Formatter> MakeHelpFormatter() { return std::make_shared<HelpFormatter>(); }
+
+ChosenCommand FindCommand(CLI::App& app, int argc, char** argv) {
+  ChosenCommand c{&app, "", 1};
+  for (; c.next < argc && argv[c.next][0] != '-'; ++c.next) {
+    CLI::App* sub = nullptr;
+    for (CLI::App* s : c.scope->get_subcommands([](CLI::App*) { return true; })) {
+      if (s->get_name() == argv[c.next]) sub = s;
+    }
+    if (sub == nullptr) break;
+    c.scope = sub;
+    c.path += (c.path.empty() ? "" : " ") + sub->get_name();
+  }
+  return c;
+}
 
 int ParseAndRun(CLI::App& app, const Action& action, int argc, char** argv) {
   try {

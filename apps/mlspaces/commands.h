@@ -141,6 +141,16 @@ bool MergeLeRobot(const std::string& output, const std::vector<std::string>& inp
 /// type name. Set it on the top app before adding subcommands (they copy it).
 std::shared_ptr<CLI::Formatter> MakeHelpFormatter();
 
+/// The command that argv's leading words name, nested ones included: `scope` (the app itself
+/// when none), `path` ("render scene"; empty for the app) and `next`, the index of the first
+/// word after them (argc when none is left).
+struct ChosenCommand {
+  CLI::App* scope = nullptr;
+  std::string path;
+  int next = 1;
+};
+ChosenCommand FindCommand(CLI::App& app, int argc, char** argv);
+
 /// Parses argv (argv[0] the program, argv[1] the subcommand) and runs the chosen action, mapping
 /// errors to exit codes: 0 ok; 2 usage (CLI11 parse errors, with the first misspelled flag
 /// typed and "did you mean"; mlspaces::UsageError); 1 mlspaces::Error and anything else. Each

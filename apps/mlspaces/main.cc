@@ -61,35 +61,24 @@ int Run(int argc, char** argv) {
 #endif
   // The command the leading words name, nested ones included ("render scene"): an unknown
   // word, or none where a nested command needs one, is one line with the commands there are.
-  CLI::App* scope = &app;
-  std::string path;  // the words matched so far
-  for (int i = 1;; ++i) {
-    std::vector<std::string> names;
-    CLI::App* next = nullptr;
-    for (CLI::App* sub : scope->get_subcommands([](CLI::App*) { return true; })) {
-      names.push_back(sub->get_name());
-      if (i < argc && sub->get_name() == argv[i]) next = sub;
-    }
-    if (names.empty()) break;
-    const std::string of = path.empty() ? "" : " of " + path;
-    if (i >= argc || argv[i][0] == '-') {
-      if (i >= argc && scope != &app) {
-        std::fprintf(stderr, "mlspaces: error: %s needs a command (%s)\n", path.c_str(),
-                     JoinNames(names).c_str());
-        return 2;
-      }
-      break;
-    }
-    if (next == nullptr) {
-      std::string hint = DidYouMean(argv[i], names);
-      if (!hint.empty()) hint += " ";
-      std::fprintf(stderr, "mlspaces: error: unknown command '%s'%s (%scommands%s: %s)\n",
-                   Printable(argv[i]).c_str(), of.c_str(), hint.c_str(), of.c_str(),
-                   JoinNames(names).c_str());
-      return 2;
-    }
-    scope = next;
-    path += (path.empty() ? "" : " ") + next->get_name();
+  const cli::ChosenCommand c = cli::FindCommand(app, argc, argv);
+  std::vector<std::string> names;  // the commands the next word could name
+  for (CLI::App* sub : c.scope->get_subcommands([](CLI::App*) { return true; })) {
+    names.push_back(sub->get_name());
+  }
+  if (!names.empty() && c.next >= argc && c.scope != &app) {
+    std::fprintf(stderr, "mlspaces: error: %s needs a command (%s)\n", c.path.c_str(),
+                 JoinNames(names).c_str());
+    return 2;
+  }
+  if (!names.empty() && c.next < argc && argv[c.next][0] != '-') {
+    const std::string of = c.path.empty() ? "" : " of " + c.path;
+    std::string hint = DidYouMean(argv[c.next], names);
+    if (!hint.empty()) hint += " ";
+    std::fprintf(stderr, "mlspaces: error: unknown command '%s'%s (%scommands%s: %s)\n",
+                 Printable(argv[c.next]).c_str(), of.c_str(), hint.c_str(), of.c_str(),
+                 JoinNames(names).c_str());
+    return 2;
   }
   return cli::ParseAndRun(app, action, argc, argv);
 }

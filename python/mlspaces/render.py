@@ -31,8 +31,9 @@ __all__ = ["asset", "asset_sheet", "episode_phases", "grasps", "read_png", "scen
 
 
 def _gl(gl: Any, func: str) -> str:
+    # "": the engine takes MLSPACES_GL, else osmesa (sim::ResolveGlBackend).
     if gl is None:
-        return os.environ.get("MLSPACES_GL") or "osmesa"
+        return ""
     return _v.choice(gl, "gl", func, ("osmesa", "egl"))
 
 

@@ -139,7 +139,7 @@ void BindDatagen(nb::module_& m) {
         options.workers = workers;
         options.progress = progress;
         if (!shard.empty()) options.shard = dg::ParseShard(shard);
-        options.gl_backend = sim::ParseGlBackend(gl);
+        options.gl_backend = sim::ResolveGlBackend(gl, "gl");
         const dg::LogLevel threshold = LevelOf(log_level);
         const bool tty = isatty(STDERR_FILENO) != 0;
         options.log = [threshold, tty](dg::LogLevel level, const std::string& line) {
@@ -190,7 +190,7 @@ void BindDatagen(nb::module_& m) {
       },
       nb::arg("text"), nb::arg("origin"), nb::arg("base_dir"), nb::arg("sampler").none(),
       nb::arg("resume") = false, nb::arg("shard") = "", nb::arg("workers") = 0,
-      nb::arg("progress") = true, nb::arg("log_level") = "info", nb::arg("gl") = "osmesa");
+      nb::arg("progress") = true, nb::arg("log_level") = "info", nb::arg("gl") = "");
 }
 
 }  // namespace mlspaces::python

@@ -55,7 +55,7 @@ class PyEvalEnv {
     }
     dg::EvalEnvOptions options;
     options.render = render;
-    options.gl_backend = sim::ParseGlBackend(gl);
+    options.gl_backend = sim::ResolveGlBackend(gl, "gl");
     env_ = std::make_unique<dg::EvalEnv>(std::move(config), std::move(s), options);
   }
 
@@ -218,7 +218,7 @@ void BindEval(nb::module_& m) {
       .def(nb::init<const std::string&, const std::string&, const std::filesystem::path&,
                     nb::object, bool, const std::string&>(),
            nb::arg("text"), nb::arg("origin"), nb::arg("base_dir"), nb::arg("sampler").none(),
-           nb::arg("render") = true, nb::arg("gl") = "osmesa")
+           nb::arg("render") = true, nb::arg("gl") = "")
       .def(
           "load_house",
           [](PyEvalEnv& e, int64_t house) {

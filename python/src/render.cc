@@ -56,7 +56,7 @@ sim::PictureOptions Options(int width, int height, const std::string& gl) {
   sim::PictureOptions o;
   o.width = width;
   o.height = height;
-  o.backend = sim::ParseGlBackend(gl);
+  o.backend = sim::ResolveGlBackend(gl, "gl");
   return o;
 }
 

@@ -296,6 +296,16 @@ def test_an_engine_sampler_by_name_runs_from_python(libraries, project):
         run_config(cfg, output_dir=project / "unknown", progress=False)
 
 
+def test_mlspaces_gl_is_read_and_a_bad_one_is_named(libraries, project, monkeypatch):
+    # gl=None: MLSPACES_GL, else osmesa (sim::ResolveGlBackend, as `mlspaces datagen --gl`).
+    monkeypatch.setenv("MLSPACES_GL", "vulkan")
+    with pytest.raises(mlspaces.errors.UsageError, match="MLSPACES_GL: unknown GL backend"):
+        run_config(FastConfig(), output_dir=project / "bad_gl", progress=False)
+    with pytest.raises(mlspaces.errors.UsageError, match="^gl: unknown GL backend 'glfw'"):
+        run_config(FastConfig(), output_dir=project / "bad_gl", progress=False, gl="glfw")
+    assert not (project / "bad_gl").exists()
+
+
 class DefaultPlacement(PickTaskSampler):
     """Overrides no placement: the engine's block_pickup runs."""
 

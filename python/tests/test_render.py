@@ -149,6 +149,20 @@ def test_png_round_trip_and_type_errors(tmp_path):
         render.asset("red_block", gl="vulkan")
 
 
+def test_mlspaces_gl_chooses_the_backend_and_a_bad_one_is_named(monkeypatch, registry):
+    # gl=None: MLSPACES_GL, else osmesa; the same rule as the CLI's (sim::ResolveGlBackend).
+    # (One process renders with one backend: this file's is osmesa.)
+    monkeypatch.setenv("MLSPACES_GL", "osmesa")
+    assert is_red(render.asset("red_block", registry=registry, size=(64, 48))[24, 32])
+    monkeypatch.setenv("MLSPACES_GL", "vulkan")
+    with pytest.raises(UsageError, match="MLSPACES_GL: unknown GL backend 'vulkan'"):
+        render.asset("red_block", registry=registry, size=(64, 48))
+    # An explicit gl wins over the environment.
+    assert is_red(render.asset("red_block", registry=registry, size=(64, 48), gl="osmesa")[24, 32])
+    monkeypatch.setenv("MLSPACES_GL", "")
+    assert is_red(render.asset("red_block", registry=registry, size=(64, 48))[24, 32])
+
+
 @needs_cli
 def test_cli_writes_pngs_and_reports_bad_input_in_one_line(tmp_path, small_run):
     out = tmp_path / "sheet.png"

@@ -70,7 +70,7 @@ def run_config(config: Any, *, output_dir: str | os.PathLike[str] | None = None,
     return _core.run_datagen(
         native_config_text(config), f"<config {name}>", os.getcwd(), sampler,
         resume=resume, shard=shard or "", workers=workers or 0, progress=progress,
-        log_level=log_level, gl=gl or os.environ.get("MLSPACES_GL") or "osmesa")
+        log_level=log_level, gl=gl or "")
 
 
 def _load(spec: str) -> tuple[str, type]:

@@ -161,7 +161,7 @@ class GymEnv(gym.Env):
         self.task_sampler = cls(cfg) if runs_in_python(cls) else None
         self._env = _core.EvalEnv(json.dumps(to_native(cfg)), f"<config {type(cfg).__qualname__}>",
                                   os.getcwd(), self.task_sampler,
-                                  render=True, gl=os.environ.get("MLSPACES_GL") or "osmesa")
+                                  render=True)
         w, h = (int(x) for x in cfg.camera_config.img_resolution)
         lower, upper = self._arm_limits()
         # The engine's cameras: the config's, or the robot's own (RobotCameraSystem).

@@ -66,10 +66,9 @@ for round in $(seq "$ROUNDS"); do
     ctest --test-dir "$ROOT/build" --output-on-failure -j "$JOBS"
 done
 if [ "$ASAN" = 1 ]; then
-  run_stage "ASan + UBSan (ctest -j $(nproc), -L 'core|library|resources|datagen')" "$LOGS/asan.log" \
-    env ASAN_OPTIONS=detect_leaks=1:abort_on_error=0 UBSAN_OPTIONS=print_stacktrace=1 \
-    LSAN_OPTIONS="suppressions=$ROOT/scripts/lsan-suppressions.txt" \
-    ctest --test-dir "$ROOT/build-asan" --output-on-failure -j "$(nproc)" -L 'core|library|resources|datagen'
+  run_stage "ASan + UBSan (ctest -j $(nproc), -L 'core|library|resources|robots|graspgen|datagen')" "$LOGS/asan.log" \
+    bash -c 'ROOT=$1 && shift && source "$ROOT/scripts/sanitizer-env.sh" && exec "$@"' - "$ROOT" \
+    ctest --test-dir "$ROOT/build-asan" --output-on-failure -j "$(nproc)" -L 'core|library|resources|robots|graspgen|datagen'
 fi
 
 echo "== stress-tests: $HOGS hogs on $(nproc) cores =="

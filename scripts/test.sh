@@ -18,25 +18,12 @@ MLSPACES_BUILD_DIR="$ROOT/build-asan" \
   MLSPACES_BUILD_TARGETS='(core|library|resources|robots|graspgen|datagen)_[a-z0-9_]+_test' \
   "$ROOT/scripts/build.sh" -DMLSPACES_SANITIZE=ON \
   -DMLSPACES_BUILD_BENCH=OFF -DMLSPACES_BUILD_SIM=ON
-asan_ctest() {
-  ASAN_OPTIONS=detect_leaks=1:abort_on_error=0 UBSAN_OPTIONS=print_stacktrace=1 \
-    LSAN_OPTIONS="suppressions=$ROOT/scripts/lsan-suppressions.txt" \
-    ctest --test-dir "$ROOT/build-asan" --output-on-failure "$@"
-}
-asan_log="$ROOT/build-asan/ctest-asan.log"
-if ! asan_ctest -j "$(nproc)" -L 'core|library|resources|robots|graspgen|datagen' 2>&1 |
-  tee "$asan_log"; then
-  # LeakSanitizer's stop-the-world tracer itself sometimes segfaults at a process's exit
-  # ("Tracer caught signal 11 ... LeakSanitizer has encountered a fatal error", before any
-  # leak is looked at; google/sanitizers#1353, about 1 exit in 300 elsewhere). The tests that
-  # failed only that way run once more; any other failure, or a sanitizer report, stays red.
-  if "$ROOT/scripts/lsan-tracer-flake.sh" "$asan_log"; then
-    echo "== rerunning once the tests whose only failure was LeakSanitizer's tracer crash =="
-    asan_ctest --rerun-failed
-  else
-    exit 1
-  fi
-fi
+(
+  # shellcheck source=scripts/sanitizer-env.sh
+  source "$ROOT/scripts/sanitizer-env.sh"
+  ctest --test-dir "$ROOT/build-asan" --output-on-failure -j "$(nproc)" \
+    -L 'core|library|resources|robots|graspgen|datagen'
+)
 
 echo "== fuzz targets of the binary parsers =="
 "$ROOT/scripts/fuzz.sh" "${MLSPACES_FUZZ_SECONDS:-20}"

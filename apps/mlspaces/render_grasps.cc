@@ -1,6 +1,7 @@
 // mlspaces render grasps UID [--joint J]: the asset with its pickup (or joint) grasps drawn as
 // gripper outlines, from several views.
 #include <cstdint>
+#include <filesystem>
 #include <memory>
 #include <optional>
 #include <string>
@@ -27,11 +28,18 @@ struct GraspsFlags {
 
 int Run(const GraspsFlags& flags) {
   const sim::PictureOptions options = flags.render.Options();
+  // The outline opens as wide as the gripper of --gripper (robot.yaml finger_range). A name
+  // or path that is no robot is a bad flag value (exit 2, as inspect-robot and
+  // generate-grasps --robot); a robot.yaml that does not load is not.
+  std::filesystem::path gripper_file;
+  try {
+    gripper_file = robots::FindRobot(flags.gripper, {}, "--gripper");
+  } catch (const Error& e) {
+    throw UsageError(e.message(), e.path(), e.field(), e.uid());
+  }
+  const robots::RobotDescription gripper = robots::LoadRobotDescription(gripper_file);
   const Registry registry = flags.libraries.Build();
   registry.LocateOrThrow(flags.uid);  // unknown UID: name every library
-  // The outline opens as wide as the gripper of --gripper (robot.yaml finger_range).
-  const robots::RobotDescription gripper =
-      robots::LoadRobotDescription(robots::FindRobot(flags.gripper, {}, "--gripper"));
   sim::GripperOutline outline;
   outline.opening = gripper.gripper.finger_range[1];
   const auto [file, grasps] =

@@ -236,6 +236,13 @@ TEST(UsageCli, ValuesNoFlagCanMeanAreRefusedAtTheFlag) {
   }
   ExpectUsageLine(RunCli({"render", "grasps", "red_block", "--views", "65", "-o", png}),
                   "--views: expected a whole number in [1, 64], got '65'");
+  ExpectUsageLine(RunCli({"render", "grasps", "red_block", "--gripper", "franka_drod", "-o", png}),
+                  "--gripper: unknown robot 'franka_drod' (mlspaces has: franka_droid, xarm7; or "
+                  "give the path of a robot.yaml); did you mean 'franka_droid'?");
+  ExpectUsageLine(
+      RunCli(
+          {"render", "grasps", "red_block", "--gripper", (tmp / "none.yaml").string(), "-o", png}),
+      "--gripper: no robot description (robot.yaml) at " + (tmp / "none.yaml").string());
   ExpectUsageLine(RunCli({"render", "scene", config, "--overviews", "17", "-o", png}),
                   "--overviews: expected a whole number in [0, 16], got '17'");
   for (const std::string width : {"1", "100000"}) {

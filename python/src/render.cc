@@ -102,9 +102,14 @@ void BindRender(nb::module_& m) {
         for (size_t i = 0; i < grasps.size(); ++i) {
           std::memcpy(grasps[i].m.data(), transforms.data() + 16 * i, 16 * sizeof(double));
         }
+        std::filesystem::path gripper_file;
+        try {
+          gripper_file = robots::FindRobot(gripper, {}, "gripper");
+        } catch (const Error& e) {
+          throw UsageError(e.message(), e.path(), e.field(), e.uid());  // as the CLI's --gripper
+        }
         sim::GripperOutline outline;
-        outline.opening = robots::LoadRobotDescription(robots::FindRobot(gripper, {}, "gripper"))
-                              .gripper.finger_range[1];
+        outline.opening = robots::LoadRobotDescription(gripper_file).gripper.finger_range[1];
         sim::Image image;
         {
           nb::gil_scoped_release release;

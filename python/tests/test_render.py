@@ -73,7 +73,7 @@ def test_grasps_are_outlined_in_colour(registry):
     assert ((none[..., 1] > 100) & (none[..., 1] > 2 * none[..., 0].astype(int))).sum() == 0
     with pytest.raises(UsageError, match="transforms"):
         render.grasps("red_block", registry=registry, transforms=np.zeros((2, 3, 4)))
-    with pytest.raises(MlspacesError, match="nobot"):
+    with pytest.raises(UsageError, match="gripper: unknown robot 'nobot'"):
         render.grasps("red_block", registry=registry, gripper="nobot")
 
 

@@ -47,7 +47,9 @@ def run_config(config: Any, *, output_dir: str | os.PathLike[str] | None = None,
     (``folder``, ``seed``, ``episodes_kept``, ``attempts``, ``successes``, ``batch_files``,
     ``summary``, ...). The sampler is ``config.task_sampler_config.task_sampler_class(config)``
     when that is a Python class. Relative paths resolve against the current directory. A run
-    stopped by Ctrl-C (``KeyboardInterrupt``) continues with ``resume=True``."""
+    stopped by Ctrl-C (``KeyboardInterrupt``) continues with ``resume=True``. ``gl`` is
+    ``"osmesa"`` or ``"egl"`` (default: the ``MLSPACES_GL`` environment variable, else osmesa),
+    as ``mlspaces datagen --gl``."""
     func = "run_config"
     if not hasattr(config, "task_sampler_config") or not hasattr(config, "model_copy"):
         raise _v.type_error(func, "config", "a datagen config (a PickBaseConfig)", config)

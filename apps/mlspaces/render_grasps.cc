@@ -35,7 +35,7 @@ int Run(const GraspsFlags& flags) {
   try {
     gripper_file = robots::FindRobot(flags.gripper, {}, "--gripper");
   } catch (const Error& e) {
-    throw UsageError(e.message(), e.path(), e.field(), e.uid());
+    throw UsageError(e);
   }
   const robots::RobotDescription gripper = robots::LoadRobotDescription(gripper_file);
   const Registry registry = flags.libraries.Build();

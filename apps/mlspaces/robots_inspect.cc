@@ -43,7 +43,7 @@ int Run(const InspectRobotFlags& flags) {
     throw;
   } catch (const Error& e) {
     // No such robot (a misspelled name, a path without a robot.yaml): a usage error.
-    throw UsageError(e.message(), e.path(), e.field(), e.uid());
+    throw UsageError(e);
   }
   Json json = robots::ToJson(report);
   std::string text = robots::FormatRobotReport(report);

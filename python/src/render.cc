@@ -106,7 +106,7 @@ void BindRender(nb::module_& m) {
         try {
           gripper_file = robots::FindRobot(gripper, {}, "gripper");
         } catch (const Error& e) {
-          throw UsageError(e.message(), e.path(), e.field(), e.uid());  // as the CLI's --gripper
+          throw UsageError(e);  // as the CLI's --gripper
         }
         sim::GripperOutline outline;
         outline.opening = robots::LoadRobotDescription(gripper_file).gripper.finger_range[1];

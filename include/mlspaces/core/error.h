@@ -37,6 +37,9 @@ class MLSPACES_API Error : public std::runtime_error {
 class MLSPACES_API UsageError : public Error {
  public:
   using Error::Error;
+  /// `e` (message, path, field, UID) as bad usage: the value it is about came from a flag or
+  /// an argument ("--gripper: unknown robot ...").
+  explicit UsageError(const Error& e) : Error(e) {}
 };
 
 /// Escapes one reference token for a JSON pointer ("~" -> "~0", "/" -> "~1").

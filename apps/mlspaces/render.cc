@@ -2,6 +2,7 @@
 // (docs/render.md). This file holds the shared flags; each command is render_<command>.cc.
 #include "render.h"
 
+#include <algorithm>
 #include <charconv>
 #include <cstdio>
 #include <string>
@@ -36,8 +37,10 @@ sim::PictureOptions RenderFlags::Options() const {
   };
   const size_t x = size.find('x');
   if (x == std::string::npos || !number(std::string_view(size).substr(0, x), &w) ||
-      !number(std::string_view(size).substr(x + 1), &h) || w < 8 || h < 8 || w > 8192 || h > 8192) {
-    throw UsageError("--size: expected WxH with each in [8, 8192], got '" + size + "'");
+      !number(std::string_view(size).substr(x + 1), &h) || std::min(w, h) < sim::kMinPictureSide ||
+      std::max(w, h) > sim::kMaxPictureSide) {
+    throw UsageError("--size: expected WxH with each in [" + std::to_string(sim::kMinPictureSide) +
+                     ", " + std::to_string(sim::kMaxPictureSide) + "], got '" + size + "'");
   }
   o.width = w;
   o.height = h;

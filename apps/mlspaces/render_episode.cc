@@ -6,6 +6,7 @@
 
 #include "mlspaces/core/error.h"
 #include "mlspaces/datagen/pictures.h"
+#include "mlspaces/sim/pictures.h"
 #include "render.h"
 
 namespace mlspaces::cli {
@@ -44,8 +45,11 @@ void AddRenderEpisode(CLI::App& render, Action& action) {
                   "Episode index in reading order (houses, batches, traj_<k>; default 0)")
       ->check(NonNegativeInteger());
   sub->add_option("--camera", flags->camera, "Camera (default: the first by name)");
-  sub->add_option("--width", flags->width, "Width of each frame in pixels (default 320; 8-8192)")
-      ->check(WholeNumberIn(8, 8192));
+  sub->add_option("--width", flags->width,
+                  "Width of each frame in pixels (default 320; " +
+                      std::to_string(sim::kMinPictureSide) + "-" +
+                      std::to_string(sim::kMaxPictureSide) + ")")
+      ->check(WholeNumberIn(sim::kMinPictureSide, sim::kMaxPictureSide));
   sub->add_option("--out,-o", flags->render.out, "The PNG to write")
       ->required()
       ->type_name("FILE.png");

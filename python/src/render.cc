@@ -1,5 +1,6 @@
 // Pictures (sim/pictures.h, datagen/pictures.h) for mlspaces.render: every picture as a fresh
 // uint8 (H,W,3) numpy array, PNG files read and written. Rendering releases the GIL.
+#include <algorithm>
 #include <cstdint>
 #include <cstring>
 #include <filesystem>
@@ -49,9 +50,11 @@ sim::Image FromNumpy(const ImageArray& a) {
 }
 
 sim::PictureOptions Options(int width, int height, const std::string& gl) {
-  if (width < 8 || height < 8 || width > 8192 || height > 8192) {
-    throw UsageError("size: expected width and height in [8, 8192], got " + std::to_string(width) +
-                     "x" + std::to_string(height));
+  if (std::min(width, height) < sim::kMinPictureSide ||
+      std::max(width, height) > sim::kMaxPictureSide) {
+    throw UsageError("size: expected width and height in [" + std::to_string(sim::kMinPictureSide) +
+                     ", " + std::to_string(sim::kMaxPictureSide) + "], got " +
+                     std::to_string(width) + "x" + std::to_string(height));
   }
   sim::PictureOptions o;
   o.width = width;

@@ -73,6 +73,10 @@ MLSPACES_API Image ComposeGrid(const std::vector<Image>& tiles,
 // ---------------------------------------------------------------------------------------------
 // Rendering
 
+/// The tile sides, in pixels, that `mlspaces render` and mlspaces.render accept.
+inline constexpr int kMinPictureSide = 8;
+inline constexpr int kMaxPictureSide = 8192;
+
 /// Size and GL of each rendered tile.
 struct MLSPACES_API PictureOptions {
   int width = 256;

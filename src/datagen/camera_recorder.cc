@@ -193,6 +193,8 @@ void CameraRecorder::Begin(const fs::path& dir, int64_t episode, std::vector<Tra
     points_ = std::make_unique<ObjectImagePoints>(renderer_->model(), std::move(objects));
     points_rng_ = ImagePointsRng(seed);
   }
+  // The frames carry the tracked geoms' ids (SampleLastFrame reads them, nothing redrawn).
+  renderer_->TrackGeoms(points_ ? points_->tracked_geoms() : std::vector<unsigned char>{});
   for (size_t i = 0; i < system_.size(); ++i) {
     const std::string& name = system_.name(i);
     rgb_.push_back(std::make_unique<VideoWriter>(dir / TempVideoName(episode, name),

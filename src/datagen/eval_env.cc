@@ -171,6 +171,9 @@ void EvalEnv::Observe(std::span<unsigned char* const> rgb,
                      std::to_string(views.size()) + " cameras");
   }
   if (points != nullptr) points->assign(views.size(), {});
+  // The frames carry the tracked geoms' ids (SampleLastFrame reads them, nothing redrawn).
+  renderer_->TrackGeoms(points != nullptr && points_ != nullptr ? points_->tracked_geoms()
+                                                                : std::vector<unsigned char>{});
   const mjData* d = env_->data();
   for (size_t i = 0; i < views.size(); ++i) {
     renderer_->Render(d, views[i], rgb[i], nullptr);

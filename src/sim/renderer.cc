@@ -5,6 +5,7 @@
 #endif
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstring>
 #include <optional>
@@ -58,7 +59,14 @@ struct Renderer::Impl {
   std::vector<int> segment_table;          // and its colour -> geom id table
   // The last Render() was drawn by one pass and its buffer is as it left it (SegmentLastFrame).
   bool frame_in_buffer = false;
-  long long frame_segmentations = 0;
+  long long frame_segmentations = 0, tracked_segmentations = 0;
+  // TrackGeoms: its interest, per model geom the id the lit pass writes as alpha (1-255, 0:
+  // none), per id the model geom (-1: none); empty when no geom is tracked.
+  std::vector<unsigned char> track_interest, track_ids;
+  std::array<int, 256> track_geom{};
+  // The last frame as read with its alpha (rows top down), when it carries the tracked ids.
+  std::vector<unsigned char> frame_rgba;
+  bool frame_ids = false;
 
   ~Impl() {
     if (context_made && gl) {
@@ -320,6 +328,45 @@ PixelRect Renderer::RenderSegmentation(const mjData* d, const CameraView& view, 
   return ReadSegmentation(s, part, geom_ids);
 }
 
+void Renderer::TrackGeoms(const std::vector<unsigned char>& interest) {
+  Impl& s = *impl_;
+  if (!s.track_ids.empty() && interest == s.track_interest) return;  // as it is
+  s.track_interest.clear();
+  s.track_ids.clear();
+  s.track_geom.fill(-1);
+  s.frame_ids = false;
+  const int ngeom = s.model->ngeom;
+  std::vector<unsigned char> ids(static_cast<size_t>(ngeom), 0);
+  int next = 1;
+  for (int g = 0; g < ngeom && static_cast<size_t>(g) < interest.size(); ++g) {
+    if (interest[static_cast<size_t>(g)] == 0) continue;
+    if (next > 255) return;  // more than the alpha can tell apart: none tracked
+    s.track_geom[static_cast<size_t>(next)] = g;
+    ids[static_cast<size_t>(g)] = static_cast<unsigned char>(next++);
+  }
+  if (next == 1) return;
+  s.track_interest = interest;
+  s.track_ids = std::move(ids);
+}
+
+namespace {
+
+// Whether a geom of the scene that `interest` marks is transparent (mjvGeom::transparent as
+// the last render set it).
+bool TransparentOfInterest(const mjvScene& scn, const std::vector<unsigned char>& interest) {
+  for (int j = 0; j < scn.ngeom; ++j) {
+    const mjvGeom& g = scn.geoms[j];
+    if (g.transparent && g.objtype == mjOBJ_GEOM && g.objid >= 0 &&
+        static_cast<size_t>(g.objid) < interest.size() &&
+        interest[static_cast<size_t>(g.objid)] != 0) {
+      return true;
+    }
+  }
+  return false;
+}
+
+}  // namespace
+
 PixelRect Renderer::SegmentLastFrame(const mjData* d, const CameraView& view, int* geom_ids,
                                      const std::vector<unsigned char>& interest) {
   Impl& s = *impl_;
@@ -327,10 +374,25 @@ PixelRect Renderer::SegmentLastFrame(const mjData* d, const CameraView& view, in
     return RenderSegmentation(d, view, geom_ids, &interest);
   }
   if (geom_ids == nullptr) throw UsageError("Renderer::SegmentLastFrame: null geom_ids");
-  s.gl->MakeCurrent();
   const int w = s.options.width, h = s.options.height;
   const mjrRect viewport{0, 0, w, h};
   const mjrRect part = s.shadow_pass->InterestRect(viewport, s.scn, interest);
+  if (s.frame_ids && interest == s.track_interest && !TransparentOfInterest(s.scn, interest)) {
+    // The frame's alpha holds the ids: nothing to draw; the frame stays.
+    ++s.frame_segmentations;
+    ++s.tracked_segmentations;
+    std::fill(geom_ids, geom_ids + static_cast<size_t>(w) * h, -1);
+    if (part.width == 0) return {};
+    const int top = h - (part.bottom + part.height);  // the part's first row, top down
+    for (int row = top; row < top + part.height; ++row) {
+      const size_t first = static_cast<size_t>(row) * w + part.left;
+      const unsigned char* c = s.frame_rgba.data() + 4 * first + 3;
+      int* out = geom_ids + first;
+      for (int col = 0; col < part.width; ++col, c += 4) out[col] = s.track_geom[*c];
+    }
+    return {part.left, top, part.width, part.height};
+  }
+  s.gl->MakeCurrent();
   s.frame_in_buffer = false;  // its colours are drawn over
   if (part.width == 0) {
     ++s.frame_segmentations;
@@ -402,8 +464,9 @@ void Renderer::Draw(unsigned char* rgb, float* depth_m) {
   const bool one_pass = s.shadow_pass && ShadowPass::HasShadows(s.scn, s.con);
   const char* missed = one_pass ? s.shadow_pass->Unsupported(s.scn, s.con, &geom) : nullptr;
   s.frame_in_buffer = one_pass && missed == nullptr;
+  s.frame_ids = s.frame_in_buffer && !s.track_ids.empty() && s.con.offSamples == 0;
   if (s.frame_in_buffer) {
-    s.shadow_pass->Render(viewport, &s.scn, &s.con, fitted);
+    s.shadow_pass->Render(viewport, &s.scn, &s.con, fitted, s.frame_ids ? &s.track_ids : nullptr);
     ++s.one_pass_frames;
   } else {
     if (missed != nullptr) {
@@ -418,16 +481,32 @@ void Renderer::Draw(unsigned char* rgb, float* depth_m) {
     mjr_render(viewport, &s.scn, &s.con);
   }
   if (s.pack_invert != nullptr) s.pack_invert(GL_PACK_INVERT_MESA, GL_TRUE);
-  mjr_readPixels(rgb, depth_m, viewport, &s.con);
+  const size_t count = static_cast<size_t>(w) * h;
+  if (s.frame_ids) {
+    // RGBA, the ids kept for SegmentLastFrame: as cheap to read as RGB.
+    s.frame_rgba.resize(4 * count);
+    s.con.readPixelFormat = GL_RGBA;
+    mjr_readPixels(s.frame_rgba.data(), depth_m, viewport, &s.con);
+    s.con.readPixelFormat = GL_RGB;
+    if (s.pack_invert == nullptr) FlipRows(s.frame_rgba.data(), w, h, 4);
+    const unsigned char* in = s.frame_rgba.data();
+    unsigned char* out = rgb;
+    for (size_t i = 0; i < count; ++i, in += 4, out += 3) {
+      out[0] = in[0];
+      out[1] = in[1];
+      out[2] = in[2];
+    }
+  } else {
+    mjr_readPixels(rgb, depth_m, viewport, &s.con);
+  }
   if (s.pack_invert != nullptr) {
     s.pack_invert(GL_PACK_INVERT_MESA, GL_FALSE);
-  } else {
+  } else if (!s.frame_ids) {
     FlipRows(rgb, w, h, 3);
   }
   if (depth_m != nullptr) {
     // Nonlinear [0,1] depth buffer -> distance along the view axis (platform.md, "Depth").
     const double n = s.znear, ratio = 1.0 - static_cast<double>(s.znear) / s.zfar;
-    const size_t count = static_cast<size_t>(w) * h;
     for (size_t i = 0; i < count; ++i) {
       depth_m[i] = static_cast<float>(n / (1.0 - depth_m[i] * ratio));
     }
@@ -482,6 +561,7 @@ int Renderer::shadow_size() const { return impl_->con.shadowSize; }
 long long Renderer::frames() const { return impl_->frames; }
 long long Renderer::one_pass_frames() const { return impl_->one_pass_frames; }
 long long Renderer::frame_segmentations() const { return impl_->frame_segmentations; }
+long long Renderer::tracked_segmentations() const { return impl_->tracked_segmentations; }
 const std::string& Renderer::one_pass_missed() const { return impl_->one_pass_missed; }
 long long Renderer::shadow_map_renders() const {
   return impl_->shadow_pass ? impl_->shadow_pass->map_renders() : 0;

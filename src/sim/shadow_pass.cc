@@ -14,7 +14,7 @@ using namespace detail;  // NOLINT(google-build-using-namespace): this file's ow
 
 // A program's uniform locations for the per-geom state.
 struct ShadowPass::GeomUniforms {
-  GLint rgba, emission, specular, shininess, s, t, r;
+  GLint rgba, emission, specular, shininess, s, t, r, alpha;
 };
 
 struct ShadowPass::BuiltProgram {
@@ -136,7 +136,7 @@ const ShadowPass::BuiltProgram& ShadowPass::Program(int nlight, int nmap, int te
   b.global = loc("u_global");
   b.eye_to_map = loc("u_eye_to_map");
   b.geom = {loc("u_rgba"),    loc("u_emission"), loc("u_specular"), loc("u_shininess"),
-            loc("u_plane_s"), loc("u_plane_t"),  loc("u_plane_r")};
+            loc("u_plane_s"), loc("u_plane_t"),  loc("u_plane_r"),  loc("u_alpha")};
   // The samplers' texture units never change (uniforms are the program's state).
   gl.UseProgram(program);
   gl.Uniform1i(loc("u_tex2d"), kUnit2d);
@@ -247,14 +247,21 @@ const ShadowPass::GeomUniforms& ShadowPass::Programs::Use(int texmode) {
 namespace {
 
 // renderGeom's material and texture for `g` (its rgb times `rgb_scale`, as a reflection),
-// with the program for its texture mode.
+// with the program for its texture mode. The alpha written is the geom's (blending reads it),
+// or `id` / 255 when `id` >= 0 (the lit pass's tracked geoms, Render's `ids`).
 void SetGeom(const ShadowPass::Gl& gl, ShadowPass::Programs& programs, const mjvGeom& g,
-             const mjrContext& con, float rgb_scale) {
+             const mjrContext& con, float rgb_scale, int id = -1) {
   const GeomTexture tex = TextureOf(g, con);
   const ShadowPass::GeomUniforms& u = programs.Use(tex.mode);
   const float rgba[4] = {g.rgba[0] * rgb_scale, g.rgba[1] * rgb_scale, g.rgba[2] * rgb_scale,
                          g.rgba[3]};
   gl.Uniform4fv(u.rgba, 1, rgba);
+  if (id < 0) {
+    gl.Uniform2f(u.alpha, 1, 0);
+  } else {
+    // A quarter above the id: the same byte whether the driver rounds or truncates.
+    gl.Uniform2f(u.alpha, 0, (static_cast<float>(id) + 0.25f) / 255.0f);
+  }
   gl.Uniform1f(u.emission, g.emission);
   gl.Uniform1f(u.specular, g.specular);
   gl.Uniform1f(u.shininess, g.shininess * 128.0f);
@@ -528,7 +535,7 @@ void ShadowPass::DrawReflection(const mjvScene& scn, const mjrContext& con, int 
   gl.StencilOp(GL_REPLACE, GL_REPLACE, GL_REPLACE);
   DrawGeom(gl, plane, con);
   gl.Enable(GL_DEPTH_TEST);
-  gl.ColorMask(1, 1, 1, 1);
+  gl.ColorMask(1, 1, 1, 0);  // the alpha stays the clear's 0 for the lit pass's ids
   gl.StencilFunc(GL_EQUAL, 1, 0xFF);
   gl.StencilOp(GL_KEEP, GL_KEEP, GL_KEEP);
   const double n[3] = {plane.mat[2], plane.mat[5], plane.mat[8]};
@@ -562,6 +569,7 @@ void ShadowPass::DrawReflection(const mjvScene& scn, const mjrContext& con, int 
   gl.FrontFace(GL_CCW);
   gl.Disable(GL_CLIP_PLANE0);
   gl.Disable(GL_STENCIL_TEST);
+  gl.ColorMask(1, 1, 1, 1);
 }
 
 const CoarseLevel* ShadowPass::Coarse(const mjvGeom& g, const float* eye) {
@@ -572,8 +580,8 @@ const CoarseLevel* ShadowPass::Coarse(const mjvGeom& g, const float* eye) {
   return level;
 }
 
-void ShadowPass::Render(const mjrRect& viewport, mjvScene* scn, const mjrContext* con,
-                        bool fitted) {
+void ShadowPass::Render(const mjrRect& viewport, mjvScene* scn, const mjrContext* con, bool fitted,
+                        const std::vector<unsigned char>* ids) {
   Gl& gl = *gl_;
   float head[3];  // the eye, for the whole frame
   HeadPos(*scn, head);
@@ -649,10 +657,17 @@ void ShadowPass::Render(const mjrRect& viewport, mjvScene* scn, const mjrContext
     }
   }
   const ViewVolume view_volume = ViewVolumeOf(Mul(cam_project, cam_view).data());
+  // Each opaque geom writes its id (0: none) as the alpha; the reflective geom adds its id to
+  // the 0 its reflection left (the reflection writes no alpha).
+  auto id_of = [&](const mjvGeom& g) -> int {
+    if (ids == nullptr || g.objtype != mjOBJ_GEOM || g.objid < 0) return 0;
+    const auto k = static_cast<size_t>(g.objid);
+    return k < ids->size() ? (*ids)[k] : 0;
+  };
   auto draw = [&](int j) {
     const mjvGeom& g = scn->geoms[j];
     if (LeftOut(view_volume, g)) return;
-    SetGeom(gl, programs, g, *con, 1.0f);
+    SetGeom(gl, programs, g, *con, 1.0f, id_of(g));
     if (j == reflective) {
       gl.Enable(GL_BLEND);
       gl.BlendFunc(GL_ONE, GL_ONE);
@@ -691,6 +706,7 @@ void ShadowPass::Render(const mjrRect& viewport, mjvScene* scn, const mjrContext
   };
   gl.DepthMask(GL_TRUE);
   unbind();
+  gl.ColorMask(1, 1, 1, 0);  // the lit pass's ids stay
   DrawSkybox(*scn, *con, head);
   if (!transparent.empty()) {
     // As mjr_render last: the transparent geoms with every light, no shadows, blended.
@@ -698,6 +714,7 @@ void ShadowPass::Render(const mjrRect& viewport, mjvScene* scn, const mjrContext
     DrawBlended(gl, *scn, *con, blended, transparent, 1.0f);
     unbind();
   }
+  gl.ColorMask(1, 1, 1, 1);
 }
 
 }  // namespace mlspaces::sim

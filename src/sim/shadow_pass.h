@@ -60,7 +60,12 @@ class ShadowPass {
   /// directional lights' squares were fitted to the casters (FitShadowMaps), which reach the
   /// squares' edges; their maps are then looked up where mjr_render drew them, not as
   /// mjr_render looks them up, a texel off at the edges (see DrawMaps).
-  void Render(const mjrRect& viewport, mjvScene* scn, const mjrContext* con, bool fitted = false);
+  /// The buffer's alpha is left holding which geom each pixel shows, for the geoms `ids`
+  /// marks (per model geom id, 1-255; ids past its end and 0 are none; null: none): the id
+  /// where the lit pass drew the geom as the nearest surface, 0 elsewhere (other geoms, the
+  /// background; transparent geoms, the reflection and the skybox write no alpha).
+  void Render(const mjrRect& viewport, mjvScene* scn, const mjrContext* con, bool fitted = false,
+              const std::vector<unsigned char>* ids = nullptr);
 
   /// Why Segment cannot draw `scn` as mjr_render draws it with mjRND_SEGMENT and
   /// mjRND_IDCOLOR, or null when it can: a geom type it does not draw, skins, stereo, a frame

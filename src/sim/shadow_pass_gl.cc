@@ -121,6 +121,7 @@ uniform sampler2DShadow u_map0;
 uniform sampler2DShadow u_map1;
 uniform sampler2DShadow u_map2;
 uniform sampler2DShadow u_map3;
+uniform vec2 u_alpha;  // the alpha written: alpha * x + y (the lit pass: a tracked geom's id)
 vec3 term(vec3 light, float lit, vec4 tex, float alpha) {
   return lit * alpha >= 0.99 ? light * tex.rgb : vec3(0.0);
 }
@@ -146,7 +147,7 @@ void main() {
 #if NMAP > 3
   sum += term(v_l3, shadow2DProj(u_map3, v_m3).r, tex, alpha);
 #endif
-  gl_FragColor = vec4(clamp(v_base.rgb * tex.rgb + sum, 0.0, 1.0), alpha);
+  gl_FragColor = vec4(clamp(v_base.rgb * tex.rgb + sum, 0.0, 1.0), alpha * u_alpha.x + u_alpha.y);
 }
 )";
 

@@ -92,6 +92,7 @@ namespace mlspaces::sim {
   X(Uniform1f)                     \
   X(Uniform1i)                     \
   X(Uniform1iv)                    \
+  X(Uniform2f)                     \
   X(Uniform3fv)                    \
   X(Uniform4fv)                    \
   X(UniformMatrix4fv)              \

@@ -373,7 +373,7 @@ TEST_F(ObjectImagePointsTest, NestedObjectsEachGetTheirSubtreesPixels) {
   }
 }
 
-// Drawing the points over a frame after it is read leaves the videos' bytes as they were.
+// Reading the points from a frame (the ids it carries) leaves the videos' bytes as they were.
 TEST_F(ObjectImagePointsTest, TheVideosAreTheSameWithAndWithoutPoints) {
   testing::TempDir dir;
   CameraSystemConfig config;
@@ -393,6 +393,7 @@ TEST_F(ObjectImagePointsTest, TheVideosAreTheSameWithAndWithoutPoints) {
     EXPECT_EQ(extra.size(), points ? 8u : 0u);
     if (points) {
       EXPECT_EQ(rec.renderer().frame_segmentations(), 6);
+      EXPECT_EQ(rec.renderer().tracked_segmentations(), 6) << "read from the frames' ids";
     }
     return rec.End();
   };

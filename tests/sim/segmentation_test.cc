@@ -48,16 +48,18 @@ struct World {
   DataPtr d;
 };
 
-World Load() {
+World Load(const std::string& xml = kXml) {
   World w;
-  w.m = LoadModelFromMemory(kXml);
+  w.m = LoadModelFromMemory(xml.c_str());
   w.d = MakeData(w.m.get());
   mj_forward(w.m.get(), w.d.get());
   return w;
 }
 
+// On OSMesa, or on the backend MLSPACES_GL names (ctest's SegmentationTest.OnEglDevice).
 RenderOptions Options(bool one_pass) {
   RenderOptions o;
+  o.backend = ResolveGlBackend("", "");
   o.width = 320;
   o.height = 240;
   o.one_pass_shadows = one_pass;
@@ -319,6 +321,145 @@ TEST(Segmentation, TheLastFramesDepthShowsTheGeomsOfInterestAsASegmentation) {
         }
       }
     }
+  }
+}
+
+// With the geoms of interest tracked (TrackGeoms), the frame carries their ids: SegmentLastFrame
+// reads them (nothing drawn, the frame kept) and gives the pixels the depth path gives, and
+// the frame's colours and depth are those of an untracked renderer. A transparent geom of
+// interest, another interest or another render since take the other paths.
+TEST(Segmentation, TrackedGeomsAreReadFromTheFrameWithTheDepthPathsPixels) {
+  // The floor reflective: the reflection is drawn first, the floor added over it.
+  std::string xml = kXml;
+  const std::string floor = R"(rgba="0.5 0.5 0.5 1"/>)";
+  xml.replace(xml.find(floor), floor.size(), R"(rgba="0.5 0.5 0.5 1" material="mirror"/>)");
+  const std::string assets = "<asset>";
+  xml.replace(xml.find(assets), assets.size(),
+              R"(<asset><material name="mirror" reflectance="0.4"/>)");
+  World w = Load(xml);
+  ASSERT_GT(w.m->mat_reflectance[0], 0);
+  auto id = [&](const char* name) {
+    return static_cast<size_t>(mj_name2id(w.m.get(), mjOBJ_GEOM, name));
+  };
+  std::vector<unsigned char> interest(static_cast<size_t>(w.m->ngeom), 0);
+  // The floor is the reflective plane (added over its reflection), the tetra a mesh.
+  for (const char* name : {"pair_box", "pair_ball", "capsule", "floor", "tetra"}) {
+    interest[id(name)] = 1;
+  }
+  for (const CameraView& view : {kView, LookAt({-0.8, 0.6, 0.3}, {0, 0, 0.1}, 60)}) {
+    Renderer plain(w.m.get(), Options(true));
+    Renderer tracked(w.m.get(), Options(true));
+    tracked.TrackGeoms(interest);
+    const size_t n = static_cast<size_t>(plain.width()) * plain.height();
+    std::vector<unsigned char> rgb0(3 * n), rgb1(3 * n);
+    std::vector<float> depth0(n), depth1(n);
+    plain.Render(w.d.get(), view, rgb0.data(), depth0.data());
+    tracked.Render(w.d.get(), view, rgb1.data(), depth1.data());
+    ASSERT_EQ(rgb0, rgb1) << "tracking changes no colour";
+    ASSERT_EQ(depth0, depth1);
+    std::vector<int> by_depth(n, -7), by_ids(n, -7), again(n, -7);
+    const PixelRect r0 = plain.SegmentLastFrame(w.d.get(), view, by_depth.data(), interest);
+    const PixelRect r1 = tracked.SegmentLastFrame(w.d.get(), view, by_ids.data(), interest);
+    EXPECT_EQ(plain.tracked_segmentations(), 0);
+    EXPECT_EQ(tracked.tracked_segmentations(), 1);
+    EXPECT_EQ(tracked.frame_segmentations(), 1);
+    EXPECT_EQ(r0.x, r1.x);
+    EXPECT_EQ(r0.width, r1.width);
+    EXPECT_EQ(r0.y, r1.y);
+    EXPECT_EQ(r0.height, r1.height);
+    ASSERT_TRUE(MinusOneOutside(by_ids, tracked.width(), tracked.height(), r1));
+    size_t shown = 0;
+    std::set<int> geoms;
+    for (size_t i = 0; i < n; ++i) {
+      // The depth path may mark other geoms' pixels -1 or not: only these are meant.
+      const bool meant = by_depth[i] >= 0 && interest[static_cast<size_t>(by_depth[i])] != 0;
+      if (meant) {
+        ASSERT_EQ(by_ids[i], by_depth[i]) << "pixel " << i;
+        ++shown;
+        geoms.insert(by_ids[i]);
+      } else {
+        ASSERT_EQ(by_ids[i], -1) << "pixel " << i;
+      }
+    }
+    EXPECT_GT(shown, n / 4);
+    EXPECT_GE(geoms.size(), 4u);
+    // The frame stays: the same again.
+    tracked.SegmentLastFrame(w.d.get(), view, again.data(), interest);
+    EXPECT_EQ(tracked.tracked_segmentations(), 2);
+    EXPECT_EQ(again, by_ids);
+    // Another interest: drawn from the depth (the frame is spent), then rendered.
+    std::vector<unsigned char> box_only(interest.size(), 0);
+    box_only[id("pair_box")] = 1;
+    tracked.SegmentLastFrame(w.d.get(), view, again.data(), box_only);
+    EXPECT_EQ(tracked.tracked_segmentations(), 2);
+    EXPECT_EQ(tracked.frame_segmentations(), 3);
+    for (size_t i = 0; i < n; ++i) {
+      if (by_ids[i] == static_cast<int>(id("pair_box"))) ASSERT_EQ(again[i], by_ids[i]) << i;
+    }
+    tracked.SegmentLastFrame(w.d.get(), view, again.data(), interest);
+    EXPECT_EQ(tracked.frame_segmentations(), 3);
+    EXPECT_EQ(tracked.tracked_segmentations(), 2);
+    // A transparent geom of interest: the depth path, the glass where it is in front.
+    std::vector<unsigned char> with_glass = interest;
+    with_glass[id("glass")] = 1;
+    tracked.TrackGeoms(with_glass);
+    tracked.Render(w.d.get(), view, rgb1.data());
+    ASSERT_EQ(rgb0, rgb1);
+    tracked.SegmentLastFrame(w.d.get(), view, again.data(), with_glass);
+    EXPECT_EQ(tracked.frame_segmentations(), 4);
+    EXPECT_EQ(tracked.tracked_segmentations(), 2);
+  }
+}
+
+// The ids are a byte: 255 geoms are tracked (the 255th read right), 256 are not (the depth
+// path then). A 16 x 16 grid of boxes seen from above.
+TEST(Segmentation, UpTo255GeomsAreTracked) {
+  // A skybox behind, around a floor smaller than the grid: drawn after the lit pass, it leaves
+  // the ids alone.
+  std::string xml = R"(<mujoco><asset>
+    <texture type="skybox" builtin="gradient" rgb1="0.3 0.5 0.7" rgb2="0 0 0" width="64" height="64"/>
+    </asset><worldbody>
+    <light pos="0 0 3" dir="0 0 -1" directional="true" castshadow="true"/>
+    <geom name="floor" type="plane" size="0.3 0.3 0.1" rgba="0.5 0.5 0.5 1"/>)";
+  for (int i = 0; i < 256; ++i) {
+    xml += "<geom type=\"box\" size=\"0.02 0.02 0.02\" pos=\"" +
+           std::to_string(0.05 * (i % 16) - 0.375) + " " + std::to_string(0.05 * (i / 16) - 0.375) +
+           " 0.02\" rgba=\"" + std::to_string((i % 7) / 7.0) + " 0.5 " +
+           std::to_string((i % 5) / 5.0) + " 1\"/>";
+  }
+  xml += "</worldbody></mujoco>";
+  ModelPtr m = LoadModelFromMemory(xml.c_str());
+  DataPtr d = MakeData(m.get());
+  mj_forward(m.get(), d.get());
+  const CameraView view = LookAt({0, 0, 1.2}, {0, 0, 0}, 45);
+  for (const int count : {255, 256}) {
+    std::vector<unsigned char> interest(static_cast<size_t>(m->ngeom), 0);
+    for (int g = 1; g <= count; ++g) interest[static_cast<size_t>(g)] = 1;  // 0 is the floor
+    Renderer r(m.get(), Options(true));
+    r.TrackGeoms(interest);
+    const size_t n = static_cast<size_t>(r.width()) * r.height();
+    std::vector<unsigned char> rgb(3 * n);
+    const std::vector<int> full = Segment(r, d.get(), view);
+    r.Render(d.get(), view, rgb.data());
+    std::vector<int> last(n, -7);
+    r.SegmentLastFrame(d.get(), view, last.data(), interest);
+    EXPECT_EQ(r.tracked_segmentations(), count == 255 ? 1 : 0);
+    std::set<int> seen;
+    size_t wanted = 0, same = 0;
+    size_t others = 0;
+    for (size_t i = 0; i < n; ++i) {
+      if (full[i] < 0 || interest[static_cast<size_t>(full[i])] == 0) {
+        others += last[i] != -1;
+        continue;
+      }
+      ++wanted;
+      same += last[i] == full[i];
+      if (last[i] == full[i]) seen.insert(last[i]);
+    }
+    EXPECT_GT(static_cast<double>(same), 0.999 * static_cast<double>(wanted)) << count;
+    if (count == 255) EXPECT_EQ(others, 0u) << "the floor and the sky are no tracked geom";
+    EXPECT_EQ(seen.size(), static_cast<size_t>(count)) << "every box seen";
+    EXPECT_EQ(seen.count(255), 1u) << "the 255th tracked geom read right";
   }
 }
 

@@ -185,16 +185,26 @@ class MLSPACES_API Renderer {
                                const std::vector<unsigned char>* interest = nullptr);
 
   /// As RenderSegmentation(d, view, geom_ids, &interest) right after Render(d, view, ...),
-  /// from that frame's depth: only the geoms of interest are drawn, each where it is the
-  /// frame's nearest surface, for about the price of drawing them alone. Transparent geoms of
-  /// interest show as in a segmentation; other transparent geoms (drawn blended, without
-  /// depth) hide nothing, where a segmentation shows them in front. A frame not drawn by
-  /// one pass (one_pass_shadows off, no shadows, a scene it cannot draw) or multisampled, or
-  /// any other render since, takes RenderSegmentation instead. Only the pixels of the geoms
-  /// of interest are meant (others may be -1). Returns the part read, as RenderSegmentation.
+  /// from that frame: where the frame carries the ids of `interest` (TrackGeoms with the
+  /// same vector, none of them transparent) they are read from it, with nothing drawn; else
+  /// only the geoms of interest are drawn, each where it is the frame's depth, for about the
+  /// price of drawing them alone. Either way each shows where it is the frame's nearest
+  /// surface. Transparent geoms of interest show as in a segmentation; other transparent
+  /// geoms (drawn blended, without depth) hide nothing, where a segmentation shows them in
+  /// front. A frame not drawn by one pass (one_pass_shadows off, no shadows, a scene it
+  /// cannot draw) or multisampled, or any other render since, takes RenderSegmentation
+  /// instead. Only the pixels of the geoms of interest are meant (others may be -1). Returns
+  /// the part read, as RenderSegmentation.
   /// @throws UsageError as RenderSegmentation.
   PixelRect SegmentLastFrame(const mjData* d, const CameraView& view, int* geom_ids,
                              const std::vector<unsigned char>& interest);
+
+  /// The geoms whose pixels the frames to come carry for SegmentLastFrame (`interest`: per
+  /// model geom id, non-zero to track; copied), until set again (empty: none). One pass
+  /// writes each tracked geom's id into the frame's alpha as it draws the frame, so that
+  /// SegmentLastFrame with this `interest` reads them instead of drawing the geoms again
+  /// (the frame's colours and depth do not change). More than 255 geoms: none is tracked.
+  void TrackGeoms(const std::vector<unsigned char>& interest);
 
   /// The views the renders to come show each state from (a camera system's cameras), for
   /// fit_shadows: each state's maps then hold the shadows any of them sees, and its renders
@@ -244,8 +254,10 @@ class MLSPACES_API Renderer {
   /// rest went through mjr_render (frames without shadows too: one pass saves nothing there).
   long long frames() const;
   long long one_pass_frames() const;
-  /// How many SegmentLastFrame calls took the frame's depth (the others rendered).
+  /// How many SegmentLastFrame calls took the last frame (the others rendered), and of those
+  /// how many read the ids it carried (TrackGeoms).
   long long frame_segmentations() const;
+  long long tracked_segmentations() const;
   /// With one_pass_shadows: why the last frame with shadows that went through mjr_render
   /// could not be drawn in one pass ("a label ('floor')", "fog", ...); "" when none
   /// did.

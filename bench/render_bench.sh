@@ -4,8 +4,8 @@
 #     (build/bench/datagen_render_quality_bench: ms per camera frame, frames/s, SSIM per camera
 #     against the full-quality frame, the per-episode cost of physics, render and encode);
 #  2. `mlspaces datagen` on the tutorial with WORKERS workers: successful episodes per hour with
-#     cameras at the default settings (one-pass fitted shadows, coarse sides, the segmentation
-#     renders of object_image_points), without object_image_points, with MuJoCo's
+#     cameras at the default settings (one-pass fitted shadows, coarse sides, object_image_points
+#     read from the ids the frames carry), without object_image_points, with MuJoCo's
 #     exact shapes in one pass, with MuJoCo's multi-pass
 #     shadows at the same maps, without fitted maps (2048², multi-pass), at the original's full
 #     quality, and without cameras.

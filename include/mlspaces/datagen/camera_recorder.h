@@ -14,8 +14,8 @@
 // [0, 0, 1]] with f = (H/2) / tan(fovy/2).
 // The cameras are fixed, so visibility_constraints are not used (docs/datagen.md). With
 // camera_config.object_image_points, each camera's frame also gives obs/extra/
-// object_image_points (object_image_points.h): the tracked objects drawn again over the
-// frame's depth (sim::Renderer::SegmentLastFrame).
+// object_image_points (object_image_points.h): the tracked objects' ids, which the frame
+// carries in its alpha (sim::Renderer::TrackGeoms, SegmentLastFrame).
 //
 // Lifetimes: the models and data passed in are read during the call only. References a
 // CameraSystem or CameraRecorder returns (name(), cameras()) are valid while it lives.
@@ -124,8 +124,8 @@ class MLSPACES_API CameraRecorder {
   const CameraSystem& cameras() const { return system_; }
   /// The renderer (its frame counts, sim::Renderer::one_pass_missed()); valid while this lives.
   const sim::Renderer& renderer() const { return *renderer_; }
-  /// Seconds spent rendering / encoding / on image points (segmentation renders and the
-  /// points drawn from them) so far, over every episode.
+  /// Seconds spent rendering / encoding / on image points (the ids read from the frames, or
+  /// segmentation renders, and the points drawn from them) so far, over every episode.
   double render_seconds() const { return render_seconds_; }
   double encode_seconds() const { return encode_seconds_; }
   double points_seconds() const { return points_seconds_; }

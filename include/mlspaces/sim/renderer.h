@@ -187,7 +187,7 @@ class MLSPACES_API Renderer {
   /// As RenderSegmentation(d, view, geom_ids, &interest) right after Render(d, view, ...),
   /// from that frame: where the frame carries the ids of `interest` (TrackGeoms with the
   /// same vector, none of them transparent) they are read from it, with nothing drawn; else
-  /// only the geoms of interest are drawn, each where it is the frame's depth, for about the
+  /// only the geoms of interest are drawn, over the frame's depth, for about the
   /// price of drawing them alone. Either way each shows where it is the frame's nearest
   /// surface. Transparent geoms of interest show as in a segmentation; other transparent
   /// geoms (drawn blended, without depth) hide nothing, where a segmentation shows them in

@@ -394,7 +394,9 @@ TEST(Segmentation, TrackedGeomsAreReadFromTheFrameWithTheDepthPathsPixels) {
     EXPECT_EQ(tracked.tracked_segmentations(), 2);
     EXPECT_EQ(tracked.frame_segmentations(), 3);
     for (size_t i = 0; i < n; ++i) {
-      if (by_ids[i] == static_cast<int>(id("pair_box"))) ASSERT_EQ(again[i], by_ids[i]) << i;
+      if (by_ids[i] == static_cast<int>(id("pair_box"))) {
+        ASSERT_EQ(again[i], by_ids[i]) << i;
+      }
     }
     tracked.SegmentLastFrame(w.d.get(), view, again.data(), interest);
     EXPECT_EQ(tracked.frame_segmentations(), 3);
@@ -457,7 +459,9 @@ TEST(Segmentation, UpTo255GeomsAreTracked) {
       if (last[i] == full[i]) seen.insert(last[i]);
     }
     EXPECT_GT(static_cast<double>(same), 0.999 * static_cast<double>(wanted)) << count;
-    if (count == 255) EXPECT_EQ(others, 0u) << "the floor and the sky are no tracked geom";
+    if (count == 255) {
+      EXPECT_EQ(others, 0u) << "the floor and the sky are no tracked geom";
+    }
     EXPECT_EQ(seen.size(), static_cast<size_t>(count)) << "every box seen";
     EXPECT_EQ(seen.count(255), 1u) << "the 255th tracked geom read right";
   }

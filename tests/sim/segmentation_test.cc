@@ -424,8 +424,9 @@ TEST(Segmentation, UpTo255GeomsAreTracked) {
     <light pos="0 0 3" dir="0 0 -1" directional="true" castshadow="true"/>
     <geom name="floor" type="plane" size="0.3 0.3 0.1" rgba="0.5 0.5 0.5 1"/>)";
   for (int i = 0; i < 256; ++i) {
+    const int col = i % 16, row = i / 16;
     xml += "<geom type=\"box\" size=\"0.02 0.02 0.02\" pos=\"" +
-           std::to_string(0.05 * (i % 16) - 0.375) + " " + std::to_string(0.05 * (i / 16) - 0.375) +
+           std::to_string(0.05 * col - 0.375) + " " + std::to_string(0.05 * row - 0.375) +
            " 0.02\" rgba=\"" + std::to_string((i % 7) / 7.0) + " 0.5 " +
            std::to_string((i % 5) / 5.0) + " 1\"/>";
   }

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import os
 import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -107,6 +108,11 @@ def test_scene_from_a_config_file():
 def test_scene_from_a_config_object_runs_its_python_sampler(monkeypatch):
     monkeypatch.syspath_prepend(str(EXAMPLE_DIR))
     monkeypatch.chdir(EXAMPLE_DIR)
+    # The tutorial's module registers its libraries in the default registry on import: a fresh
+    # one, and a fresh import, whatever other test files did in this process (both restored).
+    import mlspaces._registry
+    monkeypatch.setattr(mlspaces._registry, "_default", None)
+    monkeypatch.delitem(sys.modules, "datagen", raising=False)
     from datagen import FrankaPickDroidDataGenConfig  # the tutorial's, sampler in Python
     picture = render.scene(FrankaPickDroidDataGenConfig(), size=(64, 48))
     assert picture.shape[1] == 4 + 3 * (64 + 4)

@@ -248,7 +248,7 @@ namespace {
 
 // renderGeom's material and texture for `g` (its rgb times `rgb_scale`, as a reflection),
 // with the program for its texture mode. The alpha written is the geom's (blending reads it),
-// or `id` / 255 when `id` >= 0 (the lit pass's tracked geoms, Render's `ids`).
+// or, when `id` >= 0, the byte `id` (the lit pass's tracked geoms, Render's `ids`; 0: none).
 void SetGeom(const ShadowPass::Gl& gl, ShadowPass::Programs& programs, const mjvGeom& g,
              const mjrContext& con, float rgb_scale, int id = -1) {
   const GeomTexture tex = TextureOf(g, con);

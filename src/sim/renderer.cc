@@ -349,24 +349,6 @@ void Renderer::TrackGeoms(const std::vector<unsigned char>& interest) {
   s.track_ids = std::move(ids);
 }
 
-namespace {
-
-// Whether a geom of the scene that `interest` marks is transparent (mjvGeom::transparent as
-// the last render set it).
-bool TransparentOfInterest(const mjvScene& scn, const std::vector<unsigned char>& interest) {
-  for (int j = 0; j < scn.ngeom; ++j) {
-    const mjvGeom& g = scn.geoms[j];
-    if (g.transparent && g.objtype == mjOBJ_GEOM && g.objid >= 0 &&
-        static_cast<size_t>(g.objid) < interest.size() &&
-        interest[static_cast<size_t>(g.objid)] != 0) {
-      return true;
-    }
-  }
-  return false;
-}
-
-}  // namespace
-
 PixelRect Renderer::SegmentLastFrame(const mjData* d, const CameraView& view, int* geom_ids,
                                      const std::vector<unsigned char>& interest) {
   Impl& s = *impl_;
@@ -377,11 +359,14 @@ PixelRect Renderer::SegmentLastFrame(const mjData* d, const CameraView& view, in
   const int w = s.options.width, h = s.options.height;
   const mjrRect viewport{0, 0, w, h};
   const mjrRect part = s.shadow_pass->InterestRect(viewport, s.scn, interest);
-  if (s.frame_ids && interest == s.track_interest && !TransparentOfInterest(s.scn, interest)) {
+  if (s.frame_ids && interest == s.track_interest &&
+      !ShadowPass::TransparentOfInterest(s.scn, interest)) {
     // The frame's alpha holds the ids: nothing to draw; the frame stays.
     ++s.frame_segmentations;
     ++s.tracked_segmentations;
-    std::fill(geom_ids, geom_ids + static_cast<size_t>(w) * h, -1);
+    if (part.width != w || part.height != h) {
+      std::fill(geom_ids, geom_ids + static_cast<size_t>(w) * h, -1);
+    }
     if (part.width == 0) return {};
     const int top = h - (part.bottom + part.height);  // the part's first row, top down
     for (int row = top; row < top + part.height; ++row) {

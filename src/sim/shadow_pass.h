@@ -95,6 +95,10 @@ class ShadowPass {
   /// or is unbounded (a plane, a height field).
   mjrRect InterestRect(const mjrRect& viewport, const mjvScene& scn,
                        const std::vector<unsigned char>& interest) const;
+  /// Whether a geom of `scn` that `interest` marks is transparent (mjvGeom::transparent as
+  /// the last Render() set it): drawn blended, it leaves no id in the frame's alpha.
+  static bool TransparentOfInterest(const mjvScene& scn,
+                                    const std::vector<unsigned char>& interest);
 
   /// How many times the maps were drawn (a state seen by two cameras draws them once).
   long long map_renders() const { return map_renders_; }

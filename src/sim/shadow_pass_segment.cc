@@ -110,6 +110,14 @@ void ShadowPass::SegmentFrame(const mjrRect& viewport, const mjvScene& scn, cons
   LitColours(gl);
 }
 
+bool ShadowPass::TransparentOfInterest(const mjvScene& scn,
+                                       const std::vector<unsigned char>& interest) {
+  for (int j = 0; j < scn.ngeom; ++j) {
+    if (scn.geoms[j].transparent && OfInterest(scn.geoms[j], interest)) return true;
+  }
+  return false;
+}
+
 mjrRect ShadowPass::InterestRect(const mjrRect& viewport, const mjvScene& scn,
                                  const std::vector<unsigned char>& interest) const {
   const mjvGLCamera cam = mjv_averageCamera(scn.camera, scn.camera + 1);

@@ -14,19 +14,30 @@
 
 namespace mlspaces::fuzz {
 
-/// A private folder under $TMPDIR (or /tmp), made once per process.
+/// A private folder under $TMPDIR (or /tmp), made once per process and removed with what is in
+/// it when the process exits normally (libFuzzer exits so after its runs; a crash keeps it).
 inline const std::filesystem::path& ScratchDir() {
-  static const std::filesystem::path dir = [] {
-    const char* tmp = std::getenv("TMPDIR");
-    std::string pattern =
-        std::string(tmp != nullptr && *tmp != '\0' ? tmp : "/tmp") + "/mlspaces-fuzz-XXXXXX";
-    if (::mkdtemp(pattern.data()) == nullptr) {
-      std::perror("mkdtemp");
-      std::abort();
+  struct Scratch {
+    std::filesystem::path path;
+    Scratch() {
+      const char* tmp = std::getenv("TMPDIR");
+      std::string pattern =
+          std::string(tmp != nullptr && *tmp != '\0' ? tmp : "/tmp") + "/mlspaces-fuzz-XXXXXX";
+      if (::mkdtemp(pattern.data()) == nullptr) {
+        std::perror("mkdtemp");
+        std::abort();
+      }
+      path = pattern;
     }
-    return std::filesystem::path(pattern);
-  }();
-  return dir;
+    ~Scratch() {
+      std::error_code ec;
+      std::filesystem::remove_all(path, ec);
+    }
+    Scratch(const Scratch&) = delete;
+    Scratch& operator=(const Scratch&) = delete;
+  };
+  static const Scratch dir;
+  return dir.path;
 }
 
 /// Writes bytes to a file (replacing it); aborts on an I/O error (not the parser's fault).

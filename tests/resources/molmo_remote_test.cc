@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 #include <random>
 #include <set>
 #include <string>
@@ -42,7 +43,7 @@ using testing::TempDir;
 
 constexpr const char* kVersions = "mjthor_data_type_to_source_to_versions.json";
 
-/// The remote, written once for the whole test program.
+/// The remote, written once for the whole test program and removed when it exits.
 struct Remote {
   TempDir dir;
   Json fx;
@@ -52,8 +53,9 @@ struct Remote {
 };
 
 const Remote& TheRemote() {
-  static Remote* r = [] {
-    auto* remote = new Remote;
+  // Destroyed at exit, which removes the folder (the forked servers exec or _exit).
+  static const std::unique_ptr<Remote> r = [] {
+    auto remote = std::make_unique<Remote>();
     const auto run = testing::RunProgram(
         MLSPACES_PYTHON, {std::string(MLSPACES_SOURCE_DIR) + "/tests/fixtures/make_molmo_remote.py",
                           (remote->dir.path() / "out").string(), "--corrupt"});

@@ -10,9 +10,10 @@
 // (MuJoCo's own settings: 4096² shadow maps over MuJoCo's fixed square, 4x multisampling, shadows
 // and reflections); "fit" rows fit the shadow maps to the casters (sim::FitShadowMaps), "map" is
 // the side of the map that gives; "one" draws the shadows in one pass (one_pass_shadows), "crs"
-// with coarse straight sides (coarse_sides). It then times the H.264 encoding of the default
-// setting's frames (VideoWriter, the dataset's options) and prints the per-episode cost of each
-// stage and the camera episodes per hour per process that follow.
+// with coarse straight sides (coarse_sides), "mip" sampling textures from the nearest mipmap level
+// (nearest_mipmap; the others MuJoCo's trilinear filter). It then times the H.264 encoding of the
+// default setting's frames (VideoWriter, the dataset's options) and prints the per-episode cost of
+// each stage and the camera episodes per hour per process that follow.
 //
 // SSIM is skimage.metrics.structural_similarity(a, b, channel_axis=2, data_range=255) with its
 // defaults (7x7 uniform window, sample covariance, K1 0.01, K2 0.03, the 3-pixel border left
@@ -77,6 +78,7 @@ struct Setting {
   bool fit;               // shadow maps fitted to the casters (sim::FitShadowMaps)
   bool one_pass = false;  // shadows in one pass (sim::RenderOptions::one_pass_shadows)
   bool coarse = false;    // coarse straight sides (sim::RenderOptions::coarse_sides)
+  bool mip = false;       // nearest mipmap level (sim::RenderOptions::nearest_mipmap)
 };
 
 // The curve: from the original's settings down to no shadows. "default" is camera_config's.
@@ -102,11 +104,13 @@ std::vector<Setting> AllSettings() {
       {"onepass_fit2048_ms0", 2048, 0, true, true, true, true},
       {"onepass_fit1024_ms0", 1024, 0, true, true, true, true},
       {"onepass_fit1024_ms0_coarse", 1024, 0, true, true, true, true, true},
+      {"onepass_fit1024_ms0_coarse_mip", 1024, 0, true, true, true, true, true, true},
+      {"onepass_fit1024_ms0_coarse_mip_norefl", 1024, 0, true, false, true, true, true, true},
       {"onepass_fit768_ms0_coarse", 768, 0, true, true, true, true, true},
       {"onepass_fit768_ms0", 768, 0, true, true, true, true},
       {"onepass_shadow2048_ms0", 2048, 0, true, true, false, true},
       {"default", static_cast<int>(d.shadow_size), static_cast<int>(d.multisamples), d.shadows,
-       d.reflections, d.fit_shadows, d.one_pass_shadows, d.coarse_sides},
+       d.reflections, d.fit_shadows, d.one_pass_shadows, d.coarse_sides, d.nearest_mipmap},
       {"noshadow_ms4", 0, 4, false, true, false},
       {"noshadow_ms0", 0, 0, false, true, false},
       {"noshadow_ms0_norefl", 0, 0, false, false, false},
@@ -270,6 +274,7 @@ int main(int argc, char** argv) {
       c.fit_shadows = st.fit;
       c.one_pass_shadows = st.one_pass;
       c.coarse_sides = st.coarse;
+      c.nearest_mipmap = st.mip;
       std::unique_ptr<sim::Renderer> r = dg::MakeCameraRenderer(m, c, opt.gl);
       *map = st.shadows ? r->shadow_size() : 0;
       std::vector<std::vector<unsigned char>> frames(nstates * ncam);
@@ -301,14 +306,14 @@ int main(int argc, char** argv) {
     if (!opt.csv.empty()) {
       csv.open(opt.csv);
       csv << "setting,shadow_size,multisamples,shadows,reflections,fit_shadows,one_pass,"
-             "coarse_sides,map_size,ms_per_frame,frames_per_s";
+             "coarse_sides,nearest_mipmap,map_size,ms_per_frame,frames_per_s";
       for (size_t k = 0; k < ncam; ++k) {
         csv << ",ssim_mean_" << system.name(k) << ",ssim_min_" << system.name(k);
       }
       csv << "\n";
     }
-    std::printf("%-26s %6s %4s %5s %5s %4s %4s %4s %5s %9s %8s", "setting", "shadow", "ms", "shdw",
-                "refl", "fit", "one", "crs", "map", "ms/frame", "frames/s");
+    std::printf("%-26s %6s %4s %5s %5s %4s %4s %4s %4s %5s %9s %8s", "setting", "shadow", "ms",
+                "shdw", "refl", "fit", "one", "crs", "mip", "map", "ms/frame", "frames/s");
     for (size_t k = 0; k < ncam; ++k) std::printf("  ssim %-14s", system.name(k).c_str());
     std::printf("\n");
     double default_ms = 0, full_ms = 0;
@@ -337,13 +342,13 @@ int main(int argc, char** argv) {
       // The mean, not the median: with one-pass shadows the first camera of a state draws
       // the maps that the others share, so frames alternate between two costs.
       const double ms = 1e3 * Mean(times);
-      std::printf("%-26s %6d %4d %5d %5d %4d %4d %4d %5d %9.2f %8.1f", st.name.c_str(),
+      std::printf("%-26s %6d %4d %5d %5d %4d %4d %4d %4d %5d %9.2f %8.1f", st.name.c_str(),
                   st.shadow_size, st.multisamples, st.shadows, st.reflections, st.fit, st.one_pass,
-                  st.coarse, map, ms, 1e3 / ms);
+                  st.coarse, st.mip, map, ms, 1e3 / ms);
       if (csv.is_open()) {
         csv << st.name << "," << st.shadow_size << "," << st.multisamples << "," << st.shadows
             << "," << st.reflections << "," << st.fit << "," << st.one_pass << "," << st.coarse
-            << "," << map << "," << ms << "," << 1e3 / ms;
+            << "," << st.mip << "," << map << "," << ms << "," << 1e3 / ms;
       }
       for (size_t k = 0; k < ncam; ++k) {
         double sum = 0, lo = 1;

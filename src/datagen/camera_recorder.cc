@@ -155,6 +155,7 @@ std::unique_ptr<sim::Renderer> MakeCameraRenderer(const mjModel* m,
   options.fit_shadows = config.fit_shadows;
   options.one_pass_shadows = config.one_pass_shadows;
   options.coarse_sides = config.coarse_sides;
+  options.nearest_mipmap = config.nearest_mipmap;
   auto renderer = std::make_unique<sim::Renderer>(m, options);
   renderer->scene().flags[mjRND_SHADOW] = config.shadows ? 1 : 0;
   renderer->scene().flags[mjRND_REFLECTION] = config.reflections ? 1 : 0;

@@ -183,7 +183,8 @@ Renderer::Renderer(const mjModel* m, RenderOptions options) : impl_(std::make_un
     }
     if (options.one_pass_shadows) {
       try {
-        s.shadow_pass = std::make_unique<ShadowPass>(load, mc, options.coarse_sides);
+        s.shadow_pass =
+            std::make_unique<ShadowPass>(load, mc, options.coarse_sides, options.nearest_mipmap);
       } catch (const Error& e) {
         gl::Fail(backend, std::string(e.what()) +
                               " (one_pass_shadows off, camera_config.one_pass_shadows: false in a"
@@ -559,6 +560,9 @@ long long Renderer::one_pass_coarse_draws() const {
 }
 long long Renderer::one_pass_culled_draws() const {
   return impl_->shadow_pass ? impl_->shadow_pass->culled_draws() : 0;
+}
+long long Renderer::one_pass_nearest_mipmap_frames() const {
+  return impl_->shadow_pass ? impl_->shadow_pass->samplers_bound() : 0;
 }
 mjvScene& Renderer::scene() { return impl_->scn; }
 mjvOption& Renderer::vis_option() { return impl_->opt; }

@@ -24,7 +24,7 @@ struct ShadowPass::BuiltProgram {
   GeomUniforms geom;
 };
 
-ShadowPass::ShadowPass(GlProcLoader load, const mjModel* m, bool coarse_sides)
+ShadowPass::ShadowPass(GlProcLoader load, const mjModel* m, bool coarse_sides, bool nearest_mipmap)
     : gl_(std::make_unique<Gl>()),
       // The maps' shapes: coarser than MuJoCo's (their vertices are most of a map's cost), an
       // error under a millimetre on a 6 cm capsule, below the maps' texels.
@@ -43,6 +43,27 @@ ShadowPass::ShadowPass(GlProcLoader load, const mjModel* m, bool coarse_sides)
   const auto* extensions = reinterpret_cast<const char*>(gl.GetString(GL_EXTENSIONS));
   if (extensions != nullptr && std::strstr(extensions, "GL_ARB_clip_control") != nullptr) {
     gl.ClipControl = reinterpret_cast<decltype(gl.ClipControl)>(load("glClipControl"));
+  }
+  if (nearest_mipmap && extensions != nullptr &&
+      std::strstr(extensions, "GL_ARB_sampler_objects") != nullptr) {
+    gl.GenSamplers = reinterpret_cast<decltype(gl.GenSamplers)>(load("glGenSamplers"));
+    gl.DeleteSamplers = reinterpret_cast<decltype(gl.DeleteSamplers)>(load("glDeleteSamplers"));
+    gl.SamplerParameteri =
+        reinterpret_cast<decltype(gl.SamplerParameteri)>(load("glSamplerParameteri"));
+    gl.BindSampler = reinterpret_cast<decltype(gl.BindSampler)>(load("glBindSampler"));
+    if (gl.GenSamplers != nullptr && gl.DeleteSamplers != nullptr &&
+        gl.SamplerParameteri != nullptr && gl.BindSampler != nullptr) {
+      // mjr_uploadTexture's wrap modes and magnification; one mipmap level, not two blended.
+      for (auto [sampler, wrap] :
+           {std::pair{&sampler_2d_, GL_REPEAT}, std::pair{&sampler_cube_, GL_CLAMP_TO_EDGE}}) {
+        gl.GenSamplers(1, sampler);
+        for (GLenum coord : {GL_TEXTURE_WRAP_S, GL_TEXTURE_WRAP_T, GL_TEXTURE_WRAP_R}) {
+          gl.SamplerParameteri(*sampler, coord, wrap);
+        }
+        gl.SamplerParameteri(*sampler, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+        gl.SamplerParameteri(*sampler, GL_TEXTURE_MIN_FILTER, GL_LINEAR_MIPMAP_NEAREST);
+      }
+    }
   }
   // The shaders build here once, so that a driver without GLSL 1.20 fails at construction.
   Program(1, 1, 0);
@@ -157,6 +178,15 @@ ShadowPass::~ShadowPass() {
     if (map_tex_[k]) gl.DeleteTextures(1, &map_tex_[k]);
   }
   for (const auto& [key, program] : programs_) gl.DeleteProgram(program->id);
+  for (unsigned int sampler : {sampler_2d_, sampler_cube_}) {
+    if (sampler) gl.DeleteSamplers(1, &sampler);
+  }
+}
+
+void ShadowPass::BindSamplers(bool on) {
+  if (!sampler_2d_) return;
+  gl_->BindSampler(kUnit2d, on ? sampler_2d_ : 0);
+  gl_->BindSampler(kUnitCube, on ? sampler_cube_ : 0);
 }
 
 bool ShadowPass::HasShadows(const mjvScene& scn, const mjrContext& con) {
@@ -603,6 +633,10 @@ void ShadowPass::Render(const mjrRect& viewport, mjvScene* scn, const mjrContext
   // The whole frame: clear, reflection, the maps, one lit pass, the skybox.
   float cam_project[16], cam_view[16];
   BeginFrame(viewport, *scn, *con, cam_project, cam_view);
+  // The geoms' textures from one mipmap level (RenderOptions::nearest_mipmap), in the
+  // reflection, the lit pass and the blended geoms; the skybox keeps MuJoCo's filter.
+  BindSamplers(true);
+  samplers_bound_ += sampler_2d_ != 0;
   std::copy_n(cam_project, 16, frame_project_.begin());
   std::copy_n(cam_view, 16, frame_view_.begin());
   DrawReflection(*scn, *con, reflective, head, cam_project, cam_view, transparent);
@@ -695,6 +729,7 @@ void ShadowPass::Render(const mjrRect& viewport, mjvScene* scn, const mjrContext
 
   // No program, no texture left bound (the maps, the geoms' textures), unit 0 active.
   auto unbind = [&] {
+    BindSamplers(false);
     gl.UseProgram(0);
     for (int t = kMaxShadowLights + kUnitMap0 - 1; t >= 0; --t) {
       gl.ActiveTexture(GL_TEXTURE0 + t);
@@ -711,6 +746,7 @@ void ShadowPass::Render(const mjrRect& viewport, mjvScene* scn, const mjrContext
   if (!transparent.empty()) {
     // As mjr_render last: the transparent geoms with every light, no shadows, blended.
     Programs blended(this, *scn, cam_view);
+    BindSamplers(true);
     DrawBlended(gl, *scn, *con, blended, transparent, 1.0f);
     unbind();
   }

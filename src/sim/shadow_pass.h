@@ -36,8 +36,11 @@ class ShadowPass {
   /// @throws Error (one line) when a function is missing or the shader does not build.
   /// `m`: the model the scenes come from (its vis.quality shapes the builtin geoms); it must
   /// outlive the pass (its meshes are read when first drawn into a map).
-  /// `coarse_sides`: RenderOptions::coarse_sides.
-  ShadowPass(GlProcLoader load, const mjModel* m, bool coarse_sides = false);
+  /// `coarse_sides` and `nearest_mipmap`: RenderOptions' (nearest_mipmap needs sampler
+  /// objects, GL 3.3 or ARB_sampler_objects; without them the textures keep MuJoCo's
+  /// trilinear filter: see samplers_bound()).
+  ShadowPass(GlProcLoader load, const mjModel* m, bool coarse_sides = false,
+             bool nearest_mipmap = false);
   /// Frees the GL objects: the context must be current (or gone, with the objects).
   ~ShadowPass();
   ShadowPass(const ShadowPass&) = delete;
@@ -107,6 +110,9 @@ class ShadowPass {
   long long left_out() const { return left_out_; }
   /// How many geom draws of the lit pass and the reflection used coarse sides.
   long long coarse_draws() const { return coarse_draws_; }
+  /// How many Render() calls sampled the geoms' textures from their nearest mipmap level
+  /// (RenderOptions::nearest_mipmap with sampler objects).
+  long long samplers_bound() const { return samplers_bound_; }
   /// How many map draws culled back faces: the array of builtin shapes (once per map) and
   /// each closed mesh (see DrawMaps).
   long long culled_draws() const { return culled_draws_; }
@@ -130,6 +136,9 @@ class ShadowPass {
   // mjr_render's skybox and haze behind what the pass drew (none without a skybox texture),
   // around the eye at `head` (HeadPos).
   void DrawSkybox(const mjvScene& scn, const mjrContext& con, const float* head);
+  // Binds (or, `on` false, unbinds) the nearest-mipmap samplers on the geoms' texture units,
+  // when the pass has them.
+  void BindSamplers(bool on);
   // mjr_render's GL state, clear and camera; the camera's matrices out.
   void BeginFrame(const mjrRect& viewport, const mjvScene& scn, const mjrContext& con,
                   float* cam_project, float* cam_view);
@@ -157,6 +166,10 @@ class ShadowPass {
   // frame's positional lights (x y z each) that choose them with the eye.
   std::unique_ptr<detail::CoarseSides> coarse_;
   std::vector<float> coarse_points_;
+  // The geoms' samplers (RenderOptions::nearest_mipmap): 2D textures on kUnit2d, cube
+  // textures on kUnitCube, with MuJoCo's wrap modes; 0 for none.
+  unsigned int sampler_2d_ = 0;
+  unsigned int sampler_cube_ = 0;
   std::array<float, 16> frame_project_{}, frame_view_{};  // the last Render()'s matrices
   std::vector<float> mesh_radius_;  // per mesh: the largest distance of a vertex from its frame
   const mjModel* model_ = nullptr;
@@ -174,6 +187,7 @@ class ShadowPass {
   long long left_out_ = 0;
   long long coarse_draws_ = 0;
   long long culled_draws_ = 0;
+  long long samplers_bound_ = 0;
 };
 
 }  // namespace mlspaces::sim

@@ -105,6 +105,11 @@ struct ShadowPass::Gl {
   decltype(&::gl##name) name = nullptr;  // NOLINT(bugprone-macro-parentheses)
   /// glClipControl (ARB_clip_control), null without it: MuJoCo reverses depth with it.
   decltype(&::glClipControl) ClipControl = nullptr;
+  /// Sampler objects (GL 3.3, ARB_sampler_objects), null without them.
+  decltype(&::glGenSamplers) GenSamplers = nullptr;
+  decltype(&::glDeleteSamplers) DeleteSamplers = nullptr;
+  decltype(&::glSamplerParameteri) SamplerParameteri = nullptr;
+  decltype(&::glBindSampler) BindSampler = nullptr;
   MLSPACES_SHADOW_PASS_GL(MLSPACES_DECLARE)
 #undef MLSPACES_DECLARE
 };

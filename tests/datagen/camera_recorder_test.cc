@@ -136,7 +136,8 @@ TEST_F(CameraRecorderTest, TheCamerasOfAStateShareItsShadowMaps) {
   testing::TempDir dir;
   CameraSystemConfig config;
   config.img_resolution = {160, 96};
-  ASSERT_TRUE(config.shadows && config.fit_shadows && config.one_pass_shadows);
+  ASSERT_TRUE(config.shadows && config.fit_shadows && config.one_pass_shadows &&
+              config.nearest_mipmap);
   CameraRecorder rec(env_.model(), config, 15, sim::GlBackend::kOsMesa);
   rec.Begin(dir.path(), 0);
   for (int i = 0; i < 3; ++i) {
@@ -148,6 +149,8 @@ TEST_F(CameraRecorderTest, TheCamerasOfAStateShareItsShadowMaps) {
   EXPECT_EQ(rec.renderer().frames(), 6);
   EXPECT_EQ(rec.renderer().one_pass_frames(), 6);
   EXPECT_EQ(rec.renderer().shadow_map_renders(), 3);
+  // camera_config.nearest_mipmap reaches the renderer (llvmpipe has sampler objects).
+  EXPECT_EQ(rec.renderer().one_pass_nearest_mipmap_frames(), 6);
 }
 
 TEST_F(CameraRecorderTest, MissingCamerasAreNamed) {

@@ -37,6 +37,7 @@ TEST(RenderDeterminismTest, DefaultSettingsRenderFittedShadowsInOnePassWithoutMu
   EXPECT_TRUE(c.fit_shadows);
   EXPECT_TRUE(c.one_pass_shadows);
   EXPECT_TRUE(c.coarse_sides);
+  EXPECT_TRUE(c.nearest_mipmap);
 }
 
 class RenderDeterminismTest : public ::testing::TestWithParam<std::string> {};

@@ -509,5 +509,40 @@ TEST(ShadowPassTest, RendersTheSameBytesEachTime) {
   EXPECT_EQ(Shoot(a, w, "high"), Shoot(b, w, "high"));
 }
 
+// nearest_mipmap: the floor's checker and the crate's cube texture from one mipmap level, close
+// to MuJoCo's trilinear filter; MuJoCo's own passes in the same context keep their filter.
+TEST(ShadowPassTest, NearestMipmapSamplesOneLevelAndLeavesMujocosFilter) {
+  World w(/*glass=*/true, /*buried=*/false, /*sky=*/true);
+  Renderer mujoco(w.m.get(), Options(false, true));
+  Renderer trilinear(w.m.get(), Options(true, true));
+  RenderOptions o = Options(true, true);
+  o.nearest_mipmap = true;
+  Renderer nearest(w.m.get(), o);
+  for (const char* cam : {"high", "low"}) {
+    SCOPED_TRACE(cam);
+    const std::vector<unsigned char> want = Shoot(mujoco, w, cam);
+    const std::vector<unsigned char> tri = Shoot(trilinear, w, cam);
+    const std::vector<unsigned char> got = Shoot(nearest, w, cam);
+    // The filter changed some texels (the floor recedes through several mipmap levels)...
+    const Difference filter = Compare(tri, got, 0);
+    std::printf(
+        "%s: nearest mipmap against trilinear: mean %.3f levels, %.4f of pixels differ;"
+        " against MuJoCo: mean %.3f\n",
+        cam, filter.mean, filter.share, Compare(want, got, 24).mean);
+    EXPECT_GT(filter.share, 0.01);
+    // ... by little: the picture stays MuJoCo's.
+    EXPECT_LT(Compare(tri, got, 24).share, 0.002);
+    const Difference d = Compare(want, got, 24);
+    EXPECT_LT(d.mean, 1.0);
+    EXPECT_LT(d.share, 0.005);
+    // MuJoCo's passes (a frame without shadows) in the renderer that just drew one pass:
+    // the samplers are unbound, the textures' own filter samples as before.
+    EXPECT_EQ(Shoot(nearest, w, cam, false), Shoot(mujoco, w, cam, false));
+  }
+  EXPECT_EQ(nearest.one_pass_nearest_mipmap_frames(), 2);  // llvmpipe has sampler objects
+  EXPECT_EQ(trilinear.one_pass_nearest_mipmap_frames(), 0);
+  EXPECT_EQ(mujoco.one_pass_nearest_mipmap_frames(), 0);
+}
+
 }  // namespace
 }  // namespace mlspaces::sim

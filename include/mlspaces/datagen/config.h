@@ -401,6 +401,10 @@ struct MLSPACES_API CameraSystemConfig {
   /// sides where the lighting allows (sim::RenderOptions::coarse_sides): the same pixels
   /// covered, about a fifth less time a frame on llvmpipe; false draws MuJoCo's shapes.
   bool coarse_sides = true;
+  /// With one pass: the geoms' textures sampled from their nearest mipmap level
+  /// (sim::RenderOptions::nearest_mipmap), not MuJoCo's two blended: about 8% less a
+  /// frame of the tutorial on llvmpipe (its floor is textured); false samples as MuJoCo.
+  bool nearest_mipmap = true;
   /// Record obs/extra/object_image_points (datagen/object_image_points.h), as the original
   /// always does: the tracked objects drawn again over each camera's frame.
   bool object_image_points = true;
@@ -424,6 +428,7 @@ struct MLSPACES_API CameraSystemConfig {
     a->Visit("fit_shadows", fit_shadows);
     a->Visit("one_pass_shadows", one_pass_shadows);
     a->Visit("coarse_sides", coarse_sides);
+    a->Visit("nearest_mipmap", nearest_mipmap);
     a->Visit("object_image_points", object_image_points);
   }
 };

@@ -4,9 +4,10 @@
 #     (build/bench/datagen_render_quality_bench: ms per camera frame, frames/s, SSIM per camera
 #     against the full-quality frame, the per-episode cost of physics, render and encode);
 #  2. `mlspaces datagen` on the tutorial with WORKERS workers: successful episodes per hour with
-#     cameras at the default settings (one-pass fitted shadows, coarse sides, object_image_points
-#     read from the ids the frames carry), without object_image_points, with MuJoCo's
-#     exact shapes in one pass, with MuJoCo's multi-pass
+#     cameras at the default settings (one-pass fitted shadows, coarse sides, textures from
+#     their nearest mipmap level, object_image_points read from the ids the frames carry),
+#     without object_image_points, with MuJoCo's exact shapes in one pass, with MuJoCo's
+#     trilinear texture filter in one pass, with MuJoCo's multi-pass
 #     shadows at the same maps, without fitted maps (2048², multi-pass), at the original's full
 #     quality, and without cameras.
 #
@@ -14,7 +15,8 @@
 #   GL=egl EPISODES=2 RUN_EPISODES=8 WORKERS=2 bench/render_bench.sh
 #   SKIP_CURVE=1 bench/render_bench.sh     (the datagen runs only; SKIP_DATAGEN=1: the curve only)
 #   RUNS="default no_cameras" bench/render_bench.sh   (some of the datagen runs: default,
-#                               no_points, exact_sides, multipass, unfitted, full, no_cameras)
+#                               no_points, exact_sides, trilinear, multipass, unfitted, full,
+#                               no_cameras)
 # GL: osmesa (default) or egl (the EGL device platform: a GPU where one is installed).
 # On llvmpipe each worker rasterises on its own thread (LP_NUM_THREADS=0, as datagen sets
 # it with one worker per core), so figures are per core.
@@ -25,7 +27,7 @@ GL=${GL:-osmesa}
 EPISODES=${EPISODES:-2}
 RUN_EPISODES=${RUN_EPISODES:-8}
 WORKERS=${WORKERS:-$(nproc)}
-RUNS=" ${RUNS:-default no_points exact_sides multipass unfitted full no_cameras} "
+RUNS=" ${RUNS:-default no_points exact_sides trilinear multipass unfitted full no_cameras} "
 BENCH=$BUILD/bench/datagen_render_quality_bench
 CLI=$BUILD/apps/mlspaces/mlspaces
 for f in "$BENCH" "$CLI"; do
@@ -64,6 +66,7 @@ echo "== mlspaces datagen, tutorial, $RUN_EPISODES episodes, $WORKERS workers ($
 run default
 run no_points --set camera_config.object_image_points=false
 run exact_sides --set camera_config.coarse_sides=false
+run trilinear --set camera_config.nearest_mipmap=false
 run multipass --set camera_config.one_pass_shadows=false
 run unfitted --set camera_config.one_pass_shadows=false --set camera_config.fit_shadows=false \
   --set camera_config.shadow_size=2048

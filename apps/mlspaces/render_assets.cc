@@ -50,6 +50,12 @@ int Run(const AssetsFlags& flags) {
          " assets (--max)");
     uids.resize(flags.max);
   }
+  try {  // a sheet too large, before any rendering, with the flags that make it smaller
+    sim::GridSize(static_cast<int>(uids.size()), options.width, options.height,
+                  flags.render.columns);
+  } catch (const UsageError& e) {
+    throw UsageError(std::string(e.what()) + " (--max, --size, --columns)");
+  }
   for (const std::string& uid : uids) registry.LocateOrThrow(uid);  // unknown UIDs before GL
   const sim::Image sheet =
       sim::AssetSheet(registry, uids, options, flags.render.columns, [&](size_t i, size_t n) {

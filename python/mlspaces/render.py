@@ -65,7 +65,8 @@ def asset_sheet(uids: Sequence[str] | None = None, *, registry: Any = None,
                 gl: str | None = None) -> np.ndarray:
     """A contact sheet: each asset rendered alone (``size`` pixels) and labelled with its UID
     below it, in a grid of ``columns`` (default: about square). ``uids`` defaults to every
-    asset of the registry's user libraries, library by library."""
+    asset of the registry's user libraries, library by library. A sheet over 16384 pixels a
+    side raises ``UsageError`` before any asset is rendered."""
     func = "asset_sheet"
     r = _registry(registry)
     names = _core.render_user_uids(r) if uids is None else _v.strings(uids, "uids", func)

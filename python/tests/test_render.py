@@ -61,6 +61,9 @@ def test_asset_sheet_shows_the_red_block_labelled(registry):
     assert (label.min(axis=2) == 255).sum() > 500          # on white
     one = render.asset("red_block", registry=registry, size=(64, 48))
     assert np.array_equal(one, sheet[4:52, 4:68])
+    # A sheet over 16384 pixels a side is refused before anything is rendered.
+    with pytest.raises(UsageError, match="3364 tiles of 256x256 in 58 columns .* 16384 pixels"):
+        render.asset_sheet(["red_block"] * 58 * 58, registry=registry)
 
 
 def test_grasps_are_outlined_in_colour(registry):

@@ -162,6 +162,46 @@ void DrawText(Image& image, int x, int y, std::string_view text, Rgb8 color, int
   }
 }
 
+namespace {
+
+struct GridLayout {
+  int columns = 0, rows = 0, scale = 1, label_h = 0, title_h = 0, width = 0, height = 0;
+};
+
+GridLayout Layout(int n, int tw, int th, int columns, bool titled) {
+  if (n < 1) throw UsageError("a grid needs at least one tile");
+  if (tw < 1 || th < 1) {
+    throw UsageError("grid tiles of " + std::to_string(tw) + "x" + std::to_string(th) +
+                     " pixels: both sides must be positive");
+  }
+  GridLayout g;
+  g.columns = columns > 0 ? std::min(columns, n)
+                          : static_cast<int>(std::ceil(std::sqrt(static_cast<double>(n))));
+  g.rows = (n + g.columns - 1) / g.columns;
+  g.scale = tw >= 200 ? 2 : 1;
+  g.label_h = kLineHeight * g.scale + 2 * kLabelPadding;
+  g.title_h = titled ? kLineHeight * 2 + 2 * kLabelPadding + kMargin : 0;
+  const int64_t width = int64_t{g.columns} * (tw + kMargin) + kMargin;
+  const int64_t height = g.title_h + int64_t{g.rows} * (th + g.label_h + kMargin) + kMargin;
+  if (width > kMaxGridSide || height > kMaxGridSide) {
+    throw UsageError(std::to_string(n) + " tiles of " + std::to_string(tw) + "x" +
+                     std::to_string(th) + " in " + std::to_string(g.columns) + " columns make a " +
+                     std::to_string(width) + "x" + std::to_string(height) + " picture, over the " +
+                     std::to_string(kMaxGridSide) +
+                     " pixels a side it may have: fewer or smaller tiles, or other columns");
+  }
+  g.width = static_cast<int>(width);
+  g.height = static_cast<int>(height);
+  return g;
+}
+
+}  // namespace
+
+std::array<int, 2> GridSize(int n, int tile_width, int tile_height, int columns, bool titled) {
+  const GridLayout g = Layout(n, tile_width, tile_height, columns, titled);
+  return {g.width, g.height};
+}
+
 Image ComposeGrid(const std::vector<Image>& tiles, const std::vector<std::string>& labels,
                   int columns, std::string_view title) {
   if (tiles.empty()) throw UsageError("a grid needs at least one tile");
@@ -173,16 +213,12 @@ Image ComposeGrid(const std::vector<Image>& tiles, const std::vector<std::string
   for (const Image& t : tiles) {
     if (t.width != tw || t.height != th) throw UsageError("grid tiles differ in size");
   }
+  const GridLayout g = Layout(static_cast<int>(std::min<size_t>(tiles.size(), INT32_MAX)), tw, th,
+                              columns, !title.empty());
   const int n = static_cast<int>(tiles.size());
-  if (columns <= 0) columns = static_cast<int>(std::ceil(std::sqrt(static_cast<double>(n))));
-  columns = std::min(columns, n);
-  const int rows = (n + columns - 1) / columns;
-  const int scale = tw >= 200 ? 2 : 1;
-  const int label_h = kLineHeight * scale + 2 * kLabelPadding;
-  const int title_h = title.empty() ? 0 : kLineHeight * 2 + 2 * kLabelPadding + kMargin;
-  const int width = columns * (tw + kMargin) + kMargin;
-  const int height = title_h + rows * (th + label_h + kMargin) + kMargin;
-  Image out = Image::Filled(width, height, kWhite);
+  columns = g.columns;
+  const int scale = g.scale, label_h = g.label_h, title_h = g.title_h, width = g.width;
+  Image out = Image::Filled(width, g.height, kWhite);
   if (!title.empty()) {
     const int ts = TextSize(title, 2)[0] <= width - 2 * kMargin ? 2 : 1;
     const std::string t = FitText(title, width - 2 * kMargin, ts);

@@ -234,6 +234,15 @@ TEST(UsageCli, ValuesNoFlagCanMeanAreRefusedAtTheFlag) {
     EXPECT_EQ(r.err,
               "mlspaces: error: --size: expected WxH with each in [8, 8192], got '" + size + "'\n");
   }
+  {
+    // A contact sheet over 16384 pixels a side is refused before anything is rendered.
+    std::vector<std::string> args{"render", "assets", "-o", png, "--max", "4000"};
+    args.insert(args.end(), 58 * 58, "no_such_uid");
+    ExpectUsageLine(RunCli(args),
+                    "3364 tiles of 256x256 in 58 columns make a 15084x16476 picture, over the "
+                    "16384 pixels a side it may have: fewer or smaller tiles, or other columns "
+                    "(--max, --size, --columns)");
+  }
   ExpectUsageLine(RunCli({"render", "grasps", "red_block", "--views", "65", "-o", png}),
                   "--views: expected a whole number in [1, 64], got '65'");
   ExpectUsageLine(RunCli({"render", "grasps", "red_block", "--gripper", "franka_drod", "-o", png}),

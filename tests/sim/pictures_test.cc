@@ -3,6 +3,7 @@
 #include "mlspaces/sim/pictures.h"
 
 #include <algorithm>
+#include <array>
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -125,6 +126,29 @@ TEST(PicturesTest, GridPlacesTilesAndLabels) {
   }
   EXPECT_THROW(ComposeGrid(tiles, {"a"}), UsageError);
   EXPECT_THROW(ComposeGrid({}, {}), UsageError);
+}
+
+TEST(PicturesTest, AGridIsAtMostTheLargestSideAndSaysSoBeforeRendering) {
+  // GridSize is ComposeGrid's size.
+  const std::vector<Image> tiles(3, Image::Filled(40, 30, {9, 9, 9}));
+  const Image grid = ComposeGrid(tiles, {"a", "b", "c"}, 2, "title");
+  EXPECT_EQ(GridSize(3, 40, 30, 2, true), (std::array<int, 2>{grid.width, grid.height}));
+  EXPECT_EQ(GridSize(3, 40, 30), (std::array<int, 2>{4 + 2 * 44, 2 * (30 + 15 + 4) + 4}));
+  // 57 x 57 tiles of 256² fit (labels at scale 2: 24 pixels); 58 x 58 are too tall.
+  EXPECT_EQ(GridSize(57 * 57, 256, 256), (std::array<int, 2>{14824, 16192}));
+  testing::ExpectError([] { GridSize(58 * 58, 256, 256); },
+                       {"3364 tiles of 256x256 in 58 columns", "16476", "16384"});
+  testing::ExpectError([] { GridSize(100, 256, 256, 100); }, {"26004x"});  // too wide
+  EXPECT_THROW(GridSize(0, 256, 256), UsageError);
+  EXPECT_THROW(GridSize(4, 0, 256), UsageError);
+  // A contact sheet that large fails before its first asset is rendered.
+  const Registry registry = ExampleRegistry();
+  size_t calls = 0;
+  const std::vector<std::string> uids(58 * 58, "red_block");
+  PictureOptions big = Small();
+  big.width = big.height = 256;
+  EXPECT_THROW(AssetSheet(registry, uids, big, 0, [&](size_t, size_t) { ++calls; }), UsageError);
+  EXPECT_EQ(calls, 0u);
 }
 
 TEST(PicturesTest, TheRedBlockRendersRedAtTheCentreOnAPlainBackground) {

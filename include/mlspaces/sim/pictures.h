@@ -62,10 +62,19 @@ MLSPACES_API void DrawText(Image& image, int x, int y, std::string_view text, Rg
 /// Fills the rectangle [x, x+w) x [y, y+h), clipped to the image.
 MLSPACES_API void FillRect(Image& image, int x, int y, int w, int h, Rgb8 color);
 
+/// The longest side of a grid ComposeGrid makes: 16384 pixels, which image viewers and
+/// browsers still open (a 57 x 57 sheet of 256² tiles is 14,824 x 16,192, 720 MB as RGB).
+inline constexpr int kMaxGridSide = 16384;
+/// The width and height ComposeGrid gives `n` tiles of `tile_width` x `tile_height` in
+/// `columns` columns (0: about square), with a title strip when `titled`.
+/// @throws UsageError when n < 1, a side is not positive, or the grid would be wider or
+/// taller than kMaxGridSide (the message gives the size and how to make it smaller).
+MLSPACES_API std::array<int, 2> GridSize(int n, int tile_width, int tile_height, int columns = 0,
+                                         bool titled = false);
 /// Tiles of one size in a grid, `columns` per row (0: about square), each with its label (may
 /// be empty; cut with "..." to the tile width) in black on white below it, `title` (may be
 /// empty) in a strip across the top. @throws UsageError for tiles of different sizes, labels
-/// not one per tile, or no tiles.
+/// not one per tile, no tiles, or a grid larger than GridSize allows.
 MLSPACES_API Image ComposeGrid(const std::vector<Image>& tiles,
                                const std::vector<std::string>& labels, int columns = 0,
                                std::string_view title = {});
@@ -132,7 +141,8 @@ MLSPACES_API Image RenderAsset(const Registry& registry, std::string_view uid,
 
 /// A contact sheet: RenderAsset of each UID, labelled with the UID, in a grid (`columns` as
 /// ComposeGrid). `progress(i, n)` (may be empty) is called before asset i.
-/// @throws UsageError for no UIDs; Error as RenderAsset (naming the UID).
+/// @throws UsageError for no UIDs or a sheet larger than GridSize allows (before rendering
+/// any); Error as RenderAsset (naming the UID).
 MLSPACES_API Image AssetSheet(const Registry& registry, const std::vector<std::string>& uids,
                               const PictureOptions& options, int columns = 0,
                               const std::function<void(size_t, size_t)>& progress = {});

@@ -40,8 +40,10 @@ def _gl(gl: Any, func: str) -> str:
 def _size(size: Any, func: str) -> tuple[int, int]:
     if not isinstance(size, (tuple, list)) or len(size) != 2:
         raise _v.type_error(func, "size", "a (width, height) pair", size)
-    return (_v.integer(size[0], "size[0]", func, minimum=8, maximum=8192),
-            _v.integer(size[1], "size[1]", func, minimum=8, maximum=8192))
+    return (_v.integer(size[0], "size[0]", func, minimum=_core.MIN_PICTURE_SIDE,
+                       maximum=_core.MAX_PICTURE_SIDE),
+            _v.integer(size[1], "size[1]", func, minimum=_core.MIN_PICTURE_SIDE,
+                       maximum=_core.MAX_PICTURE_SIDE))
 
 
 def _existing(path: Any, name: str, func: str) -> str:
@@ -171,7 +173,8 @@ def episode_phases(dataset: str | os.PathLike[str], episode: int = 0, *,
     camera = "" if camera is None else _v.string(camera, "camera", func, empty=False)
     columns = 0 if columns is None else _v.integer(columns, "columns", func, minimum=1,
                                                    maximum=_v.INT32_MAX)
-    width = _v.integer(width, "width", func, minimum=8, maximum=8192)
+    width = _v.integer(width, "width", func, minimum=_core.MIN_PICTURE_SIDE,
+                       maximum=_core.MAX_PICTURE_SIDE)
     sheet, images, info = _core.render_episode_phases(_existing(dataset, "dataset", func),
                                                       episode, camera, columns, width)
     return (sheet, images, info) if frames else sheet

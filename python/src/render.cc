@@ -66,6 +66,9 @@ sim::PictureOptions Options(int width, int height, const std::string& gl) {
 }  // namespace
 
 void BindRender(nb::module_& m) {
+  // The picture sides the engine accepts, for the Python checks' messages.
+  m.attr("MIN_PICTURE_SIDE") = sim::kMinPictureSide;
+  m.attr("MAX_PICTURE_SIDE") = sim::kMaxPictureSide;
   m.def(
       "render_user_uids", [](const Registry& r) { return r.user_uids(); }, nb::arg("registry"));
   m.def(

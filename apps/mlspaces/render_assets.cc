@@ -51,8 +51,7 @@ int Run(const AssetsFlags& flags) {
     uids.resize(flags.max);
   }
   try {  // a sheet too large, before any rendering, with the flags that make it smaller
-    sim::GridSize(static_cast<int>(uids.size()), options.width, options.height,
-                  flags.render.columns);
+    sim::GridSize(uids.size(), options.width, options.height, flags.render.columns);
   } catch (const UsageError& e) {
     throw UsageError(std::string(e.what()) + " (--max, --size, --columns)");
   }

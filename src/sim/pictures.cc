@@ -165,31 +165,33 @@ void DrawText(Image& image, int x, int y, std::string_view text, Rgb8 color, int
 namespace {
 
 struct GridLayout {
-  int columns = 0, rows = 0, scale = 1, label_h = 0, title_h = 0, width = 0, height = 0;
+  int columns = 0, scale = 1, label_h = 0, title_h = 0, width = 0, height = 0;
 };
 
-GridLayout Layout(int n, int tw, int th, int columns, bool titled) {
+GridLayout Layout(size_t n, int tw, int th, int columns, bool titled) {
   if (n < 1) throw UsageError("a grid needs at least one tile");
   if (tw < 1 || th < 1) {
     throw UsageError("grid tiles of " + std::to_string(tw) + "x" + std::to_string(th) +
                      " pixels: both sides must be positive");
   }
   GridLayout g;
-  g.columns = columns > 0 ? std::min(columns, n)
-                          : static_cast<int>(std::ceil(std::sqrt(static_cast<double>(n))));
-  g.rows = (n + g.columns - 1) / g.columns;
+  const uint64_t cols = columns > 0
+                            ? std::min<uint64_t>(columns, n)
+                            : static_cast<uint64_t>(std::ceil(std::sqrt(static_cast<double>(n))));
+  const uint64_t rows = (n + cols - 1) / cols;
   g.scale = tw >= 200 ? 2 : 1;
   g.label_h = kLineHeight * g.scale + 2 * kLabelPadding;
   g.title_h = titled ? kLineHeight * 2 + 2 * kLabelPadding + kMargin : 0;
-  const int64_t width = int64_t{g.columns} * (tw + kMargin) + kMargin;
-  const int64_t height = g.title_h + int64_t{g.rows} * (th + g.label_h + kMargin) + kMargin;
+  const uint64_t width = cols * (tw + kMargin) + kMargin;
+  const uint64_t height = g.title_h + rows * (th + g.label_h + kMargin) + kMargin;
   if (width > kMaxGridSide || height > kMaxGridSide) {
     throw UsageError(std::to_string(n) + " tiles of " + std::to_string(tw) + "x" +
-                     std::to_string(th) + " in " + std::to_string(g.columns) + " columns make a " +
+                     std::to_string(th) + " in " + std::to_string(cols) + " columns make a " +
                      std::to_string(width) + "x" + std::to_string(height) + " picture, over the " +
                      std::to_string(kMaxGridSide) +
                      " pixels a side it may have: fewer or smaller tiles, or other columns");
   }
+  g.columns = static_cast<int>(cols);  // at most kMaxGridSide now
   g.width = static_cast<int>(width);
   g.height = static_cast<int>(height);
   return g;
@@ -197,7 +199,7 @@ GridLayout Layout(int n, int tw, int th, int columns, bool titled) {
 
 }  // namespace
 
-std::array<int, 2> GridSize(int n, int tile_width, int tile_height, int columns, bool titled) {
+std::array<int, 2> GridSize(size_t n, int tile_width, int tile_height, int columns, bool titled) {
   const GridLayout g = Layout(n, tile_width, tile_height, columns, titled);
   return {g.width, g.height};
 }
@@ -213,8 +215,7 @@ Image ComposeGrid(const std::vector<Image>& tiles, const std::vector<std::string
   for (const Image& t : tiles) {
     if (t.width != tw || t.height != th) throw UsageError("grid tiles differ in size");
   }
-  const GridLayout g = Layout(static_cast<int>(std::min<size_t>(tiles.size(), INT32_MAX)), tw, th,
-                              columns, !title.empty());
+  const GridLayout g = Layout(tiles.size(), tw, th, columns, !title.empty());
   const int n = static_cast<int>(tiles.size());
   columns = g.columns;
   const int scale = g.scale, label_h = g.label_h, title_h = g.title_h, width = g.width;

@@ -239,8 +239,7 @@ Image AssetSheet(const Registry& registry, const std::vector<std::string>& uids,
                  const PictureOptions& options, int columns,
                  const std::function<void(size_t, size_t)>& progress) {
   if (uids.empty()) throw UsageError("a contact sheet needs at least one asset");
-  GridSize(static_cast<int>(std::min<size_t>(uids.size(), INT32_MAX)), options.width,
-           options.height, columns);  // a sheet too large fails before any rendering
+  GridSize(uids.size(), options.width, options.height, columns);  // too large: before rendering
   std::vector<Image> tiles;
   for (size_t i = 0; i < uids.size(); ++i) {
     if (progress) progress(i, uids.size());

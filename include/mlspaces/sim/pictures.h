@@ -69,7 +69,7 @@ inline constexpr int kMaxGridSide = 16384;
 /// `columns` columns (0: about square), with a title strip when `titled`.
 /// @throws UsageError when n < 1, a side is not positive, or the grid would be wider or
 /// taller than kMaxGridSide (the message gives the size and how to make it smaller).
-MLSPACES_API std::array<int, 2> GridSize(int n, int tile_width, int tile_height, int columns = 0,
+MLSPACES_API std::array<int, 2> GridSize(size_t n, int tile_width, int tile_height, int columns = 0,
                                          bool titled = false);
 /// Tiles of one size in a grid, `columns` per row (0: about square), each with its label (may
 /// be empty; cut with "..." to the tile width) in black on white below it, `title` (may be
